@@ -1,0 +1,51 @@
+# The front door. `make scenario town05_crowded` and `make test` create .venv on first use.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+# `make scenario NAME [FRAMES=n] [SEED=s] [OUT=dir] [ARGS="--set key=value ..."]`
+ifeq (scenario,$(firstword $(MAKECMDGOALS)))
+  SCENARIO := $(word 2,$(MAKECMDGOALS))
+  $(eval $(SCENARIO):;@:)
+endif
+
+RUN_FLAGS := $(if $(FRAMES),--frames $(FRAMES)) $(if $(SEED),--seed $(SEED)) $(if $(OUT),--out $(OUT))
+
+.PHONY: venv scenario list test test-fast bench lint format clean
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml constraints.txt
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check --upgrade pip
+	$(PY) -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[dev]'
+	@touch $(STAMP)
+
+scenario: $(STAMP)
+	@test -n "$(SCENARIO)" || { echo "usage: make scenario NAME [FRAMES=n SEED=s OUT=dir ARGS=...]; names: make list"; exit 2; }
+	$(PY) -m cosim run $(SCENARIO) $(RUN_FLAGS) $(ARGS)
+
+list: $(STAMP)
+	@$(PY) -m cosim list
+
+test: $(STAMP)
+	$(PY) -m pytest -q
+
+test-fast: $(STAMP)
+	$(PY) -m pytest -q -m "not slow"
+
+bench: $(STAMP)
+	$(PY) -m cosim.bench $(ARGS)
+
+lint: $(STAMP)
+	$(PY) -m ruff check cosim gtgen networks sensors tests
+	$(PY) -m ruff format --check cosim gtgen networks sensors tests
+	$(PY) -m mypy
+
+format: $(STAMP)
+	$(PY) -m ruff format cosim gtgen networks sensors tests
+	$(PY) -m ruff check --fix cosim gtgen networks sensors tests
+
+clean:
+	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache

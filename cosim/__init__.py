@@ -1,0 +1,1 @@
+"""Co-simulation: SUMO traffic, the frame loop, the command line, sweeps."""

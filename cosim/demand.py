@@ -1,0 +1,87 @@
+"""Traffic demand as data: vehicle kinds with size ranges, variants, target counts."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from networks.classes import SemanticClass
+
+
+@dataclass(frozen=True, slots=True)
+class KindSpec:
+    """Ranges a vehicle kind's types are sampled from (metres, m/s, m/s^2)."""
+
+    kind: str
+    sumo_vclass: str
+    semantic_class: SemanticClass
+    length_m: tuple[float, float]
+    width_m: tuple[float, float]
+    height_m: tuple[float, float]
+    max_speed_mps: tuple[float, float]
+    accel_mps2: tuple[float, float]
+    decel_mps2: float
+    shape_class: str
+
+
+KINDS: dict[str, KindSpec] = {
+    "car": KindSpec("car", "passenger", SemanticClass.CAR, (3.9, 5.0), (1.70, 1.95), (1.40, 1.75), (38, 55), (2.3, 3.2), 4.5, "passenger"),
+    "truck": KindSpec("truck", "truck", SemanticClass.TRUCK, (6.5, 12.0), (2.35, 2.55), (2.9, 3.8), (24, 28), (1.0, 1.5), 4.0, "truck"),
+    "bus": KindSpec("bus", "bus", SemanticClass.BUS, (10.5, 13.5), (2.50, 2.55), (3.0, 3.3), (22, 27), (1.0, 1.3), 4.0, "bus"),
+    "motorcycle": KindSpec("motorcycle", "motorcycle", SemanticClass.MOTORCYCLE, (1.9, 2.3), (0.7, 0.9), (1.4, 1.6), (35, 50), (3.0, 4.5), 6.0, "motorcycle"),
+    "bicycle": KindSpec("bicycle", "bicycle", SemanticClass.BICYCLE, (1.6, 1.9), (0.55, 0.7), (1.6, 1.85), (4.5, 7.0), (1.0, 1.5), 3.0, "bicycle"),
+}  # fmt: skip
+
+PEDESTRIAN = KindSpec(
+    "pedestrian", "pedestrian", SemanticClass.PEDESTRIAN, (0.3, 0.5), (0.5, 0.7), (1.55, 1.95), (1.0, 1.6), (1.0, 1.5), 2.0,
+    "pedestrian",
+)  # fmt: skip
+
+VARIANTS_PER_KIND = 4
+
+
+@dataclass(frozen=True, slots=True)
+class TypeVariant:
+    type_id: str
+    spec: KindSpec
+    length_m: float
+    width_m: float
+    height_m: float
+    max_speed_mps: float
+    accel_mps2: float
+
+
+def sample_variants(spec: KindSpec, rng: np.random.Generator, count: int = VARIANTS_PER_KIND) -> list[TypeVariant]:
+    out = []
+    for i in range(count):
+        out.append(
+            TypeVariant(
+                f"{spec.kind}_{i}",
+                spec,
+                round(float(rng.uniform(*spec.length_m)), 2),
+                round(float(rng.uniform(*spec.width_m)), 2),
+                round(float(rng.uniform(*spec.height_m)), 2),
+                round(float(rng.uniform(*spec.max_speed_mps)), 2),
+                round(float(rng.uniform(*spec.accel_mps2)), 2),
+            )
+        )
+    return out
+
+
+def target_vehicle_count(vehicles_per_lane_km: float, lane_km: float, fixed: int | None) -> int:
+    """Vehicles to keep in the network: a fixed count, else density times lane length."""
+    if fixed is not None:
+        return fixed
+    return int(round(vehicles_per_lane_km * lane_km))
+
+
+def split_by_mix(total: int, mix: dict[str, float]) -> dict[str, int]:
+    """Integer counts per kind summing to ``total`` (largest remainder)."""
+    kinds = sorted(k for k, v in mix.items() if v > 0)
+    shares = np.array([mix[k] for k in kinds], dtype=np.float64)
+    exact = shares / shares.sum() * total
+    counts = np.floor(exact).astype(int)
+    for i in np.argsort(-(exact - counts), kind="stable")[: total - counts.sum()]:
+        counts[i] += 1
+    return {k: int(c) for k, c in zip(kinds, counts, strict=True)}

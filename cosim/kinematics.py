@@ -1,0 +1,44 @@
+"""SUMO's conventions -> the project's frames (pure functions, vectorised).
+
+SUMO angles are degrees clockwise from north; positions are the front bumper at
+ground level; slope is degrees, nose-up positive.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from networks.geometry import wrap_angle
+
+F64 = npt.NDArray[np.float64]
+
+
+def sumo_angle_to_yaw(angle_deg: npt.ArrayLike) -> F64:
+    """Clockwise-from-north degrees -> counter-clockwise-from-east radians in [-pi, pi)."""
+    return wrap_angle(np.radians(90.0 - np.asarray(angle_deg, dtype=np.float64)))
+
+
+def heading_vectors(yaw_rad: npt.ArrayLike, pitch_rad: npt.ArrayLike) -> F64:
+    """``(N, 3)`` unit forward vectors."""
+    yaw = np.asarray(yaw_rad, dtype=np.float64)
+    pitch = np.asarray(pitch_rad, dtype=np.float64)
+    return np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)], axis=-1)
+
+
+def up_vectors(yaw_rad: npt.ArrayLike, pitch_rad: npt.ArrayLike) -> F64:
+    """``(N, 3)`` unit up vectors of boxes pitched nose-up by ``pitch_rad``."""
+    yaw = np.asarray(yaw_rad, dtype=np.float64)
+    pitch = np.asarray(pitch_rad, dtype=np.float64)
+    return np.stack([-np.sin(pitch) * np.cos(yaw), -np.sin(pitch) * np.sin(yaw), np.cos(pitch)], axis=-1)
+
+
+def front_bumper_to_center(
+    front_xyz_m: npt.ArrayLike, yaw_rad: npt.ArrayLike, pitch_rad: npt.ArrayLike, length_m: npt.ArrayLike,
+    height_m: npt.ArrayLike,
+) -> F64:  # fmt: skip
+    """Box centres: half a length behind the front bumper, half a height above the ground."""
+    front = np.asarray(front_xyz_m, dtype=np.float64).reshape(-1, 3)
+    length = np.asarray(length_m, dtype=np.float64).reshape(-1, 1)
+    height = np.asarray(height_m, dtype=np.float64).reshape(-1, 1)
+    return front - heading_vectors(yaw_rad, pitch_rad) * length / 2.0 + up_vectors(yaw_rad, pitch_rad) * height / 2.0

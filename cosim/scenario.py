@@ -1,0 +1,142 @@
+"""Scenario YAML -> frozen dataclasses.
+
+A scenario names a built-in scene of ``cosim/catalog`` or a path to a YAML file;
+paths inside a file are resolved relative to that file. Every key can be
+overridden with ``--set key.path=value``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from cosim.config import build, read_yaml, set_override
+from cosim.errors import ScenarioError
+
+CATALOG_DIR = Path(__file__).parent / "catalog"
+AGENT_KINDS = ("car", "truck", "bus", "motorcycle", "bicycle")
+
+
+def _check(ok: bool, key: str, expected: str, got: object) -> None:
+    if not ok:
+        raise ValueError(f"{key}: expected {expected}, got {got!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class TrafficConfig:
+    vehicles_per_lane_km: float = 20.0
+    vehicles: int | None = None  # a fixed count, instead of the density
+    mix: dict[str, float] = field(
+        default_factory=lambda: {"car": 0.8, "truck": 0.06, "bus": 0.03, "motorcycle": 0.06, "bicycle": 0.05}
+    )
+    pedestrians: int = 60
+    parked: int = 0
+
+    def __post_init__(self) -> None:
+        _check(self.vehicles_per_lane_km >= 0, "vehicles_per_lane_km", "a number >= 0", self.vehicles_per_lane_km)
+        _check(self.vehicles is None or self.vehicles >= 0, "vehicles", "a whole number >= 0", self.vehicles)
+        _check(self.pedestrians >= 0, "pedestrians", "a whole number >= 0", self.pedestrians)
+        _check(self.parked >= 0, "parked", "a whole number >= 0", self.parked)
+        for kind, share in self.mix.items():
+            _check(kind in AGENT_KINDS, f"mix.{kind}", "one of " + ", ".join(AGENT_KINDS), kind)
+            _check(share >= 0, f"mix.{kind}", "a share >= 0", share)
+        _check(sum(self.mix.values()) > 0, "mix", "at least one share > 0", self.mix)
+
+
+@dataclass(frozen=True, slots=True)
+class EgoConfig:
+    route: tuple[str, ...] = ()  # SUMO edge ids; empty: a random passenger car after warm-up
+
+
+@dataclass(frozen=True, slots=True)
+class LidarConfig:
+    name: str = "lidar"
+    beams: int = 64
+    vertical_min_deg: float = -24.9
+    vertical_max_deg: float = 2.0
+    azimuth_steps: int = 1024
+    range_m: float = 120.0
+    mount_xyz_m: tuple[float, float, float] = (0.0, 0.0, 1.95)
+    mount_rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    range_noise_m: float = 0.0
+    dropout: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class SensorsConfig:
+    lidars: tuple[LidarConfig, ...] = (LidarConfig(),)
+
+    def __post_init__(self) -> None:
+        names = [li.name for li in self.lidars]
+        _check(len(set(names)) == len(names), "lidars", "distinct sensor names", names)
+
+
+@dataclass(frozen=True, slots=True)
+class OutputsConfig:
+    mcap: bool = True
+    csv: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    network: str
+    description: str = ""
+    frames: int = 200
+    step_s: float = 0.05
+    seed: int = 0
+    warmup_s: float = 60.0
+    traffic: TrafficConfig = field(default_factory=TrafficConfig)
+    ego: EgoConfig = field(default_factory=EgoConfig)
+    weather: Literal["day", "night", "rain", "fog"] = "day"
+    sensors: SensorsConfig = field(default_factory=SensorsConfig)
+    outputs: OutputsConfig = field(default_factory=OutputsConfig)
+    name: str = "scenario"
+    source_dir: str = "."
+
+    def __post_init__(self) -> None:
+        _check(self.frames > 0, "frames", "a whole number > 0", self.frames)
+        _check(0 < self.step_s <= 1.0, "step_s", "a number in (0, 1] seconds", self.step_s)
+        _check(self.warmup_s >= 0, "warmup_s", "a number >= 0", self.warmup_s)
+        _check(self.seed >= 0, "seed", "a whole number >= 0", self.seed)
+        _check(bool(self.network), "network", "a town name or a path to an .xodr file", self.network)
+
+    def network_path(self) -> Path | None:
+        """The user's OpenDRIVE file, resolved against the scenario file; None for a built-in town."""
+        if not self.network.endswith(".xodr"):
+            return None
+        path = Path(self.network).expanduser()
+        return path if path.is_absolute() else (Path(self.source_dir) / path).resolve()
+
+
+def catalog_names() -> list[str]:
+    return sorted(p.stem for p in CATALOG_DIR.glob("*.yaml"))
+
+
+def catalog_description(name: str) -> str:
+    return str(read_yaml(CATALOG_DIR / f"{name}.yaml").get("description", ""))
+
+
+def resolve(spec: str) -> Path:
+    """A catalog name or a path to a YAML file."""
+    if spec.endswith((".yaml", ".yml")) or "/" in spec:
+        path = Path(spec)
+        if not path.is_file():
+            raise ScenarioError(f"{spec}: scenario file not found")
+        return path
+    path = CATALOG_DIR / f"{spec}.yaml"
+    if not path.is_file():
+        raise ScenarioError(f"{spec}: unknown scenario (known: {', '.join(catalog_names())}; or give a path to a .yaml)")
+    return path
+
+
+def load_scenario(spec: str, overrides: list[str] | tuple[str, ...] = ()) -> Scenario:
+    path = resolve(spec)
+    data: dict[str, Any] = read_yaml(path)
+    for assignment in overrides:
+        set_override(data, assignment)
+    for reserved in ("name", "source_dir"):
+        if reserved in data:
+            raise ScenarioError(f"{path}: {reserved}: unknown key (it is set from the file's name and folder)")
+    data = {**data, "name": path.stem, "source_dir": str(path.resolve().parent)}
+    return build(Scenario, data, str(path))

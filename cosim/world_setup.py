@@ -1,0 +1,41 @@
+"""Scenario network -> SUMO net and static world (through the networks package)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import sumolib
+
+from cosim.errors import ScenarioError
+from cosim.scenario import Scenario
+from networks.convert import import_opendrive
+from networks.towns import TOWNS, town_names, town_opendrive
+from networks.world import StaticWorld, build_world, load_net
+
+
+@dataclass(frozen=True, slots=True)
+class PreparedNetwork:
+    xodr_path: Path
+    net_path: Path
+    net: sumolib.net.Net
+    world: StaticWorld
+    notice: str  # shown to the user, e.g. when a stand-in town is used
+
+
+def prepare_network(scenario: Scenario) -> PreparedNetwork:
+    user_path = scenario.network_path()
+    notice = ""
+    if user_path is not None:
+        xodr = user_path
+    elif scenario.network in TOWNS:
+        info = TOWNS[scenario.network]
+        if info.stand_in:
+            notice = f"note: town {info.name!r} is not generated yet; running the skeleton network in its place"
+        xodr = town_opendrive(scenario.network)
+    else:
+        known = ", ".join(town_names())
+        msg = f"{scenario.source_dir}/{scenario.name}.yaml: network: unknown town {scenario.network!r} (known: {known}; or a path to an .xodr file)"
+        raise ScenarioError(msg)
+    net_path = import_opendrive(xodr)
+    return PreparedNetwork(xodr, net_path, load_net(net_path), build_world(net_path), notice)

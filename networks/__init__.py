@@ -1,0 +1,1 @@
+"""Road networks, the static world mesh and geometry: the ground floor."""

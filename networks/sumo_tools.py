@@ -1,0 +1,39 @@
+"""Locate the SUMO installation that the ``eclipse-sumo`` wheel ships.
+
+``SUMO_HOME`` is taken from the ``sumo`` Python package and exported, so that
+libsumo, netconvert and SUMO's Python tools agree on one installation.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from networks.errors import ToolNotFoundError
+
+
+def sumo_home() -> Path:
+    try:
+        import sumo
+    except ImportError as err:
+        msg = "the eclipse-sumo package is not installed (run `make venv`)"
+        raise ToolNotFoundError(msg) from err
+    home = Path(sumo.SUMO_HOME)
+    os.environ["SUMO_HOME"] = str(home)
+    return home
+
+
+def sumo_binary(name: str) -> Path:
+    """Path of a SUMO executable such as ``netconvert`` or ``sumo``."""
+    path = sumo_home() / "bin" / name
+    if not path.exists():
+        raise ToolNotFoundError(f"{path}: SUMO tool {name!r} not found in the installation")
+    return path
+
+
+def sumo_tool(relative: str) -> Path:
+    """Path of a script under ``$SUMO_HOME/tools`` such as ``randomTrips.py``."""
+    path = sumo_home() / "tools" / relative
+    if not path.exists():
+        raise ToolNotFoundError(f"{path}: SUMO tool script {relative!r} not found in the installation")
+    return path

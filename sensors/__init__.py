@@ -1,0 +1,1 @@
+"""Sensors: camera, LiDAR and radar frames by raycasting one scene per frame."""

@@ -1,0 +1,119 @@
+"""Spinning multi-beam LiDAR: ray pattern, cast, per-point class and instance.
+
+All rays of a sweep are cast at the frame's instant (no motion distortion).
+Intensity = reflectivity(class) * |cos(incidence)| * exp(-range / 200 m), in 0..1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from networks.geometry import SE3
+from sensors.errors import SensorConfigError
+from sensors.materials import REFLECTIVITY_BY_CLASS
+from sensors.scene import FrameScene
+
+
+@dataclass(frozen=True, slots=True)
+class LidarSpec:
+    name: str = "lidar"
+    beams: int = 64
+    vertical_min_deg: float = -24.9
+    vertical_max_deg: float = 2.0
+    azimuth_steps: int = 1024
+    range_m: float = 120.0
+    rate_hz: float = 20.0
+    mount_xyz_m: tuple[float, float, float] = (0.0, 0.0, 1.95)
+    mount_rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    range_noise_m: float = 0.0
+    dropout: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.beams <= 512:
+            raise SensorConfigError(f"lidar {self.name}: beams must be 1..512, got {self.beams}")
+        if not 8 <= self.azimuth_steps <= 16384:
+            raise SensorConfigError(f"lidar {self.name}: azimuth_steps must be 8..16384, got {self.azimuth_steps}")
+        if not -90.0 <= self.vertical_min_deg < self.vertical_max_deg <= 90.0:
+            raise SensorConfigError(f"lidar {self.name}: need -90 <= vertical_min_deg < vertical_max_deg <= 90")
+        if self.range_m <= 0 or self.rate_hz <= 0:
+            raise SensorConfigError(f"lidar {self.name}: range_m and rate_hz must be > 0")
+        if self.range_noise_m < 0 or not 0.0 <= self.dropout < 1.0:
+            raise SensorConfigError(f"lidar {self.name}: need range_noise_m >= 0 and 0 <= dropout < 1")
+
+    @property
+    def ego_SE3_sensor(self) -> SE3:  # noqa: N802 (frame names are part of the name)
+        r, p, y = np.radians(self.mount_rpy_deg)
+        return SE3.from_xyz_rpy(self.mount_xyz_m, r, p, y)
+
+    def directions(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint16]]:
+        """Unit ray directions ``(beams * azimuth_steps, 3)`` in the lidar frame and the ring
+        of each (ring 0 is the lowest beam); azimuth starts at +x and turns counter-clockwise."""
+        elevation = np.radians(np.linspace(self.vertical_min_deg, self.vertical_max_deg, self.beams))
+        azimuth = np.arange(self.azimuth_steps) * (2.0 * np.pi / self.azimuth_steps)
+        el, az = np.meshgrid(elevation, azimuth, indexing="ij")
+        dirs = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=-1).reshape(-1, 3)
+        ring = np.repeat(np.arange(self.beams, dtype=np.uint16), self.azimuth_steps)
+        return dirs, ring
+
+
+@dataclass(frozen=True, slots=True)
+class LidarScan:
+    """Returns of one sweep, in the lidar frame: ``xyz_lidar_m: (N, 3) float32``,
+    ``intensity: (N,) float32`` in 0..1, ``ring: (N,) uint16``, ``semantic_class: (N,) uint8``,
+    ``instance_id: (N,) uint32`` (0 for the static world)."""
+
+    xyz_lidar_m: npt.NDArray[np.float32]
+    intensity: npt.NDArray[np.float32]
+    ring: npt.NDArray[np.uint16]
+    semantic_class: npt.NDArray[np.uint8]
+    instance_id: npt.NDArray[np.uint32]
+
+    def __post_init__(self) -> None:
+        n = self.xyz_lidar_m.shape[0]
+        if self.xyz_lidar_m.shape != (n, 3) or any(
+            a.shape != (n,) for a in (self.intensity, self.ring, self.semantic_class, self.instance_id)
+        ):
+            raise ValueError("LidarScan: field lengths differ")
+
+    def __len__(self) -> int:
+        return int(self.xyz_lidar_m.shape[0])
+
+
+class Lidar:
+    def __init__(self, spec: LidarSpec) -> None:
+        self.spec = spec
+        self._dirs_lidar, self._ring = spec.directions()
+
+    @property
+    def num_rays(self) -> int:
+        return int(self._dirs_lidar.shape[0])
+
+    def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:  # noqa: N803
+        map_SE3_lidar = map_SE3_ego.compose(self.spec.ego_SE3_sensor)
+        dirs = map_SE3_lidar.rotate(self._dirs_lidar)
+        origin = np.broadcast_to(map_SE3_lidar.translation, dirs.shape)
+        return np.concatenate([origin, dirs], axis=1).astype(np.float32)
+
+    def scan(self, scene: FrameScene, map_SE3_ego: SE3, rng: np.random.Generator) -> LidarScan:  # noqa: N803
+        rays = self.rays(map_SE3_ego)
+        hits = scene.cast(rays)
+        keep = hits.range_m <= self.spec.range_m
+        if self.spec.dropout > 0:
+            keep &= rng.random(keep.shape[0]) >= self.spec.dropout
+        rng_m = hits.range_m[keep].astype(np.float64)
+        if self.spec.range_noise_m > 0:
+            rng_m = rng_m + rng.normal(0.0, self.spec.range_noise_m, rng_m.shape[0])
+        xyz = self._dirs_lidar[keep] * rng_m[:, None]
+        cos_inc = np.abs(np.sum(rays[keep, 3:6] * hits.normal[keep], axis=1))
+        cls = hits.semantic_class[keep]
+        intensity = REFLECTIVITY_BY_CLASS[cls] * cos_inc * np.exp(-rng_m / 200.0)
+        return LidarScan(
+            xyz.astype(np.float32),
+            intensity.astype(np.float32),
+            self._ring[keep],
+            cls,
+            hits.instance_id[keep],
+        )
