@@ -73,14 +73,18 @@ def _convert(tp: Any, value: Any, source: str, key: str) -> Any:
         if origin is tuple and len(args) > 0 and args[-1] is not Ellipsis:
             if len(value) != len(args):
                 raise _fail(source, key, f"a list of {len(args)} values", value)
-            return tuple(_convert(a, v, source, f"{key}[{i}]") for i, (a, v) in enumerate(zip(args, value, strict=True)))
+            return tuple(
+                _convert(a, v, source, f"{key}[{i}]") for i, (a, v) in enumerate(zip(args, value, strict=True))
+            )
         item = args[0] if args else Any
         return tuple(_convert(item, v, source, f"{key}[{i}]") for i, v in enumerate(value))
     if origin is dict:
         key_t, val_t = get_args(tp)
         if not isinstance(value, dict):
             raise _fail(source, key, "a mapping", value)
-        return {_convert(key_t, k, source, f"{key}.{k}"): _convert(val_t, v, source, f"{key}.{k}") for k, v in value.items()}
+        return {
+            _convert(key_t, k, source, f"{key}.{k}"): _convert(val_t, v, source, f"{key}.{k}") for k, v in value.items()
+        }
     return _scalar(tp, value, source, key)
 
 

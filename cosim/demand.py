@@ -26,17 +26,23 @@ class KindSpec:
 
 
 KINDS: dict[str, KindSpec] = {
-    "car": KindSpec("car", "passenger", SemanticClass.CAR, (3.9, 5.0), (1.70, 1.95), (1.40, 1.75), (38, 55), (2.3, 3.2), 4.5, "passenger"),
-    "truck": KindSpec("truck", "truck", SemanticClass.TRUCK, (6.5, 12.0), (2.35, 2.55), (2.9, 3.8), (24, 28), (1.0, 1.5), 4.0, "truck"),
-    "bus": KindSpec("bus", "bus", SemanticClass.BUS, (10.5, 13.5), (2.50, 2.55), (3.0, 3.3), (22, 27), (1.0, 1.3), 4.0, "bus"),
-    "motorcycle": KindSpec("motorcycle", "motorcycle", SemanticClass.MOTORCYCLE, (1.9, 2.3), (0.7, 0.9), (1.4, 1.6), (35, 50), (3.0, 4.5), 6.0, "motorcycle"),
-    "bicycle": KindSpec("bicycle", "bicycle", SemanticClass.BICYCLE, (1.6, 1.9), (0.55, 0.7), (1.6, 1.85), (4.5, 7.0), (1.0, 1.5), 3.0, "bicycle"),
+    spec.kind: spec
+    for spec in (
+        KindSpec("car", "passenger", SemanticClass.CAR,
+                 (3.9, 5.0), (1.70, 1.95), (1.40, 1.75), (38, 55), (2.3, 3.2), 4.5, "passenger"),
+        KindSpec("truck", "truck", SemanticClass.TRUCK,
+                 (6.5, 12.0), (2.35, 2.55), (2.9, 3.8), (24, 28), (1.0, 1.5), 4.0, "truck"),
+        KindSpec("bus", "bus", SemanticClass.BUS,
+                 (10.5, 13.5), (2.50, 2.55), (3.0, 3.3), (22, 27), (1.0, 1.3), 4.0, "bus"),
+        KindSpec("motorcycle", "motorcycle", SemanticClass.MOTORCYCLE,
+                 (1.9, 2.3), (0.7, 0.9), (1.4, 1.6), (35, 50), (3.0, 4.5), 6.0, "motorcycle"),
+        KindSpec("bicycle", "bicycle", SemanticClass.BICYCLE,
+                 (1.6, 1.9), (0.55, 0.7), (1.6, 1.85), (4.5, 7.0), (1.0, 1.5), 3.0, "bicycle"),
+    )
 }  # fmt: skip
 
-PEDESTRIAN = KindSpec(
-    "pedestrian", "pedestrian", SemanticClass.PEDESTRIAN, (0.3, 0.5), (0.5, 0.7), (1.55, 1.95), (1.0, 1.6), (1.0, 1.5), 2.0,
-    "pedestrian",
-)  # fmt: skip
+PEDESTRIAN = KindSpec("pedestrian", "pedestrian", SemanticClass.PEDESTRIAN,
+                      (0.3, 0.5), (0.5, 0.7), (1.55, 1.95), (1.0, 1.6), (1.0, 1.5), 2.0, "pedestrian")  # fmt: skip
 
 VARIANTS_PER_KIND = 4
 
@@ -73,7 +79,7 @@ def target_vehicle_count(vehicles_per_lane_km: float, lane_km: float, fixed: int
     """Vehicles to keep in the network: a fixed count, else density times lane length."""
     if fixed is not None:
         return fixed
-    return int(round(vehicles_per_lane_km * lane_km))
+    return round(vehicles_per_lane_km * lane_km)
 
 
 def split_by_mix(total: int, mix: dict[str, float]) -> dict[str, int]:

@@ -74,7 +74,7 @@ def sense_and_label(
     map_SE3_ego = state.map_SE3_ego()
     scene = FrameScene(crop.around(map_SE3_ego.translation), agent_meshes(state.agents))
     outputs = tuple(LidarOutput(li.spec, li.scan(scene, map_SE3_ego, rng)) for li in lidars)
-    timestamp_ns = int(round(state.time_s * 1e9))
+    timestamp_ns = round(state.time_s * 1e9)
     range_m = max(li.spec.range_m for li in lidars)
     labels = label_frame(frame_index, timestamp_ns, objects_in_ego_frame(state), [o.scan for o in outputs], range_m)
     return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels)

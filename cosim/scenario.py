@@ -126,7 +126,9 @@ def resolve(spec: str) -> Path:
         return path
     path = CATALOG_DIR / f"{spec}.yaml"
     if not path.is_file():
-        raise ScenarioError(f"{spec}: unknown scenario (known: {', '.join(catalog_names())}; or give a path to a .yaml)")
+        raise ScenarioError(
+            f"{spec}: unknown scenario (known: {', '.join(catalog_names())}; or give a path to a .yaml)"
+        )
     return path
 
 

@@ -23,7 +23,7 @@ class WorldState:
     ego: AgentBoxes
     ego_velocity_map_mps: npt.NDArray[np.float64]
 
-    def map_SE3_ego(self) -> SE3:  # noqa: N802
+    def map_SE3_ego(self) -> SE3:
         """Ego frame: origin at the footprint centre on the ground, x forward, z up."""
         rotation = self.ego.rotations()[0]
         footprint = self.ego.center_map_m[0] - rotation[:, 2] * self.ego.lwh_m[0, 2] / 2.0

@@ -78,7 +78,11 @@ class Traffic:
         self._variants = self._define_types()
         traffic = scenario.traffic
         total = target_vehicle_count(traffic.vehicles_per_lane_km, self._index.vehicle_lane_km, traffic.vehicles)
-        self._targets = {k: n for k, n in split_by_mix(total, traffic.mix).items() if KINDS[k].sumo_vclass in self._index.edges_by_vclass}
+        self._targets = {
+            k: n
+            for k, n in split_by_mix(total, traffic.mix).items()
+            if KINDS[k].sumo_vclass in self._index.edges_by_vclass
+        }
         self._ego_xy: tuple[float, float] | None = None
 
     # --- set-up --------------------------------------------------------------------------
@@ -166,7 +170,7 @@ class Traffic:
     # --- stepping --------------------------------------------------------------------------
     def warm_up(self) -> None:
         """Fill the town: run the warm-up, then pick (or insert) the ego."""
-        steps = int(round(self._scenario.warmup_s / self._scenario.step_s))
+        steps = round(self._scenario.warmup_s / self._scenario.step_s)
         for i in range(steps):
             if i % 10 == 0:
                 self._top_up(max_new=40)
@@ -191,7 +195,9 @@ class Traffic:
         else:
             cars = sorted(v for v in libsumo.vehicle.getIDList() if v.startswith("car_"))
             if not cars:
-                raise TrafficError("no passenger car is driving after the warm-up to serve as the ego (raise the density or warmup_s)")
+                raise TrafficError(
+                    "no passenger car is driving after the warm-up to serve as the ego (raise the density or warmup_s)"
+                )
             self._ego = cars[int(self._rng.integers(0, len(cars)))]
             self._alive.discard(self._ego)
         libsumo.vehicle.setColor(self._ego, (255, 0, 0, 255))
@@ -213,10 +219,12 @@ class Traffic:
 
     def step(self) -> None:
         libsumo.simulationStep()
-        if EGO_ID != self._ego and self._ego not in libsumo.vehicle.getIDList():
-            raise TrafficError(f"the ego vehicle {self._ego} left the simulation at t={libsumo.simulation.getTime():.2f} s")
+        if self._ego != EGO_ID and self._ego not in libsumo.vehicle.getIDList():
+            raise TrafficError(
+                f"the ego vehicle {self._ego} left the simulation at t={libsumo.simulation.getTime():.2f} s"
+            )
         self._keep_ego_going()
-        if int(round(libsumo.simulation.getTime() / self._scenario.step_s)) % 20 == 0:
+        if round(libsumo.simulation.getTime() / self._scenario.step_s) % 20 == 0:
             self._top_up()
 
     def close(self) -> None:

@@ -35,7 +35,8 @@ def prepare_network(scenario: Scenario) -> PreparedNetwork:
         xodr = town_opendrive(scenario.network)
     else:
         known = ", ".join(town_names())
-        msg = f"{scenario.source_dir}/{scenario.name}.yaml: network: unknown town {scenario.network!r} (known: {known}; or a path to an .xodr file)"
+        source = f"{scenario.source_dir}/{scenario.name}.yaml"
+        msg = f"{source}: network: unknown town {scenario.network!r} (known: {known}; or a path to an .xodr file)"
         raise ScenarioError(msg)
     net_path = import_opendrive(xodr)
     return PreparedNetwork(xodr, net_path, load_net(net_path), build_world(net_path), notice)

@@ -19,6 +19,6 @@ class LidarOutput:
 class FrameRecord:
     frame_index: int
     timestamp_ns: int
-    map_SE3_ego: SE3  # noqa: N815 (frame names are part of the name)
+    map_SE3_ego: SE3
     lidars: tuple[LidarOutput, ...]
     labels: FrameLabels

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -17,9 +18,9 @@ class ClassedMesh:
     """``vertices_m: (N, 3) float32`` in the map frame, ``triangles: (M, 3) int32``,
     ``triangle_class: (M,) uint8`` holding :class:`SemanticClass` values."""
 
-    vertices_m: npt.NDArray[np.float32]
-    triangles: npt.NDArray[np.int32]
-    triangle_class: npt.NDArray[np.uint8]
+    vertices_m: npt.NDArray[np.floating[Any]]
+    triangles: npt.NDArray[np.integer[Any]]
+    triangle_class: npt.NDArray[np.integer[Any]]
 
     def __post_init__(self) -> None:
         v = np.ascontiguousarray(self.vertices_m, dtype=np.float32).reshape(-1, 3)
@@ -35,7 +36,7 @@ class ClassedMesh:
 
     @classmethod
     def empty(cls) -> ClassedMesh:
-        return cls(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+        return cls(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros(0, np.uint8))
 
     @property
     def num_triangles(self) -> int:

@@ -133,7 +133,12 @@ def _place_buildings(
 
 
 def _row_of_buildings(
-    line: LineString, half_width_m: float, side: float, rng: np.random.Generator, keep_out: object, placed: list[Polygon]
+    line: LineString,
+    half_width_m: float,
+    side: float,
+    rng: np.random.Generator,
+    keep_out: object,
+    placed: list[Polygon],
 ) -> list[Polygon]:
     row: list[Polygon] = []
     s = float(rng.uniform(2.0, 8.0))

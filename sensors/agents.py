@@ -50,7 +50,7 @@ class AgentBoxes:
     @classmethod
     def empty(cls) -> AgentBoxes:
         z = np.zeros(0)
-        return cls(z, z, np.zeros((0, 3)), np.zeros((0, 3)), z, z)
+        return cls(np.zeros(0, np.uint32), np.zeros(0, np.uint8), np.zeros((0, 3)), np.zeros((0, 3)), z, z)
 
     def select(self, mask: npt.NDArray[np.bool_]) -> AgentBoxes:
         return AgentBoxes(

@@ -44,7 +44,7 @@ class LidarSpec:
             raise SensorConfigError(f"lidar {self.name}: need range_noise_m >= 0 and 0 <= dropout < 1")
 
     @property
-    def ego_SE3_sensor(self) -> SE3:  # noqa: N802 (frame names are part of the name)
+    def ego_SE3_sensor(self) -> SE3:
         r, p, y = np.radians(self.mount_rpy_deg)
         return SE3.from_xyz_rpy(self.mount_xyz_m, r, p, y)
 
@@ -91,13 +91,13 @@ class Lidar:
     def num_rays(self) -> int:
         return int(self._dirs_lidar.shape[0])
 
-    def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:  # noqa: N803
+    def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         map_SE3_lidar = map_SE3_ego.compose(self.spec.ego_SE3_sensor)
         dirs = map_SE3_lidar.rotate(self._dirs_lidar)
         origin = np.broadcast_to(map_SE3_lidar.translation, dirs.shape)
         return np.concatenate([origin, dirs], axis=1).astype(np.float32)
 
-    def scan(self, scene: FrameScene, map_SE3_ego: SE3, rng: np.random.Generator) -> LidarScan:  # noqa: N803
+    def scan(self, scene: FrameScene, map_SE3_ego: SE3, rng: np.random.Generator) -> LidarScan:
         rays = self.rays(map_SE3_ego)
         hits = scene.cast(rays)
         keep = hits.range_m <= self.spec.range_m

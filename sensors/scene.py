@@ -8,6 +8,7 @@ mesh of all agents. Every hit carries the class and instance id of its triangle.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -70,7 +71,7 @@ class FrameScene:
         self._static_id = self._add(static.vertices_m, static.triangles)
         self._agent_id = self._add(agents.vertices_m, agents.triangles)
 
-    def _add(self, vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32]) -> int:
+    def _add(self, vertices: npt.NDArray[np.floating[Any]], triangles: npt.NDArray[np.integer[Any]]) -> int:
         if triangles.shape[0] == 0:
             return -1
         v = o3c.Tensor.from_numpy(np.ascontiguousarray(vertices, dtype=np.float32))

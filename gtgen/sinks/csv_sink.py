@@ -11,9 +11,29 @@ from pathlib import Path
 from gtgen.frame import FrameRecord
 from networks.classes import SemanticClass
 
-REFERENCE_COLUMNS = (
-    "frame,timestamp,id,type,alpha,left,top,right,bottom,l,w,h,x,y,z,rotation_z,vx,vy,vz,truncated,occluded"
-).split(",")
+REFERENCE_COLUMNS = [
+    "frame",
+    "timestamp",
+    "id",
+    "type",
+    "alpha",
+    "left",
+    "top",
+    "right",
+    "bottom",
+    "l",
+    "w",
+    "h",
+    "x",
+    "y",
+    "z",
+    "rotation_z",
+    "vx",
+    "vy",
+    "vz",
+    "truncated",
+    "occluded",
+]
 EXTRA_COLUMNS = ["class_id", "parked", "distance", "lidar_points", "seen"]
 COLUMNS = REFERENCE_COLUMNS + EXTRA_COLUMNS
 
@@ -41,7 +61,12 @@ class CsvSink:
             camera = ["", "", "", "", ""]  # alpha, left, top, right, bottom: filled by the camera labels
             rows.append(
                 ",".join(
-                    [str(record.frame_index), timestamp, str(int(o.track_id[i])), SemanticClass(o.semantic_class[i]).label]
+                    [
+                        str(record.frame_index),
+                        timestamp,
+                        str(int(o.track_id[i])),
+                        SemanticClass(o.semantic_class[i]).label,
+                    ]
                     + camera
                     + [_fmt(v) for v in (ln, wd, ht, cx, cy, cz, o.yaw_ego_rad[i], vx, vy, vz)]
                     + ["", ""]  # truncated, occluded: camera labels
@@ -58,4 +83,3 @@ class CsvSink:
 
     def abort(self) -> None:
         self._file.close()
-

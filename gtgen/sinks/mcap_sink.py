@@ -65,7 +65,7 @@ def _pose(t: SE3) -> Pose:
     )
 
 
-def _transform(ns: int, parent: str, child: str, parent_SE3_child: SE3) -> FrameTransform:  # noqa: N803
+def _transform(ns: int, parent: str, child: str, parent_SE3_child: SE3) -> FrameTransform:
     pose = _pose(parent_SE3_child)
     return FrameTransform(
         timestamp=_timestamp(ns), parent_frame_id=parent, child_frame_id=child,
@@ -104,7 +104,9 @@ def box_update(ns: int, labels: FrameLabels) -> SceneUpdate:
                 timestamp=_timestamp(ns),
                 frame_id="ego",
                 id=str(int(o.track_id[i])),
-                cubes=[CubePrimitive(pose=pose, size=size, color=Color(r=r, g=g, b=b, a=0.35 if labels.seen[i] else 0.1))],
+                cubes=[
+                    CubePrimitive(pose=pose, size=size, color=Color(r=r, g=g, b=b, a=0.35 if labels.seen[i] else 0.1))
+                ],
                 metadata=[
                     KeyValuePair(key="class", value=cls.label),
                     KeyValuePair(key="lidar_points", value=str(int(labels.lidar_points[i]))),
