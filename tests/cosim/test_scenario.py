@@ -1,0 +1,106 @@
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from cosim.errors import ScenarioError
+from cosim.scenario import catalog_names, load_scenario
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "scene.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_every_catalog_scene_loads():
+    names = catalog_names()
+    assert "town05_crowded" in names
+    for name in names:
+        assert load_scenario(name).frames > 0
+
+
+def test_unknown_key_names_the_file_and_the_key(tmp_path):
+    path = write(tmp_path, "network: skeleton\ntraffic:\n  pedestrains: 3\n")
+    with pytest.raises(ScenarioError, match=r"scene\.yaml: traffic\.pedestrains: unknown key"):
+        load_scenario(str(path))
+
+
+def test_wrong_type_names_the_key_and_the_expected_type(tmp_path):
+    path = write(tmp_path, "network: skeleton\nframes: many\n")
+    with pytest.raises(ScenarioError, match=r"scene\.yaml: frames: expected a whole number, got 'many'"):
+        load_scenario(str(path))
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        ("frames: 0", "frames"),
+        ("step_s: 0", "step_s"),
+        ("step_s: -0.05", "step_s"),
+        ("traffic:\n  vehicles_per_lane_km: -1", "traffic.vehicles_per_lane_km"),
+        ("traffic:\n  mix: {tram: 1.0}", "traffic.mix.tram"),
+        ("weather: snow", "weather"),
+    ],
+)
+def test_out_of_range_values_are_rejected_with_their_key(tmp_path, text, key):
+    path = write(tmp_path, f"network: skeleton\n{text}\n")
+    with pytest.raises(ScenarioError, match=r"scene\.yaml: " + re.escape(key) + ": "):
+        load_scenario(str(path))
+
+
+def test_overrides_reach_nested_keys():
+    scenario = load_scenario("town05_crowded", ["traffic.pedestrians=7", "frames=12", "weather=night"])
+    assert (scenario.traffic.pedestrians, scenario.frames, scenario.weather) == (7, 12, "night")
+
+
+def test_override_of_unknown_key_is_rejected():
+    with pytest.raises(ScenarioError, match=r"traffic\.nope: unknown key"):
+        load_scenario("town05_crowded", ["traffic.nope=1"])
+
+
+def test_yaml_tags_for_python_objects_are_refused(tmp_path):
+    path = write(tmp_path, "network: !!python/object/apply:os.system ['true']\n")
+    with pytest.raises(ScenarioError, match="not valid YAML"):
+        load_scenario(str(path))
+
+
+def test_network_path_resolves_relative_to_the_scenario_file(tmp_path):
+    path = write(tmp_path, "network: maps/my.xodr\n")
+    assert load_scenario(str(path)).network_path() == (tmp_path / "maps" / "my.xodr").resolve()
+
+
+def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "cosim", *args], capture_output=True, text=True, cwd=cwd, check=False)
+
+
+def test_cli_unknown_scenario_prints_one_line_naming_the_known_ones(tmp_path):
+    proc = run_cli("run", "no_such_scene", "--out", str(tmp_path / "o"), cwd=ROOT)
+    assert proc.returncode != 0
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "no_such_scene" in lines[0] and "town05_crowded" in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_cli_unknown_key_prints_one_line_and_writes_nothing(tmp_path):
+    path = write(tmp_path, "network: skeleton\nsensorz: {}\n")
+    proc = run_cli("run", str(path), "--out", str(tmp_path / "o"), cwd=ROOT)
+    assert proc.returncode != 0
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {path}: sensorz: unknown key")
+    assert not (tmp_path / "o").exists()
+
+
+def test_cli_list_shows_each_scene_with_a_description():
+    proc = run_cli("list", cwd=ROOT)
+    assert proc.returncode == 0
+    assert any(line.startswith("town05_crowded") and "intersection" in line for line in proc.stdout.splitlines())
+
+
+def test_cli_help_lists_the_subcommands():
+    proc = run_cli("--help", cwd=ROOT)
+    assert proc.returncode == 0 and "run" in proc.stdout and "list" in proc.stdout
