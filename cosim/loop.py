@@ -105,6 +105,8 @@ def run(scenario: Scenario, out_dir: Path, progress: bool = True) -> RunSummary:
     summary = RunSummary()
     try:
         traffic.warm_up()
+        for notice in traffic.notices:
+            print(notice, file=sys.stderr)
         bar = tqdm(range(scenario.frames), desc=scenario.name, unit="frame", disable=not progress, file=sys.stderr)
         for frame_index in bar:
             traffic.step()

@@ -46,7 +46,12 @@ class TrafficConfig:
 
 @dataclass(frozen=True, slots=True)
 class EgoConfig:
-    route: tuple[str, ...] = ()  # SUMO edge ids; empty: a random passenger car after warm-up
+    """``route``: SUMO edge ids the ego starts on; empty: a passenger car picked after the
+    warm-up where ``start`` says (``urban``: a street of at most 60 km/h, ``highway``: at
+    least 80 km/h, ``on_ramp``: inserted at the start of a highway entrance ramp)."""
+
+    route: tuple[str, ...] = ()
+    start: Literal["any", "urban", "highway", "on_ramp"] = "any"
 
 
 @dataclass(frozen=True, slots=True)

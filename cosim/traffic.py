@@ -14,8 +14,10 @@ import numpy as np
 from cosim.demand import KINDS, PEDESTRIAN, TypeVariant, sample_variants, split_by_mix, target_vehicle_count
 from cosim.errors import TrafficError
 from cosim.kinematics import front_bumper_to_center, heading_vectors, sumo_angle_to_yaw
+from cosim.parking import ParkingArea, additional_xml, find_parking_areas, lane_types
 from cosim.scenario import Scenario
 from cosim.state import WorldState
+from networks.cache import cache_dir, digest
 from networks.sumo_tools import sumo_binary, sumo_home
 from sensors.agents import AgentBoxes
 
@@ -34,6 +36,22 @@ class NetIndex:
     walk_edges: list[str]
     edge_mid_xy: dict[str, tuple[float, float]]
     vehicle_lane_km: float
+    on_ramps: list[str]
+
+
+def _on_ramps(net: sumolib.net.Net) -> list[str]:
+    """Edges that merge into a faster road: the node joins two edges into one (>= 80 km/h),
+    and this edge is the one with fewer lanes."""
+    ramps = []
+    for node in net.getNodes():
+        incoming = [e for e in node.getIncoming() if not e.getFunction() and e.allows("passenger")]
+        outgoing = [e for e in node.getOutgoing() if not e.getFunction() and e.allows("passenger")]
+        if len(incoming) != 2 or len(outgoing) != 1 or outgoing[0].getSpeed() < 22.0:
+            continue
+        a, b = sorted(incoming, key=lambda e: (e.getLaneNumber(), e.getSpeed(), e.getID()))
+        if (a.getLaneNumber(), a.getSpeed()) < (b.getLaneNumber(), b.getSpeed()):
+            ramps.append(a.getID())
+    return sorted(ramps)
 
 
 def index_net(net: sumolib.net.Net) -> NetIndex:
@@ -52,7 +70,7 @@ def index_net(net: sumolib.net.Net) -> NetIndex:
         if edge.allows("pedestrian"):
             walk.append(edge.getID())
         lane_km += sum(lane.getLength() for lane in edge.getLanes() if lane.allows("passenger")) / 1000.0
-    return NetIndex(by_class, walk, mids, lane_km)
+    return NetIndex(by_class, walk, mids, lane_km, _on_ramps(net))
 
 
 class Traffic:
@@ -66,11 +84,15 @@ class Traffic:
         self._alive: set[str] = set()
         self._serial = 0
         self._statics: dict[str, tuple[int, float, float, float]] = {}
+        self._parking = find_parking_areas(net, lane_types(net_path)) if scenario.traffic.parked > 0 else []
+        self._parked: set[str] = set()
         cmd = [
             str(sumo_binary("sumo")), "-n", str(net_path), "--step-length", f"{scenario.step_s}",
             "--seed", str(scenario.seed), "--no-step-log", "true", "--no-warnings", "true",
             "--time-to-teleport", "120", "--collision.action", "warn", "--begin", "0",
         ]  # fmt: skip
+        if self._parking:
+            cmd += ["--additional-files", str(_write_parking(net_path, self._parking))]
         try:
             libsumo.start(cmd)
         except libsumo.TraCIException as err:
@@ -84,6 +106,8 @@ class Traffic:
             if KINDS[k].sumo_vclass in self._index.edges_by_vclass
         }
         self._ego_xy: tuple[float, float] | None = None
+        self._ego = ""
+        self.notices: list[str] = []
 
     # --- set-up --------------------------------------------------------------------------
     def _define_types(self) -> dict[str, list[TypeVariant]]:
@@ -167,6 +191,29 @@ class Traffic:
         for _ in range(min(self._scenario.traffic.pedestrians - libsumo.person.getIDCount(), 5)):
             self._add_person()
 
+    def _add_parked(self) -> None:
+        """Vehicles standing in street-parking spaces for the whole scene (inserted parked)."""
+        slots = [(a, i) for a in self._parking for i in range(len(a.spaces))]
+        count = min(self._scenario.traffic.parked, len(slots))
+        per_area: dict[str, int] = {}
+        for k in sorted(self._rng.choice(len(slots), size=count, replace=False).tolist()):
+            area = slots[k][0]
+            per_area[area.area_id] = per_area.get(area.area_id, 0) + 1
+        by_id = {a.area_id: a for a in self._parking}
+        for area_id, n in per_area.items():
+            area = by_id[area_id]
+            edge = area.lane_id.rsplit("_", 1)[0]
+            libsumo.route.add(f"park_{area_id}", [edge])
+            for _ in range(n):
+                self._serial += 1
+                vid = f"parked_{self._serial}"
+                variant = self._variants["car"][int(self._rng.integers(0, len(self._variants["car"])))]
+                lane_index = area.lane_id.rsplit("_", 1)[1]
+                libsumo.vehicle.add(vid, f"park_{area_id}", typeID=variant.type_id, depart="now",
+                                    departLane=lane_index, departPos="stop", departSpeed="0")  # fmt: skip
+                libsumo.vehicle.setParkingAreaStop(vid, area_id, duration=1e7)
+                self._parked.add(vid)
+
     # --- stepping --------------------------------------------------------------------------
     def warm_up(self) -> None:
         """Fill the town: run the warm-up, then pick (or insert) the ego."""
@@ -178,30 +225,53 @@ class Traffic:
         self._choose_ego()
 
     def _choose_ego(self) -> None:
-        route = list(self._scenario.ego.route)
-        if route:
-            try:
-                libsumo.route.add("ego_route", route)
-                libsumo.vehicle.add(EGO_ID, "ego_route", typeID="ego_car", depart="now", departSpeed="max")
-            except libsumo.TraCIException as err:
-                raise TrafficError(f"ego.route: SUMO refused the route {route}: {err}") from err
-            for _ in range(200):
-                libsumo.simulationStep()
-                if EGO_ID in libsumo.vehicle.getIDList():
-                    break
+        ego = self._scenario.ego
+        if ego.route:
+            self._insert_ego(list(ego.route), "ego.route")
+        elif ego.start == "on_ramp":
+            ramps = self._index.on_ramps
+            if not ramps:
+                self.notices.append("note: the network has no highway entrance ramp; the ego is a random car")
+                self._pick_ego("any")
             else:
-                raise TrafficError("ego.route: the ego could not enter the network within 10 s")
-            self._ego = EGO_ID
+                ramp = ramps[int(self._rng.integers(0, len(ramps)))]
+                self._insert_ego([ramp], f"entrance ramp {ramp}")
         else:
-            cars = sorted(v for v in libsumo.vehicle.getIDList() if v.startswith("car_"))
-            if not cars:
-                raise TrafficError(
-                    "no passenger car is driving after the warm-up to serve as the ego (raise the density or warmup_s)"
-                )
-            self._ego = cars[int(self._rng.integers(0, len(cars)))]
-            self._alive.discard(self._ego)
+            self._pick_ego(ego.start)
         libsumo.vehicle.setColor(self._ego, (255, 0, 0, 255))
         self._keep_ego_going()
+
+    def _insert_ego(self, route: list[str], what: str) -> None:
+        try:
+            libsumo.route.add("ego_route", route)
+            libsumo.vehicle.add(EGO_ID, "ego_route", typeID="ego_car", depart="now", departSpeed="max")
+        except libsumo.TraCIException as err:
+            raise TrafficError(f"{what}: SUMO refused the ego's route {route}: {err}") from err
+        self._ego = EGO_ID
+        self._keep_ego_going()
+        for _ in range(400):
+            libsumo.simulationStep()
+            if EGO_ID in libsumo.vehicle.getIDList():
+                return
+        raise TrafficError(f"{what}: the ego could not enter the network within 20 s")
+
+    def _pick_ego(self, start: str) -> None:
+        cars = sorted(v for v in libsumo.vehicle.getIDList() if v.startswith("car_"))
+        if start != "any":
+
+            def fits(v: str) -> bool:
+                speed = libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(v)) if libsumo.vehicle.getLaneID(v) else 0
+                return speed <= 16.7 if start == "urban" else speed >= 22.2
+
+            matching = [v for v in cars if not libsumo.vehicle.getRoadID(v).startswith(":") and fits(v)]
+            if not matching:
+                self.notices.append(f"note: no car is on a {start} road after the warm-up; the ego is a random car")
+            cars = matching or cars
+        if not cars:
+            msg = "no passenger car is driving after the warm-up to serve as the ego (raise the density or warmup_s)"
+            raise TrafficError(msg)
+        self._ego = cars[int(self._rng.integers(0, len(cars)))]
+        self._alive.discard(self._ego)
 
     def _keep_ego_going(self) -> None:
         route = libsumo.vehicle.getRoute(self._ego)
@@ -263,7 +333,7 @@ class Traffic:
         track = np.array([self._track_id(s) for s in ids], dtype=np.uint32)
         boxes = AgentBoxes(track, cls, center, lwh, yaw, pitch)
         is_ego = np.array([s == self._ego for s in ids], dtype=bool)
-        parked = np.zeros(n, bool)
+        parked = np.array([s in self._parked for s in ids], dtype=bool)
         return WorldState(
             libsumo.simulation.getTime(), boxes.select(~is_ego), velocity[~is_ego], parked[~is_ego],
             boxes.select(is_ego), velocity[is_ego].reshape(3),
@@ -286,3 +356,11 @@ class Traffic:
     @property
     def vehicle_target(self) -> int:
         return sum(self._targets.values())
+
+
+def _write_parking(net_path: Path, areas: list[ParkingArea]) -> Path:
+    text = additional_xml(areas)
+    path = cache_dir("parking", digest(net_path.read_bytes(), text)) / "parking.add.xml"
+    if not path.exists():
+        path.write_text(text)
+    return path

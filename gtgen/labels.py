@@ -44,11 +44,11 @@ def label_frame(
     lidar_scans: list[LidarScan],
     range_m: float,
 ) -> FrameLabels:
-    """Label every object whose box centre lies within ``range_m`` of the ego."""
+    """Label every object whose box centre lies within ``range_m`` of the ego, and every
+    object a sensor ray hit (a long bus can be hit while its centre is out of range)."""
     distance = np.linalg.norm(objects.center_ego_m[:, :2], axis=1)
-    in_range = distance <= range_m
-    kept = objects.select(in_range)
-    points = np.zeros(len(kept), np.int32)
+    points = np.zeros(len(objects), np.int32)
     for scan in lidar_scans:
-        points += count_hits(scan.instance_id, kept.track_id)
-    return FrameLabels(frame_index, timestamp_ns, kept, distance[in_range], points, points > 0)
+        points += count_hits(scan.instance_id, objects.track_id)
+    keep = (distance <= range_m) | (points > 0)
+    return FrameLabels(frame_index, timestamp_ns, objects.select(keep), distance[keep], points[keep], points[keep] > 0)
