@@ -1,0 +1,113 @@
+"""Camera geometry of the labels: projected (amodal) 2D boxes, truncation, KITTI alpha.
+
+All functions take every object at once. Boxes are the labels' ego-frame boxes (yaw only).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from gtgen.objects import ObjectBoxes
+from networks.geometry import SE3, wrap_angle
+
+F64 = npt.NDArray[np.float64]
+NEAR_PLANE_M = 0.1
+
+# Unit box corners (x, y, z in {-1/2, 1/2}) and the 12 edges between them.
+UNIT_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64) / 2
+BOX_EDGES = np.array([[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7], [0, 4], [1, 5], [2, 6], [3, 7]])
+
+
+class PinholeCamera(Protocol):
+    @property
+    def width_px(self) -> int: ...
+
+    @property
+    def height_px(self) -> int: ...
+
+    @property
+    def K(self) -> F64: ...
+
+    @property
+    def ego_SE3_cam(self) -> SE3: ...
+
+
+@dataclass(frozen=True, slots=True)
+class CameraBoxes:
+    """Per object: ``amodal_px: (N, 4)`` left, top, right, bottom of the projected 3D box
+    (NaN when entirely behind the near plane); ``clipped_px: (N, 4)`` the same clipped to the
+    image (NaN when outside); ``truncated: (N,)`` in 0..1; ``alpha_rad``, ``rotation_y_rad``
+    (KITTI); ``depth_m: (N,)`` z of the box centre in the camera frame."""
+
+    amodal_px: F64
+    clipped_px: F64
+    truncated: F64
+    alpha_rad: F64
+    rotation_y_rad: F64
+    depth_m: F64
+
+
+def box_corners(boxes: ObjectBoxes) -> F64:
+    """``(N, 8, 3)`` corners in the ego frame."""
+    c, s = np.cos(boxes.yaw_ego_rad), np.sin(boxes.yaw_ego_rad)
+    local = UNIT_CORNERS[None] * boxes.lwh_m[:, None, :]
+    x = c[:, None] * local[..., 0] - s[:, None] * local[..., 1]
+    y = s[:, None] * local[..., 0] + c[:, None] * local[..., 1]
+    return np.stack([x, y, local[..., 2]], axis=-1) + boxes.center_ego_m[:, None, :]
+
+
+def project(K: F64, xyz_cam: F64) -> F64:
+    """Pinhole projection of ``(..., 3)`` camera-frame points (z > 0) to ``(..., 2)`` pixels."""
+    uvw = xyz_cam @ K.T
+    return uvw[..., :2] / uvw[..., 2:3]
+
+
+def clipped_corner_pixels(K: F64, corners_cam: F64) -> tuple[F64, npt.NDArray[np.bool_]]:
+    """Pixels of the box clipped at the near plane: corners in front, plus where edges cross it.
+    Returns ``(N, 20, 2)`` pixels and ``(N, 20)`` validity."""
+    z = corners_cam[..., 2]
+    a, b = corners_cam[:, BOX_EDGES[:, 0]], corners_cam[:, BOX_EDGES[:, 1]]
+    za, zb = a[..., 2], b[..., 2]
+    crosses = (za - NEAR_PLANE_M) * (zb - NEAR_PLANE_M) < 0
+    t = np.where(crosses, (NEAR_PLANE_M - za) / np.where(crosses, zb - za, 1.0), 0.0)
+    crossing = a + (b - a) * t[..., None]
+    points = np.concatenate([corners_cam, crossing], axis=1)
+    valid = np.concatenate([z >= NEAR_PLANE_M, crosses], axis=1)
+    safe = np.where(valid[..., None], points, np.array([0.0, 0.0, 1.0]))
+    return project(K, safe), valid
+
+
+def camera_boxes(camera: PinholeCamera, boxes: ObjectBoxes) -> CameraBoxes:
+    cam_SE3_ego = camera.ego_SE3_cam.inverse()
+    n = len(boxes)
+    corners_cam = cam_SE3_ego.transform_from(box_corners(boxes).reshape(-1, 3)).reshape(n, 8, 3)
+    uv, valid = clipped_corner_pixels(camera.K, corners_cam)
+    any_valid = valid.any(axis=1)
+    lo = np.where(valid[..., None], uv, np.inf).min(axis=1)
+    hi = np.where(valid[..., None], uv, -np.inf).max(axis=1)
+    amodal = np.where(any_valid[:, None], np.concatenate([lo, hi], axis=1), np.nan)
+    w, h = float(camera.width_px), float(camera.height_px)
+    clipped = np.stack(
+        [
+            np.clip(amodal[:, 0], 0, w),
+            np.clip(amodal[:, 1], 0, h),
+            np.clip(amodal[:, 2], 0, w),
+            np.clip(amodal[:, 3], 0, h),
+        ],
+        axis=1,
+    )
+    area = (amodal[:, 2] - amodal[:, 0]) * (amodal[:, 3] - amodal[:, 1])
+    inside = np.maximum(clipped[:, 2] - clipped[:, 0], 0) * np.maximum(clipped[:, 3] - clipped[:, 1], 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        truncated = np.where(any_valid & (area > 0), 1.0 - inside / area, 1.0)
+    clipped = np.where((inside > 0)[:, None], clipped, np.nan)
+    centre_cam = cam_SE3_ego.transform_from(boxes.center_ego_m)
+    heading_ego = np.stack([np.cos(boxes.yaw_ego_rad), np.sin(boxes.yaw_ego_rad), np.zeros(n)], axis=1)
+    heading_cam = cam_SE3_ego.rotate(heading_ego)
+    rotation_y = np.arctan2(-heading_cam[:, 2], heading_cam[:, 0])
+    alpha = wrap_angle(rotation_y - np.arctan2(centre_cam[:, 0], centre_cam[:, 2]))
+    return CameraBoxes(amodal, clipped, np.clip(truncated, 0.0, 1.0), alpha, wrap_angle(rotation_y), centre_cam[:, 2])
