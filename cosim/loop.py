@@ -13,21 +13,23 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from cosim.rig import build_lidars
+from cosim.rig import Rig, build_rig
 from cosim.scenario import Scenario
 from cosim.state import WorldState
 from cosim.traffic import Traffic
 from cosim.world_setup import prepare_network
-from gtgen.frame import FrameRecord, LidarOutput
-from gtgen.labels import FrameLabels, label_frame
+from gtgen.frame import CameraOutput, FrameRecord, LidarOutput, RadarOutput
+from gtgen.labels import FrameLabels, SensorHits, label_frame
 from gtgen.objects import ObjectBoxes
 from gtgen.sinks import Sink
 from gtgen.sinks.csv_sink import CsvSink
+from gtgen.sinks.kitti_sink import KittiSink
 from gtgen.sinks.mcap_sink import McapSink
+from gtgen.sinks.yolo_sink import YoloSink
 from networks.classes import SemanticClass
 from networks.geometry import wrap_angle
 from sensors.agents import agent_meshes
-from sensors.lidar import Lidar
+from sensors.radar import InstanceVelocities
 from sensors.scene import FrameScene, StaticCrop
 
 AGENT_MARGIN_M = 10.0
@@ -69,15 +71,24 @@ def objects_in_ego_frame(state: WorldState) -> ObjectBoxes:
 
 
 def sense_and_label(
-    frame_index: int, state: WorldState, crop: StaticCrop, lidars: list[Lidar], rng: np.random.Generator
+    frame_index: int, state: WorldState, crop: StaticCrop, rig: Rig, rng: np.random.Generator
 ) -> FrameRecord:
+    """Cast every sensor into one scene of this frame, then label what the rays saw."""
     map_SE3_ego = state.map_SE3_ego()
     scene = FrameScene(crop.around(map_SE3_ego.translation), agent_meshes(state.agents))
-    outputs = tuple(LidarOutput(li.spec, li.scan(scene, map_SE3_ego, rng)) for li in lidars)
+    lidars = tuple(LidarOutput(li.spec, li.scan(scene, map_SE3_ego, rng, rig.weather)) for li in rig.lidars)
+    cameras = tuple(CameraOutput(c.spec, c.render(scene, map_SE3_ego, rig.weather, rng)) for c in rig.cameras)
+    velocities = InstanceVelocities.from_unsorted(state.agents.instance_id, state.velocity_map_mps)
+    radars = tuple(
+        RadarOutput(r.spec, r.scan(scene, map_SE3_ego, velocities, state.ego_velocity_map_mps, rng)) for r in rig.radars
+    )
+    hits = SensorHits(
+        tuple(o.scan for o in lidars), tuple(o.scan for o in radars), tuple((o.spec, o.frame) for o in cameras)
+    )
     timestamp_ns = round(state.time_s * 1e9)
-    range_m = max(li.spec.range_m for li in lidars)
-    labels = label_frame(frame_index, timestamp_ns, objects_in_ego_frame(state), [o.scan for o in outputs], range_m)
-    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels)
+    objects = objects_in_ego_frame(state)
+    labels = label_frame(frame_index, timestamp_ns, objects, state.agents, map_SE3_ego, hits, rig.label_range_m)
+    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, lidars, cameras, radars, labels)
 
 
 def open_sinks(scenario: Scenario, out_dir: Path) -> list[Sink]:
@@ -86,6 +97,10 @@ def open_sinks(scenario: Scenario, out_dir: Path) -> list[Sink]:
         sinks.append(McapSink(out_dir / "run.mcap"))
     if scenario.outputs.csv:
         sinks.append(CsvSink(out_dir / "labels.csv"))
+    if scenario.outputs.kitti:
+        sinks.append(KittiSink(out_dir / "kitti"))
+    if scenario.outputs.yolo:
+        sinks.append(YoloSink(out_dir / "yolo", scenario.outputs.yolo_min_visible_px))
     return sinks
 
 
@@ -94,8 +109,8 @@ def run(scenario: Scenario, out_dir: Path, progress: bool = True) -> RunSummary:
     prepared = prepare_network(scenario)
     if prepared.notice:
         print(prepared.notice, file=sys.stderr)
-    lidars = build_lidars(scenario)
-    reach = max(li.spec.range_m for li in lidars)
+    rig = build_rig(scenario)
+    reach = rig.reach_m
     crop = StaticCrop(prepared.world.mesh, reach)
     rng = np.random.default_rng(scenario.seed)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -111,7 +126,7 @@ def run(scenario: Scenario, out_dir: Path, progress: bool = True) -> RunSummary:
         for frame_index in bar:
             traffic.step()
             state = traffic.world_state().near(reach + AGENT_MARGIN_M)
-            record = sense_and_label(frame_index, state, crop, lidars, rng)
+            record = sense_and_label(frame_index, state, crop, rig, rng)
             for sink in sinks:
                 sink.write(record)
             summary.add(record.labels)
@@ -121,7 +136,8 @@ def run(scenario: Scenario, out_dir: Path, progress: bool = True) -> RunSummary:
         for sink in sinks:
             sink.abort()
         for partial in out_dir.glob("*.partial"):
-            partial.unlink()
+            if partial.is_file():
+                partial.unlink()
         raise
     finally:
         traffic.close()
@@ -144,7 +160,11 @@ def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr:
             versions[dist] = metadata.version(dist)
         except metadata.PackageNotFoundError:
             versions[dist] = "unknown"
-    files = {p.name: _sha256(p) for p in sorted(out_dir.iterdir()) if p.is_file() and p.name != "manifest.json"}
+    files = {
+        str(p.relative_to(out_dir)): _sha256(p)
+        for p in sorted(out_dir.rglob("*"))
+        if p.is_file() and p.name != "manifest.json" and p.parent.name not in ("image_2", "velodyne", "images")
+    }
     manifest = {
         "scenario": asdict(scenario),
         "seed": scenario.seed,

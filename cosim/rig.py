@@ -1,26 +1,41 @@
-"""Scenario sensor configuration -> sensor models."""
+"""The scenario's sensor rig as sensor models."""
 
 from __future__ import annotations
 
-from cosim.scenario import LidarConfig, Scenario
-from sensors.lidar import Lidar, LidarSpec
+from dataclasses import dataclass
+
+from cosim.scenario import Scenario
+from sensors.camera import Camera
+from sensors.lidar import Lidar
+from sensors.radar import Radar
+from sensors.weather import Weather, weather_preset
 
 
-def lidar_spec(config: LidarConfig, rate_hz: float) -> LidarSpec:
-    return LidarSpec(
-        name=config.name,
-        beams=config.beams,
-        vertical_min_deg=config.vertical_min_deg,
-        vertical_max_deg=config.vertical_max_deg,
-        azimuth_steps=config.azimuth_steps,
-        range_m=config.range_m,
-        rate_hz=rate_hz,
-        mount_xyz_m=config.mount_xyz_m,
-        mount_rpy_deg=config.mount_rpy_deg,
-        range_noise_m=config.range_noise_m,
-        dropout=config.dropout,
+@dataclass(frozen=True, slots=True)
+class Rig:
+    lidars: tuple[Lidar, ...]
+    cameras: tuple[Camera, ...]
+    radars: tuple[Radar, ...]
+    weather: Weather
+
+    @property
+    def reach_m(self) -> float:
+        """The farthest any sensor sees: agents beyond it need not enter the scene."""
+        ranges = [s.spec.range_m for s in self.lidars] + [s.spec.range_m for s in self.cameras]
+        ranges += [s.spec.range_m for s in self.radars]
+        return max(ranges)
+
+    @property
+    def label_range_m(self) -> float:
+        """Objects within this distance are labelled even when no ray hit them."""
+        return max((li.spec.range_m for li in self.lidars), default=self.reach_m)
+
+
+def build_rig(scenario: Scenario) -> Rig:
+    sensors = scenario.sensors
+    return Rig(
+        tuple(Lidar(spec) for spec in sensors.lidars),
+        tuple(Camera(spec) for spec in sensors.cameras),
+        tuple(Radar(spec) for spec in sensors.radars),
+        weather_preset(scenario.weather),
     )
-
-
-def build_lidars(scenario: Scenario) -> list[Lidar]:
-    return [Lidar(lidar_spec(c, 1.0 / scenario.step_s)) for c in scenario.sensors.lidars]

@@ -13,6 +13,9 @@ from typing import Any, Literal
 
 from cosim.config import build, read_yaml, set_override
 from cosim.errors import ScenarioError
+from sensors.camera import CameraSpec
+from sensors.lidar import LidarSpec
+from sensors.radar import RadarSpec
 
 CATALOG_DIR = Path(__file__).parent / "catalog"
 AGENT_KINDS = ("car", "truck", "bus", "motorcycle", "bicycle")
@@ -55,32 +58,29 @@ class EgoConfig:
 
 
 @dataclass(frozen=True, slots=True)
-class LidarConfig:
-    name: str = "lidar"
-    beams: int = 64
-    vertical_min_deg: float = -24.9
-    vertical_max_deg: float = 2.0
-    azimuth_steps: int = 1024
-    range_m: float = 120.0
-    mount_xyz_m: tuple[float, float, float] = (0.0, 0.0, 1.95)
-    mount_rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    range_noise_m: float = 0.0
-    dropout: float = 0.0
-
-
-@dataclass(frozen=True, slots=True)
 class SensorsConfig:
-    lidars: tuple[LidarConfig, ...] = (LidarConfig(),)
+    """The rig: lists of sensor specs (fields and defaults in ``sensors/``)."""
+
+    lidars: tuple[LidarSpec, ...] = (LidarSpec(),)
+    cameras: tuple[CameraSpec, ...] = (CameraSpec(),)
+    radars: tuple[RadarSpec, ...] = (RadarSpec(),)
 
     def __post_init__(self) -> None:
-        names = [li.name for li in self.lidars]
-        _check(len(set(names)) == len(names), "lidars", "distinct sensor names", names)
+        names = [s.name for s in self.lidars] + [s.name for s in self.cameras] + [s.name for s in self.radars]
+        _check(len(set(names)) == len(names), "sensors", "distinct sensor names", names)
+        _check(len(self.lidars) + len(self.cameras) + len(self.radars) > 0, "sensors", "at least one sensor", names)
 
 
 @dataclass(frozen=True, slots=True)
 class OutputsConfig:
     mcap: bool = True
     csv: bool = True
+    kitti: bool = True
+    yolo: bool = True
+    yolo_min_visible_px: int = 25  # objects with fewer visible camera pixels get no YOLO box
+
+    def __post_init__(self) -> None:
+        _check(self.yolo_min_visible_px >= 1, "yolo_min_visible_px", "a whole number >= 1", self.yolo_min_visible_px)
 
 
 @dataclass(frozen=True, slots=True)
@@ -105,6 +105,16 @@ class Scenario:
         _check(self.warmup_s >= 0, "warmup_s", "a number >= 0", self.warmup_s)
         _check(self.seed >= 0, "seed", "a whole number >= 0", self.seed)
         _check(bool(self.network), "network", "a town name or a path to an .xodr file", self.network)
+        rig = self.sensors
+        if self.outputs.kitti:
+            _check(
+                bool(rig.cameras and rig.lidars),
+                "outputs.kitti",
+                "a rig with a camera and a LiDAR (or kitti: false)",
+                "",
+            )
+        if self.outputs.yolo:
+            _check(bool(rig.cameras), "outputs.yolo", "a rig with a camera (or yolo: false)", "")
 
     def network_path(self) -> Path | None:
         """The user's OpenDRIVE file, resolved against the scenario file; None for a built-in town."""

@@ -218,6 +218,7 @@ class Traffic:
     def warm_up(self) -> None:
         """Fill the town: run the warm-up, then pick (or insert) the ego."""
         steps = round(self._scenario.warmup_s / self._scenario.step_s)
+        self._add_parked()
         for i in range(steps):
             if i % 10 == 0:
                 self._top_up(max_new=40)

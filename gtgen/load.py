@@ -2,23 +2,32 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import json
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
+from mcap.decoder import DecoderFactory as McapDecoderFactory
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
-from gtgen.sinks.mcap_sink import LIDAR_POINT_DTYPE
+from gtgen.sinks.foxglove import LIDAR_POINT_DTYPE, RADAR_POINT_DTYPE
+
+
+class JsonDecoderFactory(McapDecoderFactory):
+    """Decodes the JSON channels (``/gt/labels``) into Python objects."""
+
+    def decoder_for(self, message_encoding: str, schema: Any) -> Callable[[bytes], Any] | None:
+        return json.loads if message_encoding == "json" else None
 
 
 def iter_messages(path: Path, topics: list[str] | None = None) -> Iterator[tuple[str, int, Any]]:
-    """``(topic, log_time_ns, decoded protobuf message)`` in log-time order."""
+    """``(topic, log_time_ns, decoded message)`` in log-time order (protobuf or JSON)."""
     with path.open("rb") as stream:
-        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        reader = make_reader(stream, decoder_factories=[DecoderFactory(), JsonDecoderFactory()])
         for _schema, channel, message, decoded in reader.iter_decoded_messages(topics=topics):
             yield channel.topic, message.log_time, decoded
 
@@ -29,6 +38,13 @@ def lidar_points(cloud: Any) -> npt.NDArray[np.void]:
     if cloud.point_stride != LIDAR_POINT_DTYPE.itemsize:
         raise ValueError(f"point stride {cloud.point_stride} is not the LiDAR layout ({LIDAR_POINT_DTYPE.itemsize})")
     return np.frombuffer(cloud.data, dtype=LIDAR_POINT_DTYPE)
+
+
+def radar_points(cloud: Any) -> npt.NDArray[np.void]:
+    """A radar ``foxglove.PointCloud`` as a structured array (see ``RADAR_POINT_DTYPE``)."""
+    if cloud.point_stride != RADAR_POINT_DTYPE.itemsize:
+        raise ValueError(f"point stride {cloud.point_stride} is not the radar layout ({RADAR_POINT_DTYPE.itemsize})")
+    return np.frombuffer(cloud.data, dtype=RADAR_POINT_DTYPE)
 
 
 def load_labels(path: Path) -> pd.DataFrame:

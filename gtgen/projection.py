@@ -86,7 +86,7 @@ def camera_boxes(camera: PinholeCamera, boxes: ObjectBoxes) -> CameraBoxes:
     n = len(boxes)
     corners_cam = cam_SE3_ego.transform_from(box_corners(boxes).reshape(-1, 3)).reshape(n, 8, 3)
     uv, valid = clipped_corner_pixels(camera.K, corners_cam)
-    any_valid = valid.any(axis=1)
+    any_valid: npt.NDArray[np.bool_] = np.asarray(valid.any(axis=1))
     lo = np.where(valid[..., None], uv, np.inf).min(axis=1)
     hi = np.where(valid[..., None], uv, -np.inf).max(axis=1)
     amodal = np.where(any_valid[:, None], np.concatenate([lo, hi], axis=1), np.nan)

@@ -5,55 +5,170 @@ from __future__ import annotations
 import re
 import subprocess
 from pathlib import Path
+from xml.etree import ElementTree
 
 from networks.cache import cache_dir, digest
 from networks.errors import NetconvertError, NetworkError
 from networks.sumo_tools import sumo_binary
 
-CONVERT_VERSION = "1"
+CONVERT_VERSION = "3"
 
 # Sidewalks and crossings for pedestrians, smooth lane shapes, z kept from the file.
 IMPORT_OPTIONS: tuple[str, ...] = (
-    "--opendrive.import-all-lanes", "true",
     "--opendrive.curve-resolution", "1.0",
     "--sidewalks.guess", "true",
     "--crossings.guess", "true",
     "--junctions.corner-detail", "8",
     "--geometry.avoid-overlap", "true",
+    "--no-turnarounds.except-deadend", "true",
+    "--ignore-errors.edge-type", "true",
     "--no-warnings", "true",
 )  # fmt: skip
 
+_VEHICLES_ONLY = (
+    'disallow="pedestrian rail rail_urban rail_electric rail_fast tram drone aircraft scooter '
+    'container wheelchair subway cable_car ship"'
+)
+_RAMP = 'disallow="pedestrian bicycle moped rail rail_urban rail_electric rail_fast tram drone aircraft scooter ship"'
+
+# OpenDRIVE lane type -> SUMO lane. Unlike netconvert's default map, sidewalks allow
+# pedestrians and biking lanes bicycles, and shoulders, borders and medians stay as
+# lanes nobody drives on, so that every paved surface reaches the world mesh.
+LANE_TYPES_XML = "\n".join(
+    [
+        "<types>",
+        *(
+            f'  <type id="{t}" priority="1" speed="13.89" width="3.65" {_VEHICLES_ONLY}/>'
+            for t in ("driving", "stop", "entry", "exit", "bidirectional", "mwyEntry", "mwyExit")
+        ),
+        *(f'  <type id="{t}" priority="1" speed="22.22" width="3.65" {_RAMP}/>' for t in ("onRamp", "offRamp")),
+        '  <type id="parking" priority="0" speed="1.39" width="2.50" disallow="all"/>',
+        '  <type id="sidewalk" priority="-2" speed="2.78" width="2.50" allow="pedestrian"/>',
+        '  <type id="walking" priority="-2" speed="2.78" width="2.50" allow="pedestrian"/>',
+        '  <type id="biking" priority="-1" speed="5.56" width="1.50" allow="bicycle"/>',
+        *(
+            f'  <type id="{t}" priority="0" speed="1.39" width="0.5" disallow="all"/>'
+            for t in ("shoulder", "border", "median", "curb", "restricted")
+        ),
+        '  <type id="none" priority="0" speed="1.39" width="1.0" disallow="all" discard="true"/>',
+        '  <type id="tram" priority="2" speed="13.89" width="3.65" allow="tram"/>',
+        '  <type id="rail" priority="3" speed="33.33" width="3.65" allow="rail rail_urban rail_electric rail_fast"/>',
+        "</types>",
+        "",
+    ]
+)
+
+SIDEWALK_MAX_SPEED_MPS = 13.89  # netconvert's default for --sidewalks.guess.max-speed
+
+_SIGNAL_TAG = re.compile(r"<signal(?:Reference)?\s[^>]*>")
+_SIGNAL_DEFAULTS = {"orientation": "none", "dynamic": "no", "zOffset": "0", "country": "OpenDRIVE", "type": "-1",
+                    "subtype": "-1", "value": "0", "height": "0", "width": "0", "hOffset": "0", "pitch": "0",
+                    "roll": "0"}  # fmt: skip
 _GEO_REFERENCE = re.compile(r"<geoReference>.*?</geoReference>|<geoReference\s*/>", re.DOTALL)
 
 
 def import_opendrive(xodr_path: Path) -> Path:
-    """Return the SUMO ``.net.xml`` for an OpenDRIVE file, converting it on first use."""
+    """Return the SUMO ``.net.xml`` for an OpenDRIVE file, converting it on first use.
+
+    A file netconvert rejects is retried with its signals' empty attributes repaired,
+    then also without its geoReference (proj strings often name datum grids that are not
+    installed); if all fail, the error names the file and netconvert's first reason.
+    """
     if not xodr_path.is_file():
         raise NetworkError(f"{xodr_path}: OpenDRIVE file not found")
     data = xodr_path.read_bytes()
-    key = digest(CONVERT_VERSION, data, *IMPORT_OPTIONS)
+    key = digest(CONVERT_VERSION, data, LANE_TYPES_XML, *IMPORT_OPTIONS)
     folder = cache_dir("nets", f"{xodr_path.stem}-{key}")
     net = folder / "net.net.xml"
     if net.exists():
         return net
+    types = folder / "lanes.typ.xml"
+    types.write_text(LANE_TYPES_XML)
     partial = folder / "net.partial.xml"
-    error = _run_netconvert(xodr_path, partial)
-    if error and _GEO_REFERENCE.search(data.decode("utf-8", "replace")):
-        # Projection data often names datum grids that are not installed: retry without it.
-        stripped = folder / "no-georef.xodr"
-        stripped.write_text(_GEO_REFERENCE.sub("", data.decode("utf-8", "replace")))
-        error = _run_netconvert(stripped, partial)
+    first_error = error = _run_netconvert(xodr_path, types, partial)
+    text = data.decode("utf-8", "replace")
+    for name, repair in (("signals.xodr", _repair_signals), ("no-georef.xodr", _strip_geo_reference)):
+        if not error:
+            break
+        repaired = repair(text)
+        if repaired == text:
+            continue
+        text = repaired
+        (folder / name).write_text(text)
+        error = _run_netconvert(folder / name, types, partial)
     if error:
-        raise NetconvertError(f"{xodr_path}: netconvert rejected the file: {error}")
+        raise NetconvertError(f"{xodr_path}: netconvert rejected the file: {first_error}")
     partial.replace(net)
     return net
 
 
-def _run_netconvert(xodr_path: Path, out_path: Path) -> str:
-    """Run netconvert; return '' on success, else the tail of its error output."""
-    cmd = [str(sumo_binary("netconvert")), "--opendrive-files", str(xodr_path), *IMPORT_OPTIONS, "-o", str(out_path)]
+def _strip_geo_reference(text: str) -> str:
+    return _GEO_REFERENCE.sub("", text)
+
+
+def _repair_signals(text: str) -> str:
+    """Drop signals without an id and give empty signal attributes netconvert's defaults."""
+
+    def fix(match: re.Match[str]) -> str:
+        tag = match.group(0)
+        if re.search(r'\sid=""', tag):
+            return "" if tag.endswith("/>") else "<!-- dropped signal -->"
+        for attr, default in _SIGNAL_DEFAULTS.items():
+            tag = re.sub(rf'(\s{attr})=""', rf'\1="{default}"', tag)
+        return re.sub(r'\s[A-Za-z]+=""', "", tag)
+
+    return _SIGNAL_TAG.sub(fix, text)
+
+
+def _run_netconvert(xodr_path: Path, types_path: Path, out_path: Path) -> str:
+    """Run netconvert; return '' on success, else its reason on one line."""
+    cmd = [
+        str(sumo_binary("netconvert")), "--opendrive-files", str(xodr_path), "--type-files", str(types_path),
+        *IMPORT_OPTIONS, "-o", str(out_path),
+    ]  # fmt: skip
+    fast, left_hand = road_facts(xodr_path)
+    if fast:
+        cmd += ["--sidewalks.guess.exclude", ",".join(fast)]
+    if left_hand:
+        cmd += ["--lefthand", "true"]
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    out_path.with_name("netconvert.log").write_text(proc.stderr)
     if proc.returncode == 0 and out_path.exists() and out_path.stat().st_size > 0:
         return ""
-    lines = [ln for ln in proc.stderr.strip().splitlines() if ln.startswith("Error")] or proc.stderr.splitlines()
-    return " | ".join(lines[-2:]).strip() or f"exit code {proc.returncode}"
+    return netconvert_reason(proc.stderr, proc.returncode)
+
+
+def road_facts(xodr_path: Path) -> tuple[list[str], bool]:
+    """SUMO edge ids of roads whose lanes are all faster than a town street, and whether
+    every road keeps left (``rule="LHT"``, which netconvert does not read itself).
+
+    netconvert decides whether to guess a sidewalk from the road type's default speed,
+    not from the lanes' own speed records, so motorways would get sidewalks otherwise.
+    """
+    try:
+        roads = list(ElementTree.parse(xodr_path).getroot().iter("road"))
+    except ElementTree.ParseError:
+        return [], False  # netconvert reports the broken file itself
+    fast = []
+    for road in roads:
+        speeds = [_float(s.get("max")) for s in road.iter("speed")]
+        if road.get("junction", "-1") == "-1" and speeds and min(speeds) > SIDEWALK_MAX_SPEED_MPS:
+            fast += [road.get("id", ""), "-" + road.get("id", "")]
+    left_hand = bool(roads) and all(road.get("rule", "RHT").upper() == "LHT" for road in roads)
+    return fast, left_hand
+
+
+def _float(text: str | None) -> float:
+    try:
+        return float(text or 0.0)
+    except ValueError:
+        return 0.0
+
+
+def netconvert_reason(stderr: str, returncode: int) -> str:
+    """The error lines of netconvert's output joined on one line (without the final 'Quitting')."""
+    lines = [ln.strip() for ln in stderr.splitlines() if ln.strip()]
+    errors = [ln.removeprefix("Error: ") for ln in lines if ln.startswith("Error")]
+    errors = [ln for ln in errors if not ln.startswith("Quitting")] or errors
+    reason = "; ".join(dict.fromkeys(errors[-3:])) or (lines[-1] if lines else "")
+    return reason or f"exit code {returncode}"

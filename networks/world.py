@@ -15,16 +15,21 @@ from pathlib import Path
 import numpy as np
 import shapely
 import sumolib
-from shapely.geometry import LineString, Polygon, box
+from shapely.geometry import LineString, Point, Polygon, box
 from shapely.prepared import prep
 
 from networks.cache import cache_dir, digest
 from networks.classes import SemanticClass
 from networks.errors import NetworkError
-from networks.mesh import ClassedMesh, flat_polygon, merge, prism, ribbon
+from networks.mesh import ClassedMesh, box_mesh, flat_polygon, merge, prism, ribbon
 
-WORLD_VERSION = "1"
+WORLD_VERSION = "2"
 CURB_HEIGHT_M = 0.15
+ELEVATED_M = 2.0  # a lane this far above the ground is a bridge deck (with sides and piers)
+DECK_DEPTH_M = 0.8
+PIER_SPACING_M = 30.0
+BUILDING_GAP_M = 1.5  # between a building and any paved surface
+PROP_GAP_M = 0.4  # between a pole or tree and any paved surface
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,15 +46,16 @@ def load_net(net_path: Path) -> sumolib.net.Net:
         raise NetworkError(f"{net_path}: cannot read SUMO network: {err}") from err
 
 
-def build_world(net_path: Path, seed: int = 0) -> StaticWorld:
-    """Build (or load from the cache) the static world of a SUMO network."""
-    key = digest(WORLD_VERSION, net_path.read_bytes(), str(seed))
+def build_world(net_path: Path, seed: int = 0, props: bool = True) -> StaticWorld:
+    """Build (or load from the cache) the static world of a SUMO network; ``props`` adds
+    street lights and trees along the sidewalks."""
+    key = digest(WORLD_VERSION, net_path.read_bytes(), str(seed), str(props))
     cached = cache_dir("worlds", key) / "world.npz"
     if cached.exists():
         with np.load(cached) as data:
             mesh = ClassedMesh(data["vertices_m"], data["triangles"], data["triangle_class"])
             return StaticWorld(mesh, tuple(data["bounds_m"].tolist()), int(data["num_buildings"]))  # type: ignore[arg-type]
-    world = _build(load_net(net_path), seed)
+    world = _build(load_net(net_path), seed, props)
     tmp = cached.with_suffix(".partial.npz")
     np.savez_compressed(
         tmp,
@@ -71,10 +77,33 @@ def _lane_class(lane: sumolib.net.lane.Lane, function: str) -> SemanticClass:
     return SemanticClass.ROAD
 
 
-def _build(net: sumolib.net.Net, seed: int) -> StaticWorld:
+def _build(net: sumolib.net.Net, seed: int, props: bool) -> StaticWorld:
+    parts, footprints, z_values = _lane_surfaces(net)
+    parts += _junction_surfaces(net, footprints)
+    if not footprints:
+        raise NetworkError("the network has no lanes to build a world from")
+    paved = shapely.union_all(footprints)
+    xmin, ymin, xmax, ymax = paved.bounds
+    ground_z = min(z_values) if z_values else 0.0
+    rng = np.random.default_rng(seed)
+    buildings = _place_buildings(net, paved, rng)
+    parts.extend(prism(fp, ground_z - 0.05, h, SemanticClass.BUILDING) for fp, h in buildings)
+    if props:
+        blocked = [fp for fp, _ in buildings]
+        parts += _street_props(net, paved, blocked, rng, ground_z - 0.05)
+    margin = 150.0
+    terrain = box(xmin - margin, ymin - margin, xmax + margin, ymax + margin)
+    parts.append(flat_polygon(terrain, ground_z - 0.05, SemanticClass.TERRAIN))
+    bounds = (xmin - margin, ymin - margin, xmax + margin, ymax + margin)
+    return StaticWorld(merge(parts), bounds, len(buildings))
+
+
+def _lane_surfaces(net: sumolib.net.Net) -> tuple[list[ClassedMesh], list[Polygon], list[float]]:
+    """Lane, sidewalk and crossing strips (with curbs, and bridge decks where a lane passes
+    over another), their 2D footprints and all their heights."""
     parts: list[ClassedMesh] = []
     footprints: list[Polygon] = []
-    z_values: list[float] = []
+    shapes: list[tuple[np.ndarray, float]] = []
     for edge in net.getEdges(withInternal=True):
         function = edge.getFunction()
         if function == "internal":
@@ -84,14 +113,68 @@ def _build(net: sumolib.net.Net, seed: int) -> StaticWorld:
             if shape.shape[0] < 2:
                 continue
             cls = _lane_class(lane, function)
-            z_values.extend(shape[:, 2].tolist())
             footprints.append(LineString(shape[:, :2]).buffer(lane.getWidth() / 2.0, cap_style="flat"))
+            shapes.append((shape, lane.getWidth()))
             if cls == SemanticClass.SIDEWALK:
                 parts.append(ribbon(shape, lane.getWidth(), cls, CURB_HEIGHT_M, CURB_HEIGHT_M))
             elif cls == SemanticClass.CROSSING:
                 parts.append(ribbon(shape, lane.getWidth(), cls, 0.01))
             else:
                 parts.append(ribbon(shape, lane.getWidth(), cls))
+    z_values = [float(z) for shape, _ in shapes for z in shape[:, 2]]
+    ground = min(z_values) if z_values else 0.0
+    for k in _lanes_over_others(footprints, [shape for shape, _ in shapes]):
+        parts.append(_bridge_deck(shapes[k][0], shapes[k][1], ground))
+    return parts, footprints, z_values
+
+
+def _lanes_over_others(footprints: list[Polygon], shapes: list[np.ndarray]) -> list[int]:
+    """Indices of lanes that cross above another lane (a bridge deck)."""
+    tree = shapely.STRtree(footprints)
+    pairs = tree.query(footprints, predicate="intersects")
+    top = np.array([float(s[:, 2].max()) for s in shapes])
+    low = np.array([float(s[:, 2].min()) for s in shapes])
+    over = pairs[:, top[pairs[0]] - top[pairs[1]] > ELEVATED_M]
+    return sorted({int(i) for i, j in over.T if low[j] < top[i] - ELEVATED_M})
+
+
+def _bridge_deck(shape_m: np.ndarray, width_m: float, ground_z_m: float) -> ClassedMesh:
+    """The deck's sides under an elevated lane, and piers down to the ground (POLE)."""
+    high = shape_m[:, 2] - ground_z_m > ELEVATED_M + DECK_DEPTH_M
+    parts = [ribbon(shape_m, width_m + 0.02, SemanticClass.ROAD, -DECK_DEPTH_M, 0.0)]
+    parts[0] = merge([parts[0], _deck_sides(shape_m, width_m)])
+    line = LineString(shape_m[:, :2])
+    for s in np.arange(PIER_SPACING_M / 2, line.length, PIER_SPACING_M):
+        i = int(np.argmin(np.linalg.norm(shape_m[:, :2] - np.asarray(line.interpolate(s).coords[0]), axis=1)))
+        if not high[i]:
+            continue
+        height = float(shape_m[i, 2] - DECK_DEPTH_M - ground_z_m)
+        pier = box_mesh((0.8, 0.8, height), SemanticClass.POLE)
+        offset = np.array([shape_m[i, 0], shape_m[i, 1], ground_z_m + height / 2.0])
+        parts.append(ClassedMesh(pier.vertices_m + offset, pier.triangles, pier.triangle_class))
+    return merge(parts)
+
+
+def _deck_sides(shape_m: np.ndarray, width_m: float) -> ClassedMesh:
+    """Vertical faces along both edges of the deck, ``DECK_DEPTH_M`` deep."""
+    strip = ribbon(shape_m, width_m, SemanticClass.ROAD)
+    k = strip.vertices_m.shape[0] // 2
+    if k < 2:
+        return ClassedMesh.empty()
+    left, right = strip.vertices_m[:k].astype(np.float64), strip.vertices_m[k:].astype(np.float64)
+    return merge([_hanging_wall(left), _hanging_wall(right)])
+
+
+def _hanging_wall(top: np.ndarray) -> ClassedMesh:
+    k = top.shape[0]
+    verts = np.concatenate([top, top - np.array([0.0, 0.0, DECK_DEPTH_M])])
+    i = np.arange(k - 1)
+    tris = np.concatenate([np.stack([i, i + 1, k + i], 1), np.stack([i + 1, k + i + 1, k + i], 1)])
+    return ClassedMesh(verts, tris, np.full(tris.shape[0], SemanticClass.ROAD, np.uint8))
+
+
+def _junction_surfaces(net: sumolib.net.Net, footprints: list[Polygon]) -> list[ClassedMesh]:
+    parts = []
     for node in net.getNodes():
         outline = node.getShape3D()
         if len(outline) < 3:
@@ -101,26 +184,15 @@ def _build(net: sumolib.net.Net, seed: int) -> StaticWorld:
         footprints.append(polygon)
         for piece in shapely.get_parts(polygon):
             parts.append(flat_polygon(piece, z, SemanticClass.ROAD))
-    if not footprints:
-        raise NetworkError("the network has no lanes to build a world from")
-    paved = shapely.union_all(footprints)
-    xmin, ymin, xmax, ymax = paved.bounds
-    ground_z = min(z_values) if z_values else 0.0
-    buildings = _place_buildings(net, paved, np.random.default_rng(seed), ground_z)
-    parts.extend(prism(fp, ground_z - 0.05, h, SemanticClass.BUILDING) for fp, h in buildings)
-    margin = 150.0
-    terrain = box(xmin - margin, ymin - margin, xmax + margin, ymax + margin)
-    parts.append(flat_polygon(terrain, ground_z - 0.05, SemanticClass.TERRAIN))
-    bounds = (xmin - margin, ymin - margin, xmax + margin, ymax + margin)
-    return StaticWorld(merge(parts), bounds, len(buildings))
+    return parts
 
 
 def _place_buildings(
-    net: sumolib.net.Net, paved: shapely.Geometry, rng: np.random.Generator, ground_z: float
+    net: sumolib.net.Net, paved: shapely.Geometry, rng: np.random.Generator
 ) -> list[tuple[Polygon, float]]:
-    """Street-facing buildings along every normal edge, set back from the paved area."""
-    del ground_z
-    keep_out = prep(paved.buffer(1.5))
+    """Street-facing buildings along every normal edge, set back from the paved area and
+    apart from each other."""
+    keep_out = prep(paved.buffer(BUILDING_GAP_M))
     placed: list[Polygon] = []
     for edge in sorted(net.getEdges(withInternal=False), key=lambda e: e.getID()):
         if edge.getFunction():
@@ -150,10 +222,17 @@ def _row_of_buildings(
         s += frontage + float(rng.uniform(1.0, 6.0))
         if footprint is None or keep_out.intersects(footprint):  # type: ignore[attr-defined]
             continue
-        if any(footprint.intersects(other) for other in placed[-60:] + row):
+        if _overlaps_any(footprint, placed + row):
             continue
         row.append(footprint)
     return row
+
+
+def _overlaps_any(footprint: Polygon, others: list[Polygon]) -> bool:
+    if not others:
+        return False
+    near = shapely.dwithin(np.asarray(others, dtype=object), footprint, 0.5)
+    return bool(np.any(near))
 
 
 def _footprint(
@@ -172,3 +251,46 @@ def _footprint(
         shape = shape.difference(cut)
     shape = shapely.affinity.rotate(shape, heading, origin=(0, 0), use_radians=True)
     return shapely.affinity.translate(shape, cx, cy)
+
+
+def _street_props(
+    net: sumolib.net.Net, paved: shapely.Geometry, buildings: list[Polygon], rng: np.random.Generator, z0_m: float
+) -> list[ClassedMesh]:
+    """Street lights (POLE) and trees (VEGETATION) just outside the sidewalks."""
+    keep_out = prep(paved.buffer(PROP_GAP_M))
+    tree = shapely.STRtree(buildings) if buildings else None
+    parts: list[ClassedMesh] = []
+    for edge in sorted(net.getEdges(withInternal=False), key=lambda e: e.getID()):
+        for lane in edge.getLanes():
+            if edge.getFunction() or lane.getPermissions() != {"pedestrian"}:
+                continue
+            line = LineString(np.asarray(lane.getShape())[:, :2])
+            for s in np.arange(float(rng.uniform(3.0, 12.0)), line.length - 3.0, float(rng.uniform(18.0, 30.0))):
+                spot = _beside(line, float(s), lane.getWidth() / 2.0 + PROP_GAP_M + 0.6, keep_out)
+                if spot is None or (tree is not None and len(tree.query(spot.buffer(2.0), predicate="intersects"))):
+                    continue
+                parts.append(_tree(spot, z0_m, rng) if rng.random() < 0.6 else _pole(spot, z0_m))
+    return parts
+
+
+def _beside(line: LineString, s_m: float, offset_m: float, keep_out: object) -> Point | None:
+    """A point ``offset_m`` to either side of ``line`` at ``s_m`` that is clear of ``keep_out``."""
+    p0, p1 = line.interpolate(s_m), line.interpolate(min(s_m + 0.5, line.length))
+    heading = math.atan2(p1.y - p0.y, p1.x - p0.x)
+    for side in (-1.0, 1.0):
+        spot = Point(p0.x - side * math.sin(heading) * offset_m, p0.y + side * math.cos(heading) * offset_m)
+        if not keep_out.intersects(spot.buffer(0.5)):  # type: ignore[attr-defined]
+            return spot
+    return None
+
+
+def _tree(spot: Point, z0_m: float, rng: np.random.Generator) -> ClassedMesh:
+    trunk_m = float(rng.uniform(1.8, 3.0))
+    crown_m = float(rng.uniform(2.5, 5.0))
+    trunk = prism(spot.buffer(0.18, quad_segs=1), z0_m, trunk_m, SemanticClass.VEGETATION)
+    crown = prism(spot.buffer(crown_m / 2.0, quad_segs=2), z0_m + trunk_m, crown_m, SemanticClass.VEGETATION)
+    return merge([trunk, crown])
+
+
+def _pole(spot: Point, z0_m: float) -> ClassedMesh:
+    return prism(spot.buffer(0.12, quad_segs=1), z0_m, 7.0, SemanticClass.POLE)

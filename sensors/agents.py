@@ -1,4 +1,11 @@
-"""Agents as posed boxes (struct of arrays) and their meshes, one instance id each."""
+"""Agents as posed boxes (struct of arrays) and their low-poly meshes, one instance id each.
+
+Each agent class has a template mesh (car: body, cabin and wheels; truck: cab, cargo box,
+chassis and wheels; bus; motorcycle and bicycle with a rider; pedestrian with legs, torso,
+arms and head). Templates are drawn in metres at a nominal size, then normalised into the
+unit box ``[-0.5, 0.5]^3`` (x forward, y left, z up), so that scaling by an agent's l/w/h
+keeps the whole mesh inside its box. Classes without a template get the plain box.
+"""
 
 from __future__ import annotations
 
@@ -73,7 +80,8 @@ class AgentBoxes:
 
 @dataclass(frozen=True, slots=True)
 class AgentMeshes:
-    """All agents merged into one mesh; ``triangle_instance: (M,) uint32`` and
+    """All agents merged into one mesh: ``vertices_m: (V, 3) float32`` in the map frame,
+    ``triangles: (M, 3) int32``; ``triangle_instance: (M,) uint32`` and
     ``triangle_class: (M,) uint8`` tell which agent each triangle belongs to."""
 
     vertices_m: npt.NDArray[np.float32]
@@ -81,9 +89,132 @@ class AgentMeshes:
     triangle_instance: npt.NDArray[np.uint32]
     triangle_class: npt.NDArray[np.uint8]
 
+    def __post_init__(self) -> None:
+        m = self.triangles.shape[0]
+        if self.vertices_m.ndim != 2 or self.vertices_m.shape[1] != 3 or self.triangles.shape != (m, 3):
+            raise ValueError("AgentMeshes: need (V, 3) vertices and (M, 3) triangles")
+        if self.triangle_instance.shape != (m,) or self.triangle_class.shape != (m,):
+            raise ValueError("AgentMeshes: need one instance id and one class per triangle")
+
+
+@dataclass(frozen=True, slots=True)
+class MeshTemplate:
+    """A class's mesh in the unit box: ``unit_vertices: (V, 3) float64`` within
+    ``[-0.5, 0.5]^3`` (x forward, y left, z up), ``triangles: (T, 3) int32``."""
+
+    unit_vertices: npt.NDArray[np.float64]
+    triangles: npt.NDArray[np.int32]
+
+    def __post_init__(self) -> None:
+        if np.abs(self.unit_vertices).max() > 0.5 + 1e-12:
+            raise ValueError("MeshTemplate: vertices must lie in the unit box")
+        if self.triangles.min() < 0 or self.triangles.max() >= self.unit_vertices.shape[0]:
+            raise ValueError("MeshTemplate: triangle index out of range")
+
 
 _UNIT_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64) / 2.0
 _BOX_TRIS = np.asarray(BOX_TRIANGLES, dtype=np.int32)
+BOX_TEMPLATE = MeshTemplate(_UNIT_CORNERS, _BOX_TRIS)
+
+Part = tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]
+
+
+def _extrude(profile_xz: list[tuple[float, float]], y0: float, y1: float) -> Part:
+    """Closed prism of a convex, counter-clockwise x-z profile between y0 and y1 (metres)."""
+    p = np.asarray(profile_xz, dtype=np.float64)
+    k = p.shape[0]
+    near = np.column_stack([p[:, 0], np.full(k, y0), p[:, 1]])
+    far = np.column_stack([p[:, 0], np.full(k, y1), p[:, 1]])
+    i = np.arange(1, k - 1)
+    caps = [np.stack([np.zeros_like(i), i, i + 1], 1), np.stack([np.full_like(i, k), k + i + 1, k + i], 1)]
+    j = np.arange(k)
+    jn = (j + 1) % k
+    sides = [np.stack([j, k + j, jn], 1), np.stack([jn, k + j, k + jn], 1)]
+    return np.concatenate([near, far]), np.concatenate(caps + sides).astype(np.int32)
+
+
+def _cuboid(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float) -> Part:
+    return _extrude([(x0, z0), (x1, z0), (x1, z1), (x0, z1)], y0, y1)
+
+
+def _wheel(x: float, radius: float, y0: float, y1: float, sides: int = 6) -> Part:
+    """A wheel as a prism of ``sides`` sides, one corner on the ground."""
+    step = 2.0 * np.pi / sides
+    a = np.arange(sides) * step + (1.5 * np.pi) % step
+    return _extrude([(x + radius * np.cos(t), radius + radius * np.sin(t)) for t in a], y0, y1)
+
+
+def _template(lwh_m: tuple[float, float, float], parts: list[Part]) -> MeshTemplate:
+    """Merge parts drawn in metres (x, y centred, z up from the ground) into a unit template."""
+    offsets = np.cumsum([0] + [v.shape[0] for v, _ in parts[:-1]])
+    verts = np.concatenate([v for v, _ in parts])
+    tris = np.concatenate([t + off for (_, t), off in zip(parts, offsets, strict=True)])
+    unit = verts / np.asarray(lwh_m) - np.array([0.0, 0.0, 0.5])
+    return MeshTemplate(unit, tris.astype(np.int32))
+
+
+def _axles(xs: tuple[float, ...], radius: float, y_in: float, y_out: float) -> list[Part]:
+    return [_wheel(x, radius, s * y_in, s * y_out) for x in xs for s in (-1.0, 1.0)]
+
+
+def _car() -> MeshTemplate:
+    body = _extrude([(-2.25, 0.3), (2.15, 0.3), (2.25, 0.55), (2.2, 0.85), (-2.2, 0.92), (-2.25, 0.6)], -0.9, 0.9)
+    cabin = _extrude([(-1.75, 0.9), (1.0, 0.9), (0.15, 1.5), (-1.35, 1.5)], -0.78, 0.78)
+    return _template((4.5, 1.8, 1.5), [body, cabin, *_axles((1.4, -1.4), 0.32, 0.66, 0.88)])
+
+
+def _truck() -> MeshTemplate:
+    cab = _extrude([(2.3, 0.55), (3.75, 0.55), (3.75, 2.0), (3.45, 2.8), (2.3, 2.8)], -1.2, 1.2)
+    cargo = _cuboid(-3.75, 2.15, -1.25, 1.25, 0.95, 3.2)
+    chassis = _cuboid(-3.6, 3.6, -0.9, 0.9, 0.55, 0.95)
+    return _template((7.5, 2.5, 3.2), [cab, cargo, chassis, *_axles((2.9, -1.9, -2.95), 0.5, 0.7, 1.2)])
+
+
+def _bus() -> MeshTemplate:
+    body = _extrude([(-6.0, 0.35), (6.0, 0.35), (6.0, 3.0), (5.75, 3.4), (-5.9, 3.4), (-6.0, 3.1)], -1.25, 1.25)
+    return _template((12.0, 2.5, 3.4), [body, *_axles((4.3, -3.6), 0.5, 0.8, 1.22)])
+
+
+def _rider(x_hip: float, z_seat: float, lean_m: float) -> list[Part]:
+    """Legs, leaning torso and head of a seated rider (metres)."""
+    legs = _cuboid(x_hip - 0.05, x_hip + 0.35, -0.18, 0.18, z_seat - 0.45, z_seat)
+    torso = _extrude([(x_hip - 0.15, z_seat), (x_hip + 0.15, z_seat), (x_hip + 0.15 + lean_m, z_seat + 0.6),
+                      (x_hip - 0.12 + lean_m, z_seat + 0.6)], -0.2, 0.2)  # fmt: skip
+    head = _cuboid(x_hip + lean_m - 0.1, x_hip + lean_m + 0.12, -0.1, 0.1, z_seat + 0.62, z_seat + 0.85)
+    return [legs, torso, head]
+
+
+def _motorcycle() -> MeshTemplate:
+    frame = _extrude([(-0.75, 0.4), (0.55, 0.35), (0.8, 0.85), (0.55, 0.95), (-0.7, 0.8)], -0.18, 0.18)
+    bars = _cuboid(0.45, 0.6, -0.38, 0.38, 0.95, 1.05)
+    wheels = [_wheel(x, 0.3, -0.07, 0.07) for x in (-0.75, 0.75)]
+    return _template((2.2, 0.8, 1.7), [frame, bars, *wheels, *_rider(-0.3, 0.85, 0.2)])
+
+
+def _bicycle() -> MeshTemplate:
+    frame = _extrude([(-0.45, 0.35), (0.5, 0.35), (0.35, 0.75), (-0.3, 0.8)], -0.03, 0.03)
+    bars = _cuboid(0.35, 0.45, -0.28, 0.28, 0.95, 1.0)
+    wheels = [_wheel(x, 0.34, -0.03, 0.03) for x in (-0.55, 0.55)]
+    return _template((1.8, 0.6, 1.75), [frame, bars, *wheels, *_rider(-0.3, 0.9, 0.25)])
+
+
+def _pedestrian() -> MeshTemplate:
+    legs = [_cuboid(-0.08, 0.08, s * 0.03, s * 0.15, 0.0, 0.85) for s in (-1.0, 1.0)]
+    torso = _cuboid(-0.12, 0.12, -0.19, 0.19, 0.85, 1.45)
+    arms = [_cuboid(-0.06, 0.06, s * 0.19, s * 0.25, 0.8, 1.42) for s in (-1.0, 1.0)]
+    head = _cuboid(-0.1, 0.1, -0.09, 0.09, 1.5, 1.75)
+    return _template((0.3, 0.5, 1.75), [*legs, torso, *arms, head])
+
+
+TEMPLATES: dict[int, MeshTemplate] = {
+    int(SemanticClass.CAR): _car(),
+    int(SemanticClass.TRUCK): _truck(),
+    int(SemanticClass.BUS): _bus(),
+    int(SemanticClass.MOTORCYCLE): _motorcycle(),
+    int(SemanticClass.BICYCLE): _bicycle(),
+    int(SemanticClass.PEDESTRIAN): _pedestrian(),
+}
+"""Template mesh per agent class; other classes are drawn as their box."""
 
 
 def box_corners_map(agents: AgentBoxes) -> npt.NDArray[np.float64]:
@@ -92,17 +223,34 @@ def box_corners_map(agents: AgentBoxes) -> npt.NDArray[np.float64]:
     return np.einsum("nij,nkj->nki", agents.rotations(), local) + agents.center_map_m[:, None, :]
 
 
-def agent_meshes(agents: AgentBoxes) -> AgentMeshes:
-    """One closed box mesh per agent, scaled to its l/w/h and posed."""
-    n = len(agents)
-    verts = box_corners_map(agents).reshape(-1, 3)
-    tris = (_BOX_TRIS[None, :, :] + 8 * np.arange(n, dtype=np.int32)[:, None, None]).reshape(-1, 3)
-    return AgentMeshes(
-        verts.astype(np.float32),
-        tris,
-        np.repeat(agents.instance_id, 12),
-        np.repeat(agents.semantic_class, 12),
-    )
+def _posed(template: MeshTemplate, agents: AgentBoxes, rotations: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """``(n * V, 3)`` template vertices scaled to each agent's l/w/h and posed in the map frame."""
+    local = template.unit_vertices[None, :, :] * agents.lwh_m[:, None, :]
+    return (np.einsum("nij,nkj->nki", rotations, local) + agents.center_map_m[:, None, :]).reshape(-1, 3)
+
+
+def agent_meshes(agents: AgentBoxes, templates: dict[int, MeshTemplate] | None = None) -> AgentMeshes:
+    """All agents' template meshes, scaled to their l/w/h and posed; one pass per class."""
+    table = TEMPLATES if templates is None else templates
+    rotations = agents.rotations()
+    verts, tris, inst, cls = [], [], [], []
+    offset = 0
+    for c in np.unique(agents.semantic_class):
+        mask = agents.semantic_class == c
+        group, template = agents.select(mask), table.get(int(c), BOX_TEMPLATE)
+        n, v, t = len(group), template.unit_vertices.shape[0], template.triangles.shape[0]
+        verts.append(_posed(template, group, rotations[mask]))
+        tris.append(
+            (template.triangles[None] + offset + v * np.arange(n, dtype=np.int32)[:, None, None]).reshape(-1, 3)
+        )
+        inst.append(np.repeat(group.instance_id, t))
+        cls.append(np.full(n * t, c, np.uint8))
+        offset += n * v
+    if not verts:
+        return AgentMeshes(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros(0, np.uint32),
+                           np.zeros(0, np.uint8))  # fmt: skip
+    return AgentMeshes(np.concatenate(verts).astype(np.float32), np.concatenate(tris).astype(np.int32),
+                       np.concatenate(inst), np.concatenate(cls))  # fmt: skip
 
 
 def as_classed_mesh(meshes: AgentMeshes) -> ClassedMesh:

@@ -5,5 +5,5 @@ class SensorError(Exception):
     """A sensor could not be configured or could not produce a frame."""
 
 
-class SensorConfigError(SensorError):
+class SensorConfigError(SensorError, ValueError):
     """A sensor specification is out of range."""

@@ -1,7 +1,9 @@
 """Spinning multi-beam LiDAR: ray pattern, cast, per-point class and instance.
 
 All rays of a sweep are cast at the frame's instant (no motion distortion).
-Intensity = reflectivity(class) * |cos(incidence)| * exp(-range / 200 m), in 0..1.
+Intensity = reflectivity(class) * |cos(incidence)| * exp(-range / 200 m), in 0..1; an
+optional :class:`~sensors.weather.Weather` (rain, fog) shortens the range, weakens and drops
+returns and adds near spurious ones; day and night change nothing.
 """
 
 from __future__ import annotations
@@ -15,6 +17,15 @@ from networks.geometry import SE3
 from sensors.errors import SensorConfigError
 from sensors.materials import REFLECTIVITY_BY_CLASS
 from sensors.scene import FrameScene
+from sensors.weather import (
+    DAY,
+    Weather,
+    add_spurious_returns,
+    lidar_dropout,
+    lidar_intensity_factor,
+    lidar_max_range_m,
+    lidar_range_noise_m,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,19 +108,29 @@ class Lidar:
         origin = np.broadcast_to(map_SE3_lidar.translation, dirs.shape)
         return np.concatenate([origin, dirs], axis=1).astype(np.float32)
 
-    def scan(self, scene: FrameScene, map_SE3_ego: SE3, rng: np.random.Generator) -> LidarScan:
+    def scan(
+        self, scene: FrameScene, map_SE3_ego: SE3, rng: np.random.Generator, weather: Weather | None = None
+    ) -> LidarScan:
+        """One sweep; ``weather`` (default: day, which changes nothing) shortens the range,
+        drops and weakens returns and adds near spurious ones (class NONE, instance 0)."""
+        w = DAY if weather is None else weather
         rays = self.rays(map_SE3_ego)
-        hits = scene.cast(rays)
-        keep = hits.range_m <= self.spec.range_m
-        if self.spec.dropout > 0:
-            keep &= rng.random(keep.shape[0]) >= self.spec.dropout
+        hits, spurious = add_spurious_returns(scene.cast(rays), rays, w, rng)
+        keep = hits.range_m <= lidar_max_range_m(w, self.spec.range_m)
+        dropout = lidar_dropout(w, self.spec.dropout) if w.lidar_dropout > 0 else self.spec.dropout
+        if dropout > 0:
+            keep &= rng.random(keep.shape[0]) >= dropout
         rng_m = hits.range_m[keep].astype(np.float64)
-        if self.spec.range_noise_m > 0:
-            rng_m = rng_m + rng.normal(0.0, self.spec.range_noise_m, rng_m.shape[0])
+        noise_m = lidar_range_noise_m(w, self.spec.range_noise_m)
+        if noise_m > 0:
+            rng_m = rng_m + rng.normal(0.0, noise_m, rng_m.shape[0])
         xyz = self._dirs_lidar[keep] * rng_m[:, None]
         cos_inc = np.abs(np.sum(rays[keep, 3:6] * hits.normal[keep], axis=1))
         cls = hits.semantic_class[keep]
         intensity = REFLECTIVITY_BY_CLASS[cls] * cos_inc * np.exp(-rng_m / 200.0)
+        if w.lidar_spurious_rate > 0 or w.lidar_intensity_scale != 1.0 or w.lidar_extinction_per_m > 0:
+            intensity = intensity * lidar_intensity_factor(w, rng_m)
+            intensity = np.where(spurious[keep], w.lidar_spurious_intensity, intensity)
         return LidarScan(
             xyz.astype(np.float32),
             intensity.astype(np.float32),

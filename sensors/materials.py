@@ -1,4 +1,6 @@
-"""Per-class surface reflectivity (0..1) used for LiDAR intensity and radar strength."""
+"""Per-class surface properties: LiDAR reflectivity (0..1, also LiDAR intensity), radar
+reflectivity (0..1, a relative radar cross-section per unit area) and camera albedo (BGR,
+0..1). Each is a ``(256,)`` or ``(256, 3) float32`` table indexed by the class value."""
 
 from __future__ import annotations
 
@@ -24,6 +26,62 @@ _REFLECTIVITY = {
     SemanticClass.PEDESTRIAN: 0.35,
 }
 
-REFLECTIVITY_BY_CLASS = np.zeros(256, dtype=np.float32)
-for _cls, _value in _REFLECTIVITY.items():
-    REFLECTIVITY_BY_CLASS[int(_cls)] = _value
+# Metal reflects radar far better than asphalt, plants or people.
+_RADAR_REFLECTIVITY = {
+    SemanticClass.ROAD: 0.02,
+    SemanticClass.SIDEWALK: 0.03,
+    SemanticClass.CURB: 0.1,
+    SemanticClass.BUILDING: 0.35,
+    SemanticClass.VEGETATION: 0.08,
+    SemanticClass.POLE: 0.9,
+    SemanticClass.TERRAIN: 0.03,
+    SemanticClass.CROSSING: 0.02,
+    SemanticClass.CAR: 1.0,
+    SemanticClass.TRUCK: 1.0,
+    SemanticClass.BUS: 1.0,
+    SemanticClass.MOTORCYCLE: 0.6,
+    SemanticClass.BICYCLE: 0.35,
+    SemanticClass.PEDESTRIAN: 0.15,
+}
+
+# Blue, green, red in 0..1.
+_ALBEDO_BGR = {
+    SemanticClass.NONE: (0.5, 0.5, 0.5),
+    SemanticClass.ROAD: (0.27, 0.26, 0.25),
+    SemanticClass.SIDEWALK: (0.55, 0.57, 0.6),
+    SemanticClass.CURB: (0.65, 0.66, 0.68),
+    SemanticClass.BUILDING: (0.45, 0.55, 0.7),
+    SemanticClass.VEGETATION: (0.15, 0.45, 0.2),
+    SemanticClass.POLE: (0.35, 0.35, 0.38),
+    SemanticClass.TERRAIN: (0.25, 0.5, 0.45),
+    SemanticClass.CROSSING: (0.85, 0.85, 0.85),
+    SemanticClass.CAR: (0.6, 0.3, 0.2),
+    SemanticClass.TRUCK: (0.3, 0.55, 0.8),
+    SemanticClass.BUS: (0.15, 0.7, 0.85),
+    SemanticClass.MOTORCYCLE: (0.2, 0.2, 0.7),
+    SemanticClass.BICYCLE: (0.6, 0.6, 0.2),
+    SemanticClass.PEDESTRIAN: (0.35, 0.45, 0.75),
+}
+
+# Paint colours (BGR, 0..1) cycled over instance ids of vehicles, so that cars differ.
+VEHICLE_PAINT_BGR = np.array(
+    [[0.75, 0.75, 0.75], [0.1, 0.1, 0.1], [0.2, 0.2, 0.75], [0.7, 0.35, 0.15], [0.9, 0.9, 0.9],
+     [0.35, 0.35, 0.35], [0.2, 0.5, 0.2], [0.15, 0.6, 0.85], [0.5, 0.2, 0.1], [0.55, 0.5, 0.45]],
+    dtype=np.float32,
+)  # fmt: skip
+
+
+def _table(values: dict[SemanticClass, float]) -> np.ndarray:
+    out = np.zeros(256, dtype=np.float32)
+    for cls, value in values.items():
+        out[int(cls)] = value
+    return out
+
+
+REFLECTIVITY_BY_CLASS = _table(_REFLECTIVITY)
+RADAR_REFLECTIVITY_BY_CLASS = _table(_RADAR_REFLECTIVITY)
+ALBEDO_BGR_BY_CLASS = np.full((256, 3), 0.5, dtype=np.float32)
+for _cls, _bgr in _ALBEDO_BGR.items():
+    ALBEDO_BGR_BY_CLASS[int(_cls)] = _bgr
+PAINTED_CLASSES = np.zeros(256, dtype=np.bool_)
+PAINTED_CLASSES[[int(SemanticClass.CAR), int(SemanticClass.TRUCK), int(SemanticClass.MOTORCYCLE)]] = True

@@ -78,6 +78,19 @@ class FrameScene:
         t = o3c.Tensor.from_numpy(np.ascontiguousarray(triangles, dtype=np.uint32))
         return int(self._scene.add_triangles(v, t))
 
+    def agent_hits(self, rays: npt.NDArray[np.float32]) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint32]]:
+        """Every intersection of the rays with agents, not only the nearest: ``(ray index,
+        instance id)`` pairs. Used to render an object's silhouette as if it were alone."""
+        if self._agent_id < 0 or rays.shape[0] == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.uint32)
+        result = self._scene.list_intersections(o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32)),
+                                                nthreads=self._nthreads)  # fmt: skip
+        ray_ids = result["ray_ids"].numpy().astype(np.int64)
+        geometry = result["geometry_ids"].numpy().astype(np.int64)
+        primitive = result["primitive_ids"].numpy().astype(np.int64)
+        on_agent = geometry == self._agent_id
+        return ray_ids[on_agent], self._agent_instance[primitive[on_agent]]
+
     def cast(self, rays: npt.NDArray[np.float32]) -> RayHits:
         result = self._scene.cast_rays(o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32)),
                                        nthreads=self._nthreads)  # fmt: skip

@@ -1,121 +1,48 @@
-"""``run.mcap``: transforms, point clouds and 3D boxes as Foxglove protobuf schemas.
+"""``run.mcap``: every sensor, transform and label, with Foxglove schemas.
 
-Topics: ``/tf`` (FrameTransforms: map -> ego -> each sensor), ``/lidar`` (PointCloud in
-the lidar frame; fields x, y, z, intensity, ring, class, instance), ``/gt/boxes``
-(SceneUpdate: one cube per labelled object in the ego frame, replacing the last frame's).
-Log and publish times are the simulation time in nanoseconds.
+Topics (sensor names from the rig; defaults shown):
+``/tf`` FrameTransforms map -> ego -> each sensor; ``/lidar`` PointCloud (lidar frame:
+x, y, z, intensity, ring, class, instance); ``/radar`` PointCloud (radar frame: x, y, z,
+range, radial_velocity, azimuth, elevation, strength, instance, class);
+``/camera/image`` JPEG, ``/camera/depth`` 16-bit PNG in 1/256 m (0: nothing within range), ``/camera/instance``
+16-bit PNG of instance ids, ``/camera/class`` 8-bit PNG of class ids,
+``/camera/calibration``, ``/camera/annotations`` tight 2D boxes; ``/gt/boxes`` SceneUpdate
+(one cube per labelled object, ego frame); ``/gt/labels`` the label table as JSON.
+Log and publish times are simulation time in nanoseconds.
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
-from foxglove_schemas_protobuf.Color_pb2 import Color
-from foxglove_schemas_protobuf.CubePrimitive_pb2 import CubePrimitive
-from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
-from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
-from foxglove_schemas_protobuf.PackedElementField_pb2 import PackedElementField
-from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
-from foxglove_schemas_protobuf.Pose_pb2 import Pose
-from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
-from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
-from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
-from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
-from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
-from google.protobuf.timestamp_pb2 import Timestamp
 from mcap.writer import CompressionType
-from mcap_protobuf.writer import Writer
+from mcap.writer import Writer as McapWriter
+from mcap_protobuf.schema import register_schema
 
-from gtgen.frame import FrameRecord, LidarOutput
-from gtgen.labels import FrameLabels
-from networks.classes import SemanticClass
-from networks.geometry import SE3
+from gtgen.frame import FrameRecord
+from gtgen.sinks import foxglove as fx
+from gtgen.table import COLUMNS, label_table
 
-LIDAR_POINT_DTYPE = np.dtype(
-    [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("intensity", "<f4"), ("ring", "<u2"), ("class", "u1"),
-     ("_pad", "u1"), ("instance", "<u4")]
-)  # fmt: skip
-_F = PackedElementField
-LIDAR_FIELDS = (
-    ("x", 0, _F.FLOAT32), ("y", 4, _F.FLOAT32), ("z", 8, _F.FLOAT32), ("intensity", 12, _F.FLOAT32),
-    ("ring", 16, _F.UINT16), ("class", 18, _F.UINT8), ("instance", 20, _F.UINT32),
-)  # fmt: skip
-
-CLASS_COLORS: dict[int, tuple[float, float, float]] = {
-    SemanticClass.CAR: (0.2, 0.6, 1.0),
-    SemanticClass.TRUCK: (1.0, 0.6, 0.1),
-    SemanticClass.BUS: (1.0, 0.85, 0.1),
-    SemanticClass.MOTORCYCLE: (0.9, 0.2, 0.9),
-    SemanticClass.BICYCLE: (0.2, 0.9, 0.9),
-    SemanticClass.PEDESTRIAN: (1.0, 0.25, 0.25),
+LABELS_SCHEMA = {
+    "type": "object",
+    "properties": {
+        "frame": {"type": "integer"},
+        "timestamp_ns": {"type": "integer"},
+        "objects": {"type": "array", "items": {"type": "object", "properties": {c: {} for c in COLUMNS}}},
+    },
 }
 
 
-def _timestamp(ns: int) -> Timestamp:
-    return Timestamp(seconds=ns // 1_000_000_000, nanos=ns % 1_000_000_000)
-
-
-def _pose(t: SE3) -> Pose:
-    x, y, z, w = t.quaternion_xyzw()
-    return Pose(
-        position=Vector3(x=float(t.translation[0]), y=float(t.translation[1]), z=float(t.translation[2])),
-        orientation=Quaternion(x=x, y=y, z=z, w=w),
-    )
-
-
-def _transform(ns: int, parent: str, child: str, parent_SE3_child: SE3) -> FrameTransform:
-    pose = _pose(parent_SE3_child)
-    return FrameTransform(
-        timestamp=_timestamp(ns), parent_frame_id=parent, child_frame_id=child,
-        translation=pose.position, rotation=pose.orientation,
-    )  # fmt: skip
-
-
-def point_cloud(ns: int, lidar: LidarOutput) -> PointCloud:
-    scan = lidar.scan
-    packed = np.zeros(len(scan), LIDAR_POINT_DTYPE)
-    packed["x"], packed["y"], packed["z"] = scan.xyz_lidar_m.T
-    packed["intensity"] = scan.intensity
-    packed["ring"] = scan.ring
-    packed["class"] = scan.semantic_class
-    packed["instance"] = scan.instance_id
-    return PointCloud(
-        timestamp=_timestamp(ns),
-        frame_id=lidar.spec.name,
-        pose=_pose(SE3.identity()),
-        point_stride=LIDAR_POINT_DTYPE.itemsize,
-        fields=[PackedElementField(name=n, offset=o, type=t) for n, o, t in LIDAR_FIELDS],
-        data=packed.tobytes(),
-    )
-
-
-def box_update(ns: int, labels: FrameLabels) -> SceneUpdate:
-    o = labels.objects
-    entities = []
-    for i in range(len(o)):
-        cls = SemanticClass(int(o.semantic_class[i]))
-        r, g, b = CLASS_COLORS.get(cls, (0.8, 0.8, 0.8))
-        pose = _pose(SE3.from_xyz_rpy(o.center_ego_m[i], yaw=float(o.yaw_ego_rad[i])))
-        size = Vector3(x=float(o.lwh_m[i, 0]), y=float(o.lwh_m[i, 1]), z=float(o.lwh_m[i, 2]))
-        entities.append(
-            SceneEntity(
-                timestamp=_timestamp(ns),
-                frame_id="ego",
-                id=str(int(o.track_id[i])),
-                cubes=[
-                    CubePrimitive(pose=pose, size=size, color=Color(r=r, g=g, b=b, a=0.35 if labels.seen[i] else 0.1))
-                ],
-                metadata=[
-                    KeyValuePair(key="class", value=cls.label),
-                    KeyValuePair(key="lidar_points", value=str(int(labels.lidar_points[i]))),
-                    KeyValuePair(key="parked", value=str(bool(o.parked[i])).lower()),
-                ],
-            )
-        )
-    deletion = SceneEntityDeletion(timestamp=_timestamp(ns), type=SceneEntityDeletion.ALL)
-    return SceneUpdate(deletions=[deletion], entities=entities)
+def _json_value(value: Any) -> Any:
+    if isinstance(value, np.floating):
+        return None if not np.isfinite(value) else round(float(value), 5)
+    if isinstance(value, np.integer):
+        return int(value)
+    return str(value)
 
 
 class McapSink:
@@ -123,17 +50,56 @@ class McapSink:
         self._path = path
         self._partial = path.with_name(path.name + ".partial")
         self._stream = self._partial.open("wb")
-        self._writer = Writer(self._stream, compression=CompressionType.LZ4)
+        self._writer = McapWriter(self._stream, compression=CompressionType.LZ4)
+        self._writer.start(profile="", library="sumo-dataset-factory")
+        self._channels: dict[str, int] = {}
+
+    def _channel(self, topic: str, message: Any) -> int:
+        channel = self._channels.get(topic)
+        if channel is None:
+            if isinstance(message, dict):
+                schema = self._writer.register_schema(
+                    "gt.FrameLabels", "jsonschema", json.dumps(LABELS_SCHEMA).encode()
+                )
+                channel = self._writer.register_channel(topic, "json", schema)
+            else:
+                channel = self._writer.register_channel(topic, "protobuf", register_schema(self._writer, type(message)))
+            self._channels[topic] = channel
+        return channel
+
+    def _put(self, topic: str, message: Any, ns: int) -> None:
+        data = (
+            json.dumps(message, separators=(",", ":")).encode()
+            if isinstance(message, dict)
+            else message.SerializeToString()
+        )
+        self._writer.add_message(self._channel(topic, message), log_time=ns, data=data, publish_time=ns)
 
     def write(self, record: FrameRecord) -> None:
         ns = record.timestamp_ns
-        transforms = [_transform(ns, "map", "ego", record.map_SE3_ego)]
-        transforms += [_transform(ns, "ego", li.spec.name, li.spec.ego_SE3_sensor) for li in record.lidars]
-        self._writer.write_message("/tf", FrameTransforms(transforms=transforms), log_time=ns, publish_time=ns)
+        transforms = [fx.frame_transform(ns, "map", "ego", record.map_SE3_ego)]
+        transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in record.lidars]
+        transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in record.radars]
+        transforms += [fx.frame_transform(ns, "ego", c.spec.name, c.spec.ego_SE3_cam) for c in record.cameras]
+        self._put("/tf", FrameTransforms(transforms=transforms), ns)
         for lidar in record.lidars:
-            topic = "/lidar" if lidar.spec.name == "lidar" else f"/lidar/{lidar.spec.name}"
-            self._writer.write_message(topic, point_cloud(ns, lidar), log_time=ns, publish_time=ns)
-        self._writer.write_message("/gt/boxes", box_update(ns, record.labels), log_time=ns, publish_time=ns)
+            self._put(f"/{lidar.spec.name}", fx.lidar_cloud(ns, lidar), ns)
+        for radar in record.radars:
+            self._put(f"/{radar.spec.name}", fx.radar_cloud(ns, radar), ns)
+        for camera, cam_labels in zip(record.cameras, record.labels.cameras, strict=True):
+            base = f"/{camera.spec.name}"
+            for kind, message in fx.camera_messages(ns, camera).items():
+                self._put(f"{base}/{kind}", message, ns)
+            self._put(f"{base}/calibration", fx.calibration(ns, camera), ns)
+            self._put(f"{base}/annotations", fx.image_annotations(ns, record.labels, cam_labels), ns)
+        self._put("/gt/boxes", fx.box_update(ns, record.labels), ns)
+        self._put("/gt/labels", self._labels_json(record), ns)
+
+    @staticmethod
+    def _labels_json(record: FrameRecord) -> dict[str, Any]:
+        table = label_table(record.labels)
+        objects = [{c: _json_value(table[c][i]) for c in COLUMNS} for i in range(len(record.labels))]
+        return {"frame": record.frame_index, "timestamp_ns": record.timestamp_ns, "objects": objects}
 
     def close(self) -> None:
         self._writer.finish()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -9,8 +10,13 @@ from pathlib import Path
 from networks.cache import cache_dir, digest
 from networks.plain import PlainNetwork, write_opendrive
 from networks.towns.grid import skeleton_town
+from networks.towns.town03 import town03
+from networks.towns.town05 import town05
+from networks.towns.town06 import town06
+from networks.towns.town07 import town07
+from networks.towns.town10 import town10
 
-GENERATOR_VERSION = "1"
+GENERATOR_VERSION = "2"
 
 
 @dataclass(frozen=True, slots=True)
@@ -23,18 +29,42 @@ class TownInfo:
 
 TOWNS: dict[str, TownInfo] = {
     "skeleton": TownInfo("skeleton", "3x3 grid of two-lane roads with sidewalks, signalised centre", skeleton_town),
-    "town05": TownInfo("town05", "stand-in: the skeleton grid until the town05 generator lands", skeleton_town, True),
+    "town03": TownInfo(
+        "town03", "urban grid of 4-way and 3-way signalised junctions around a two-lane roundabout", town03
+    ),
+    "town05": TownInfo("town05", "grid of wide avenues and signalised intersections inside a ring motorway", town05),
+    "town06": TownInfo("town06", "long motorway (3-4 lanes per direction) with ramps and bridges", town06),
+    "town07": TownInfo("town07", "village of curved narrow two-lane roads and T-junctions", town07),
+    "town10": TownInfo("town10", "dense downtown: short blocks, one-way and two-way streets", town10),
 }
+
+
+def town_parking_edges(name: str, seed: int = 0) -> tuple[str, ...]:
+    """Edge ids (as designed; each becomes one OpenDRIVE road) with room for street parking."""
+    return TOWNS[name].build(seed).parking_edges
 
 
 def town_names() -> list[str]:
     return sorted(TOWNS)
 
 
+PARKING_LANE_WIDTH_M = 2.3
+
+
+def with_parking_lanes(network: PlainNetwork) -> PlainNetwork:
+    """Give the network's parking edges a street-parking lane beside the right sidewalk."""
+    chosen = set(network.parking_edges)
+    edges = tuple(
+        dataclasses.replace(e, parking_width_m=PARKING_LANE_WIDTH_M) if e.edge_id in chosen else e
+        for e in network.edges
+    )
+    return dataclasses.replace(network, edges=edges)
+
+
 def town_opendrive(name: str, seed: int = 0) -> Path:
     """Path of the OpenDRIVE file of a built-in town, generated on first use and cached."""
     info = TOWNS[name]
-    network = info.build(seed)
+    network = with_parking_lanes(info.build(seed))
     key = digest(GENERATOR_VERSION, name, str(seed), network.nodes_xml(), network.edges_xml())
     folder = cache_dir("towns", f"{name}-{key}")
     xodr = folder / f"{name}.xodr"

@@ -1,0 +1,185 @@
+"""Foxglove protobuf messages for one frame (pure: no file access)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.Color_pb2 import Color
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.CubePrimitive_pb2 import CubePrimitive
+from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
+from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
+from foxglove_schemas_protobuf.PackedElementField_pb2 import PackedElementField
+from foxglove_schemas_protobuf.Point2_pb2 import Point2
+from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
+from foxglove_schemas_protobuf.PointsAnnotation_pb2 import PointsAnnotation
+from foxglove_schemas_protobuf.Pose_pb2 import Pose
+from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
+from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
+from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from foxglove_schemas_protobuf.TextAnnotation_pb2 import TextAnnotation
+from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
+from google.protobuf.timestamp_pb2 import Timestamp
+
+from gtgen.errors import SinkError
+from gtgen.frame import CameraOutput, LidarOutput, RadarOutput
+from gtgen.labels import CameraLabels, FrameLabels
+from networks.classes import SemanticClass
+from networks.geometry import SE3
+from sensors.camera import encode_depth_png
+
+_F = PackedElementField
+LIDAR_POINT_DTYPE = np.dtype(
+    [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("intensity", "<f4"), ("ring", "<u2"), ("class", "u1"),
+     ("_pad", "u1"), ("instance", "<u4")]
+)  # fmt: skip
+LIDAR_FIELDS = (
+    ("x", 0, _F.FLOAT32), ("y", 4, _F.FLOAT32), ("z", 8, _F.FLOAT32), ("intensity", 12, _F.FLOAT32),
+    ("ring", 16, _F.UINT16), ("class", 18, _F.UINT8), ("instance", 20, _F.UINT32),
+)  # fmt: skip
+RADAR_POINT_DTYPE = np.dtype(
+    [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("range", "<f4"), ("radial_velocity", "<f4"), ("azimuth", "<f4"),
+     ("elevation", "<f4"), ("strength", "<f4"), ("instance", "<u4"), ("class", "u1"), ("_pad", "V3")]
+)  # fmt: skip
+RADAR_FIELDS = (
+    ("x", 0, _F.FLOAT32), ("y", 4, _F.FLOAT32), ("z", 8, _F.FLOAT32), ("range", 12, _F.FLOAT32),
+    ("radial_velocity", 16, _F.FLOAT32), ("azimuth", 20, _F.FLOAT32), ("elevation", 24, _F.FLOAT32),
+    ("strength", 28, _F.FLOAT32), ("instance", 32, _F.UINT32), ("class", 36, _F.UINT8),
+)  # fmt: skip
+
+CLASS_RGB: dict[int, tuple[float, float, float]] = {
+    SemanticClass.CAR: (0.2, 0.6, 1.0),
+    SemanticClass.TRUCK: (1.0, 0.6, 0.1),
+    SemanticClass.BUS: (1.0, 0.85, 0.1),
+    SemanticClass.MOTORCYCLE: (0.9, 0.2, 0.9),
+    SemanticClass.BICYCLE: (0.2, 0.9, 0.9),
+    SemanticClass.PEDESTRIAN: (1.0, 0.25, 0.25),
+}
+JPEG_QUALITY = 90
+DEPTH_UNITS_PER_M = 256.0  # 16-bit depth PNG: 1/256 m steps up to 255.99 m (as KITTI's depth maps)
+
+
+def timestamp(ns: int) -> Timestamp:
+    return Timestamp(seconds=ns // 1_000_000_000, nanos=ns % 1_000_000_000)
+
+
+def pose(t: SE3) -> Pose:
+    x, y, z, w = t.quaternion_xyzw()
+    p = t.translation
+    return Pose(
+        position=Vector3(x=float(p[0]), y=float(p[1]), z=float(p[2])), orientation=Quaternion(x=x, y=y, z=z, w=w)
+    )
+
+
+def frame_transform(ns: int, parent: str, child: str, parent_SE3_child: SE3) -> FrameTransform:
+    p = pose(parent_SE3_child)
+    return FrameTransform(timestamp=timestamp(ns), parent_frame_id=parent, child_frame_id=child,
+                          translation=p.position, rotation=p.orientation)  # fmt: skip
+
+
+def _cloud(
+    ns: int, frame_id: str, packed: npt.NDArray[np.void], fields: tuple[tuple[str, int, Any], ...]
+) -> PointCloud:
+    return PointCloud(
+        timestamp=timestamp(ns), frame_id=frame_id, pose=pose(SE3.identity()), point_stride=packed.dtype.itemsize,
+        fields=[PackedElementField(name=n, offset=o, type=t) for n, o, t in fields], data=packed.tobytes(),
+    )  # fmt: skip
+
+
+def lidar_cloud(ns: int, lidar: LidarOutput) -> PointCloud:
+    scan = lidar.scan
+    packed = np.zeros(len(scan), LIDAR_POINT_DTYPE)
+    packed["x"], packed["y"], packed["z"] = scan.xyz_lidar_m.T
+    packed["intensity"], packed["ring"] = scan.intensity, scan.ring
+    packed["class"], packed["instance"] = scan.semantic_class, scan.instance_id
+    return _cloud(ns, lidar.spec.name, packed, LIDAR_FIELDS)
+
+
+def radar_cloud(ns: int, radar: RadarOutput) -> PointCloud:
+    scan = radar.scan
+    packed = np.zeros(len(scan), RADAR_POINT_DTYPE)
+    packed["x"], packed["y"], packed["z"] = scan.xyz_radar_m.T
+    packed["range"], packed["radial_velocity"] = scan.range_m, scan.radial_velocity_mps
+    packed["azimuth"], packed["elevation"] = scan.azimuth_rad, scan.elevation_rad
+    packed["strength"], packed["instance"], packed["class"] = scan.strength_db, scan.instance_id, scan.semantic_class
+    return _cloud(ns, radar.spec.name, packed, RADAR_FIELDS)
+
+
+def box_update(ns: int, labels: FrameLabels) -> SceneUpdate:
+    o = labels.objects
+    entities = []
+    for i in range(len(o)):
+        cls = SemanticClass(int(o.semantic_class[i]))
+        r, g, b = CLASS_RGB.get(cls, (0.8, 0.8, 0.8))
+        box_pose = pose(SE3.from_xyz_rpy(o.center_ego_m[i], yaw=float(o.yaw_ego_rad[i])))
+        size = Vector3(x=float(o.lwh_m[i, 0]), y=float(o.lwh_m[i, 1]), z=float(o.lwh_m[i, 2]))
+        cube = CubePrimitive(pose=box_pose, size=size, color=Color(r=r, g=g, b=b, a=0.35 if labels.seen[i] else 0.08))
+        metadata = {"class": cls.label, "lidar_points": str(int(labels.lidar_points[i])),
+                    "parked": str(bool(o.parked[i])).lower(), "seen": str(bool(labels.seen[i])).lower()}  # fmt: skip
+        entities.append(SceneEntity(
+            timestamp=timestamp(ns), frame_id="ego", id=str(int(o.track_id[i])), cubes=[cube],
+            metadata=[KeyValuePair(key=k, value=v) for k, v in metadata.items()],
+        ))  # fmt: skip
+    deletion = SceneEntityDeletion(timestamp=timestamp(ns), type=SceneEntityDeletion.ALL)
+    return SceneUpdate(deletions=[deletion], entities=entities)
+
+
+def _compressed(ns: int, frame_id: str, fmt: str, data: bytes) -> CompressedImage:
+    return CompressedImage(timestamp=timestamp(ns), frame_id=frame_id, format=fmt, data=data)
+
+
+def _encode(ext: str, image: npt.NDArray[Any], params: list[int]) -> bytes:
+    ok, buf = cv2.imencode(ext, image, params)
+    if not ok:
+        raise SinkError(f"could not encode a {ext} image")
+    return bytes(buf)
+
+
+def camera_messages(ns: int, camera: CameraOutput) -> dict[str, object]:
+    """Shaded image (JPEG), depth (16-bit PNG, 1/256 m), instance ids (16-bit PNG), classes (8-bit PNG)."""
+    frame, name = camera.frame, camera.spec.name
+    if frame.instance_id.size and int(frame.instance_id.max()) > 0xFFFF:
+        raise SinkError("instance ids above 65535 do not fit the 16-bit instance mask")
+    png = [cv2.IMWRITE_PNG_COMPRESSION, 1]
+    return {
+        "image": _compressed(
+            ns, name, "jpeg", _encode(".jpg", frame.image_bgr, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+        ),
+        "depth": _compressed(ns, name, "png", encode_depth_png(frame.depth_m, DEPTH_UNITS_PER_M)),
+        "instance": _compressed(ns, name, "png", _encode(".png", frame.instance_id.astype(np.uint16), png)),
+        "class": _compressed(ns, name, "png", _encode(".png", frame.semantic_class, png)),
+    }
+
+
+def calibration(ns: int, camera: CameraOutput) -> CameraCalibration:
+    spec = camera.spec
+    K = spec.K
+    P = np.hstack([K, np.zeros((3, 1))])
+    return CameraCalibration(
+        timestamp=timestamp(ns), frame_id=spec.name, width=spec.width_px, height=spec.height_px,
+        distortion_model="plumb_bob", D=[0.0] * 5, K=K.ravel().tolist(), R=np.eye(3).ravel().tolist(),
+        P=P.ravel().tolist(),
+    )  # fmt: skip
+
+
+def image_annotations(ns: int, labels: FrameLabels, cam: CameraLabels) -> ImageAnnotations:
+    """Tight (modal) boxes of the objects visible in this camera, with their class and id."""
+    points, texts = [], []
+    o = labels.objects
+    for i in np.flatnonzero(cam.visibility.visible_px > 0):
+        r, g, b = CLASS_RGB.get(int(o.semantic_class[i]), (1.0, 1.0, 1.0))
+        left, top, right, bottom = (float(v) for v in cam.visibility.modal_px[i])
+        corners = [Point2(x=left, y=top), Point2(x=right, y=top), Point2(x=right, y=bottom), Point2(x=left, y=bottom)]
+        points.append(PointsAnnotation(timestamp=timestamp(ns), type=PointsAnnotation.LINE_LOOP, points=corners,
+                                       outline_color=Color(r=r, g=g, b=b, a=1.0), thickness=2.0))  # fmt: skip
+        label = f"{SemanticClass(int(o.semantic_class[i])).label} {int(o.track_id[i])}"
+        texts.append(TextAnnotation(timestamp=timestamp(ns), position=Point2(x=left, y=max(top - 2.0, 0.0)), text=label,
+                                    font_size=12.0, text_color=Color(r=r, g=g, b=b, a=1.0),
+                                    background_color=Color(r=0, g=0, b=0, a=0.5)))  # fmt: skip
+    return ImageAnnotations(points=points, texts=texts)

@@ -1,0 +1,58 @@
+"""``yolo/``: 2D detection training data (images, labels, data.yaml) from the first camera.
+
+Boxes are the tight (modal) boxes around each object's visible pixels, for objects with
+at least ``min_visible_px`` visible pixels, as ``class cx cy w h`` normalised to 0..1.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import yaml
+
+from gtgen.errors import SinkError
+from gtgen.frame import FrameRecord
+from gtgen.sinks.folder import PartialFolder
+from networks.classes import SemanticClass
+
+YOLO_CLASSES = (SemanticClass.CAR, SemanticClass.TRUCK, SemanticClass.BUS, SemanticClass.MOTORCYCLE,
+                SemanticClass.BICYCLE, SemanticClass.PEDESTRIAN)  # fmt: skip
+_INDEX = np.full(256, -1, np.int64)
+for _i, _c in enumerate(YOLO_CLASSES):
+    _INDEX[int(_c)] = _i
+
+
+class YoloSink:
+    def __init__(self, folder: Path, min_visible_px: int) -> None:
+        self._folder = PartialFolder(folder, ("images", "labels"))
+        self._min_visible_px = min_visible_px
+
+    def write(self, record: FrameRecord) -> None:
+        if not record.cameras:
+            raise SinkError("the YOLO layout needs at least one camera in the rig")
+        root, name = self._folder.partial, f"{record.frame_index:06d}"
+        camera, cam = record.cameras[0], record.labels.cameras[0]
+        if not cv2.imwrite(
+            str(root / "images" / f"{name}.jpg"), camera.frame.image_bgr, [cv2.IMWRITE_JPEG_QUALITY, 92]
+        ):
+            raise SinkError(f"{root / 'images'}: cannot write {name}.jpg")
+        cls = _INDEX[record.labels.objects.semantic_class]
+        keep = (cam.visibility.visible_px >= self._min_visible_px) & (cls >= 0)
+        box = cam.visibility.modal_px[keep]
+        w, h = float(camera.spec.width_px), float(camera.spec.height_px)
+        # modal boxes hold pixel centres: the box covers left - 0.5 .. right + 0.5
+        cx, cy = (box[:, 0] + box[:, 2] + 1.0) / 2.0 / w, (box[:, 1] + box[:, 3] + 1.0) / 2.0 / h
+        bw, bh = (box[:, 2] - box[:, 0] + 1.0) / w, (box[:, 3] - box[:, 1] + 1.0) / h
+        rows = [f"{c} {x:.6f} {y:.6f} {a:.6f} {b:.6f}" for c, x, y, a, b in zip(cls[keep], cx, cy, bw, bh, strict=True)]
+        (root / "labels" / f"{name}.txt").write_text("".join(r + "\n" for r in rows))
+
+    def close(self) -> None:
+        data = {"path": str(self._folder.final.resolve()), "train": "images", "val": "images",
+                "names": {i: c.label for i, c in enumerate(YOLO_CLASSES)}}  # fmt: skip
+        (self._folder.partial / "data.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
+        self._folder.commit()
+
+    def abort(self) -> None:
+        self._folder.discard()

@@ -1,0 +1,82 @@
+"""The label table: one column per field, one row per labelled object of a frame.
+
+CSV, JSON (MCAP ``/gt/labels``), KITTI and YOLO writers all read these columns, so a
+field has one definition. Camera columns come from the first camera of the rig.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from gtgen.labels import FrameLabels
+from networks.classes import SemanticClass
+
+REFERENCE_COLUMNS = [
+    "frame", "timestamp", "id", "type", "alpha", "left", "top", "right", "bottom", "l", "w", "h", "x", "y", "z",
+    "rotation_z", "vx", "vy", "vz", "truncated", "occluded",
+]  # fmt: skip
+CAMERA_EXTRA_COLUMNS = [
+    "camera_visible_px", "visible_fraction", "visibility_bin", "modal_left", "modal_top", "modal_right", "modal_bottom",
+]  # fmt: skip
+EXTRA_COLUMNS = ["class_id", "parked", "distance", "lidar_points", "radar_points", *CAMERA_EXTRA_COLUMNS, "seen"]
+COLUMNS = REFERENCE_COLUMNS + EXTRA_COLUMNS
+
+CLASS_NAMES = np.array([SemanticClass(c).label if c in SemanticClass._value2member_map_ else "" for c in range(256)])
+
+
+def label_table(labels: FrameLabels) -> dict[str, npt.NDArray[np.generic]]:
+    o = labels.objects
+    n = len(o)
+    nan = np.full(n, np.nan)
+    table: dict[str, npt.NDArray[np.generic]] = {
+        "frame": np.full(n, labels.frame_index),
+        "timestamp": np.full(n, labels.timestamp_ns / 1e9),
+        "id": o.track_id,
+        "type": CLASS_NAMES[o.semantic_class],
+        "l": o.lwh_m[:, 0], "w": o.lwh_m[:, 1], "h": o.lwh_m[:, 2],
+        "x": o.center_ego_m[:, 0], "y": o.center_ego_m[:, 1], "z": o.center_ego_m[:, 2],
+        "rotation_z": o.yaw_ego_rad,
+        "vx": o.velocity_ego_mps[:, 0], "vy": o.velocity_ego_mps[:, 1], "vz": o.velocity_ego_mps[:, 2],
+        "class_id": o.semantic_class,
+        "parked": o.parked.astype(np.int8),
+        "distance": labels.distance_m,
+        "lidar_points": labels.lidar_points,
+        "radar_points": labels.radar_points,
+        "seen": labels.seen.astype(np.int8),
+    }  # fmt: skip
+    if labels.cameras:
+        cam = labels.cameras[0]
+        table.update(
+            alpha=cam.boxes.alpha_rad,
+            left=cam.boxes.clipped_px[:, 0], top=cam.boxes.clipped_px[:, 1],
+            right=cam.boxes.clipped_px[:, 2], bottom=cam.boxes.clipped_px[:, 3],
+            truncated=cam.boxes.truncated,
+            occluded=cam.visibility.occluded,
+            camera_visible_px=cam.visibility.visible_px,
+            visible_fraction=cam.visibility.fraction,
+            visibility_bin=cam.visibility.visibility_bin,
+            modal_left=cam.visibility.modal_px[:, 0], modal_top=cam.visibility.modal_px[:, 1],
+            modal_right=cam.visibility.modal_px[:, 2], modal_bottom=cam.visibility.modal_px[:, 3],
+        )  # fmt: skip
+    else:
+        for name in ("alpha", "left", "top", "right", "bottom", "truncated", "occluded", *CAMERA_EXTRA_COLUMNS):
+            table[name] = nan
+    return {name: table[name] for name in COLUMNS}
+
+
+def format_rows(table: dict[str, npt.NDArray[np.generic]]) -> list[str]:
+    """CSV rows: floats with 4 decimals (timestamp 3), integers as such, NaN as empty."""
+    columns = []
+    for name in COLUMNS:
+        values = table[name]
+        if values.dtype.kind == "f":
+            decimals = 3 if name == "timestamp" else 4
+            text = np.char.mod(f"%.{decimals}f", values)
+            text = np.where(np.isfinite(values), text, "")
+        else:
+            text = values.astype(str)
+        columns.append(text)
+    if not columns or columns[0].shape[0] == 0:
+        return []
+    return [",".join(row) for row in zip(*columns, strict=True)]

@@ -1,0 +1,137 @@
+"""Camera visibility from the rays: visible pixels against the unoccluded silhouette.
+
+For each labelled object, the pixels of its instance mask are its visible pixels. Its
+unoccluded silhouette is found by casting the camera's rays over the object's clipped 2D
+box against the agents alone and keeping the rays that pass through the object, whatever
+lies in front of it. Boxes larger than ``MAX_SAMPLES`` pixels are sampled on a regular
+pixel grid (stride s); visible and silhouette pixels are then counted on the same grid.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from gtgen.counting import count_hits
+from networks.geometry import SE3
+from networks.mesh import ClassedMesh
+from sensors.agents import AgentBoxes, agent_meshes
+from sensors.camera import CameraSpec
+from sensors.scene import FrameScene
+
+MAX_SAMPLES = 4096
+F64 = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class CameraVisibility:
+    """Per object: ``visible_px: (N,) int64`` pixels of the instance mask;
+    ``fraction: (N,) float64`` visible over unoccluded silhouette (0 when not in the image);
+    ``modal_px: (N, 4) float64`` tight left, top, right, bottom around the visible pixels
+    (NaN when none); ``occluded: (N,) int8`` 0..3; ``visibility_bin: (N,) int8`` 1..4 (nuScenes)."""
+
+    visible_px: npt.NDArray[np.int64]
+    fraction: F64
+    modal_px: F64
+    occluded: npt.NDArray[np.int8]
+    visibility_bin: npt.NDArray[np.int8]
+
+
+def occlusion_level(fraction: F64) -> npt.NDArray[np.int8]:
+    """0 fully visible (>= 0.8), 1 partly (>= 0.4), 2 largely occluded (> 0), 3 not visible."""
+    return np.select([fraction >= 0.8, fraction >= 0.4, fraction > 0.0], [0, 1, 2], 3).astype(np.int8)
+
+
+def visibility_bin(fraction: F64) -> npt.NDArray[np.int8]:
+    """nuScenes bins: 1 = 0-40 %, 2 = 40-60 %, 3 = 60-80 %, 4 = 80-100 %."""
+    return (1 + np.searchsorted([0.4, 0.6, 0.8], fraction, side="right")).astype(np.int8)
+
+
+def modal_boxes(instance_mask: npt.NDArray[np.uint32], track_ids: npt.NDArray[np.uint32]) -> F64:
+    """Tight boxes (left, top, right, bottom; pixel centres) around each id's mask pixels."""
+    out = np.full((track_ids.shape[0], 4), np.nan)
+    flat = instance_mask.ravel()
+    idx = np.flatnonzero(flat)
+    if idx.size == 0 or track_ids.size == 0:
+        return out
+    ids = flat[idx]
+    order = np.argsort(ids, kind="stable")
+    ids, idx = ids[order], idx[order]
+    starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
+    width = instance_mask.shape[1]
+    u, v = idx % width, idx // width
+    boxes = np.stack([np.minimum.reduceat(u, starts), np.minimum.reduceat(v, starts),
+                      np.maximum.reduceat(u, starts), np.maximum.reduceat(v, starts)], axis=1)  # fmt: skip
+    uniq = ids[starts]
+    pos = np.clip(np.searchsorted(uniq, track_ids), 0, uniq.shape[0] - 1)
+    found = uniq[pos] == track_ids
+    out[found] = boxes[pos[found]]
+    return out
+
+
+def _grid(box: F64, stride: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    us = np.arange(math.ceil(box[0]), math.floor(box[2]) + 1, stride)
+    vs = np.arange(math.ceil(box[1]), math.floor(box[3]) + 1, stride)
+    v, u = np.meshgrid(vs, us, indexing="ij")
+    return u.ravel(), v.ravel()
+
+
+def _stride(box: F64) -> int:
+    area = max(box[2] - box[0] + 1, 1) * max(box[3] - box[1] + 1, 1)
+    return max(1, math.ceil(math.sqrt(area / MAX_SAMPLES)))
+
+
+def camera_visibility(
+    spec: CameraSpec,
+    map_SE3_ego: SE3,
+    agents_map: AgentBoxes,
+    clipped_px: F64,
+    instance_mask: npt.NDArray[np.uint32],
+) -> CameraVisibility:
+    """``agents_map`` and ``clipped_px`` are row-aligned (one row per labelled object)."""
+    n = len(agents_map)
+    track_ids = agents_map.instance_id
+    grids = []
+    for i in range(n):
+        box = clipped_px[i]
+        if not np.all(np.isfinite(box)):
+            grids.append((np.zeros(0, np.int64), np.zeros(0, np.int64)))
+            continue
+        u, v = _grid(np.clip(box, 0, [spec.width_px - 1, spec.height_px - 1] * 2), _stride(box))
+        grids.append((u, v))
+    owner = np.concatenate([np.full(g[0].shape[0], i) for i, g in enumerate(grids)] or [np.zeros(0, int)])
+    u_all = np.concatenate([g[0] for g in grids] or [np.zeros(0, np.int64)])
+    v_all = np.concatenate([g[1] for g in grids] or [np.zeros(0, np.int64)])
+    silhouette = _silhouette_hits(spec, map_SE3_ego, agents_map, owner, u_all, v_all)
+    visible = instance_mask[v_all, u_all] == track_ids[owner] if owner.size else np.zeros(0, bool)
+    sil_count = np.bincount(owner, weights=silhouette, minlength=n)
+    vis_count = np.bincount(owner, weights=visible & silhouette, minlength=n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fraction = np.where(sil_count > 0, vis_count / sil_count, 0.0)
+    visible_px = count_hits(instance_mask.ravel(), track_ids).astype(np.int64)
+    fraction = np.where(visible_px > 0, fraction, 0.0)
+    return CameraVisibility(visible_px, fraction, modal_boxes(instance_mask, track_ids), occlusion_level(fraction),
+                            visibility_bin(fraction))  # fmt: skip
+
+
+def _silhouette_hits(
+    spec: CameraSpec, map_SE3_ego: SE3, agents_map: AgentBoxes, owner: npt.NDArray[np.int64],
+    u: npt.NDArray[np.int64], v: npt.NDArray[np.int64],
+) -> npt.NDArray[np.bool_]:  # fmt: skip
+    """Whether the ray of pixel (u, v) passes through object ``owner`` (other objects ignored)."""
+    if owner.size == 0:
+        return np.zeros(0, bool)
+    K = spec.K
+    d = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones(u.shape[0])], axis=1)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    map_SE3_cam = map_SE3_ego.compose(spec.ego_SE3_cam)
+    rays = np.concatenate([np.broadcast_to(map_SE3_cam.translation, d.shape), map_SE3_cam.rotate(d)], axis=1)
+    scene = FrameScene(ClassedMesh.empty(), agent_meshes(agents_map))
+    ray_ids, instance = scene.agent_hits(rays.astype(np.float32))
+    hits = np.zeros(owner.shape[0], bool)
+    own = instance == agents_map.instance_id[owner[ray_ids]]
+    hits[ray_ids[own]] = True
+    return hits

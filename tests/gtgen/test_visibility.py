@@ -1,0 +1,105 @@
+"""Labels from rays on hand-built scenes with known answers."""
+
+import numpy as np
+import pytest
+from shapely.geometry import box as rect
+
+from gtgen.labels import SensorHits, label_frame
+from gtgen.objects import ObjectBoxes
+from gtgen.visibility import modal_boxes, occlusion_level, visibility_bin
+from networks.classes import SemanticClass
+from networks.geometry import SE3
+from networks.mesh import flat_polygon, merge, prism
+from sensors.agents import AgentBoxes, agent_meshes
+from sensors.camera import Camera, CameraSpec
+from sensors.lidar import Lidar, LidarSpec
+from sensors.radar import InstanceVelocities, Radar, RadarSpec
+from sensors.scene import FrameScene
+
+EGO = SE3.identity()  # the ego stands at the map origin, facing +x
+GROUND = flat_polygon(rect(-200, -200, 200, 200), 0.0, SemanticClass.ROAD)
+
+
+def agents(rows):
+    """rows: (id, class, x, y, l, w, h, yaw) with the box standing on the ground."""
+    a = np.asarray(rows, dtype=np.float64).reshape(-1, 8)
+    center = np.column_stack([a[:, 2], a[:, 3], a[:, 6] / 2])
+    return AgentBoxes(a[:, 0], a[:, 1], center, a[:, 4:7], a[:, 7], np.zeros(len(a)))
+
+
+def ego_objects(a: AgentBoxes) -> ObjectBoxes:
+    n = len(a)
+    return ObjectBoxes(
+        a.instance_id, a.semantic_class, a.center_map_m, a.lwh_m, a.yaw_map_rad, np.zeros((n, 3)), np.zeros(n, bool)
+    )
+
+
+def label(static, a, camera_spec=None, lidar=True, radar=True):
+    camera_spec = camera_spec or CameraSpec()
+    scene = FrameScene(static, agent_meshes(a))
+    rng = np.random.default_rng(0)
+    frame = Camera(camera_spec).render(scene, EGO)
+    scans = (Lidar(LidarSpec()).scan(scene, EGO, rng),) if lidar else ()
+    velocities = InstanceVelocities.from_unsorted(a.instance_id, np.zeros((len(a), 3)))
+    radars = (Radar(RadarSpec()).scan(scene, EGO, velocities, np.zeros(3), rng),) if radar else ()
+    hits = SensorHits(scans, radars, ((camera_spec, frame),))
+    return label_frame(0, 0, ego_objects(a), a, EGO, hits, 120.0), frame
+
+
+def test_pedestrian_half_hidden_behind_a_wall_is_half_visible():
+    # The wall's edge lies in the vertical plane through the camera and the pedestrian's
+    # axis of symmetry, so exactly the pedestrian's left half is hidden.
+    wall = prism(rect(3.0, 0.0, 3.2, 5.0), 0.0, 4.0, SemanticClass.BUILDING)
+    ped = agents([(7, SemanticClass.PEDESTRIAN, 6.41, 0.0, 0.4, 0.6, 1.8, 0.0)])
+    labels, _ = label(merge([GROUND, wall]), ped, lidar=False, radar=False)
+    cam = labels.cameras[0]
+    assert cam.visibility.fraction[0] == pytest.approx(0.5, abs=0.05)
+    assert cam.visibility.occluded[0] == 1
+
+
+def test_pedestrian_partly_behind_a_car_is_partly_occluded():
+    scene_agents = agents([
+        (1, SemanticClass.CAR, 5.0, 0.6, 4.5, 1.9, 1.5, np.pi / 2),
+        (2, SemanticClass.PEDESTRIAN, 9.0, 0.0, 0.4, 0.6, 1.8, 0.0),
+    ])  # fmt: skip
+    labels, frame = label(GROUND, scene_agents, lidar=False, radar=False)
+    ped = int(np.flatnonzero(labels.objects.track_id == 2)[0])
+    vis = labels.cameras[0].visibility
+    assert 0.0 < vis.fraction[ped] < 0.8 and vis.occluded[ped] in (1, 2)
+    assert vis.visible_px[ped] == int(np.sum(frame.instance_id == 2))
+
+
+def test_parked_car_behind_a_building_gets_no_rays_and_is_not_seen():
+    building = prism(rect(15.0, -10.0, 25.0, 10.0), 0.0, 12.0, SemanticClass.BUILDING)
+    a = agents(
+        [(5, SemanticClass.CAR, 30.0, 0.0, 4.5, 1.9, 1.5, 0.0), (6, SemanticClass.CAR, 10.0, -4.0, 4.5, 1.9, 1.5, 0.0)]
+    )
+    labels, _ = label(merge([GROUND, building]), a)
+    hidden = int(np.flatnonzero(labels.objects.track_id == 5)[0])
+    visible = int(np.flatnonzero(labels.objects.track_id == 6)[0])
+    assert labels.lidar_points[hidden] == 0 and labels.radar_points[hidden] == 0
+    assert labels.cameras[0].visibility.visible_px[hidden] == 0
+    assert not labels.seen[hidden] and labels.cameras[0].visibility.occluded[hidden] == 3
+    assert labels.seen[visible] and labels.lidar_points[visible] > 0
+
+
+def test_object_behind_the_camera_is_truncated_and_not_visible_in_it():
+    labels, _ = label(GROUND, agents([(3, SemanticClass.CAR, -12.0, 0.0, 4.5, 1.9, 1.5, 0.0)]), radar=False)
+    cam = labels.cameras[0]
+    assert cam.boxes.truncated[0] == 1.0 and cam.visibility.occluded[0] == 3
+    assert labels.lidar_points[0] > 0 and labels.seen[0]
+
+
+def test_modal_box_is_tight_around_the_mask():
+    mask = np.zeros((10, 20), np.uint32)
+    mask[2:5, 3:9] = 4
+    mask[7, 15] = 9
+    boxes = modal_boxes(mask, np.array([4, 9, 11], np.uint32))
+    assert boxes[0].tolist() == [3, 2, 8, 4] and boxes[1].tolist() == [15, 7, 15, 7]
+    assert np.all(np.isnan(boxes[2]))
+
+
+def test_occlusion_levels_and_visibility_bins_follow_their_thresholds():
+    f = np.array([1.0, 0.8, 0.79, 0.6, 0.4, 0.39, 0.01, 0.0])
+    assert occlusion_level(f).tolist() == [0, 0, 1, 1, 1, 2, 2, 3]
+    assert visibility_bin(f).tolist() == [4, 4, 3, 3, 2, 1, 1, 1]

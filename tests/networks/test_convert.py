@@ -1,0 +1,92 @@
+"""Any OpenDRIVE file in: the quirks of real files, and one clear line for a rejected one."""
+
+from pathlib import Path
+
+import pytest
+import sumolib
+
+from networks.convert import import_opendrive
+from networks.errors import NetconvertError
+from networks.world import build_world, load_net
+
+XODR = Path(__file__).resolve().parents[1] / "data" / "xodr"
+
+
+def _convert(name: str) -> sumolib.net.Net:
+    return load_net(import_opendrive(XODR / name))
+
+
+def _driving_lanes(net: sumolib.net.Net) -> list[sumolib.net.lane.Lane]:
+    return [lane for e in _edges(net) for lane in e.getLanes() if lane.allows("passenger")]
+
+
+def _edges(net: sumolib.net.Net) -> list[sumolib.net.edge.Edge]:
+    return [e for e in net.getEdges(withInternal=False) if not e.getFunction()]
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["georef_missing_grid.xodr", "signal_empty_attributes.xodr", "spiral_parampoly3.xodr",
+     "elevation_superelevation.xodr", "lane_types.xodr", "left_hand_traffic.xodr"],
+)  # fmt: skip
+def test_accepted_file_yields_a_net_and_a_world(name):
+    net_path = import_opendrive(XODR / name)
+    net = load_net(net_path)
+    assert len(_driving_lanes(net)) >= 2  # lane_types.xodr adds a parking lane
+    assert build_world(net_path).mesh.num_triangles > 0
+
+
+def test_conversion_is_cached_by_content():
+    first = import_opendrive(XODR / "lane_types.xodr")
+    mtime = first.stat().st_mtime_ns
+    assert import_opendrive(XODR / "lane_types.xodr") == first
+    assert first.stat().st_mtime_ns == mtime
+
+
+def test_sidewalk_lanes_are_kept_for_pedestrians():
+    net = _convert("spiral_parampoly3.xodr")
+    walk = [lane for e in _edges(net) for lane in e.getLanes() if lane.getPermissions() == {"pedestrian"}]
+    assert len(walk) == 2
+    assert all(abs(lane.getWidth() - 2.0) < 0.05 for lane in walk)
+
+
+def test_curves_are_imported_with_fine_resolution():
+    net = _convert("spiral_parampoly3.xodr")
+    shape = max((lane.getShape() for lane in _driving_lanes(net)), key=len)
+    assert len(shape) > 40  # 100 m of road at 1 m resolution, curved over 60 m
+
+
+def test_elevation_is_kept():
+    net = _convert("elevation_superelevation.xodr")
+    zs = [z for lane in _driving_lanes(net) for _, _, z in lane.getShape3D()]
+    assert min(zs) > 1.5
+    assert max(zs) > 4.5
+
+
+def test_lane_types_keep_their_uses():
+    net = _convert("lane_types.xodr")
+    perms = [frozenset(lane.getPermissions()) for e in _edges(net) for lane in e.getLanes()]
+    assert frozenset({"pedestrian"}) in perms
+    assert frozenset({"bicycle"}) in perms
+    assert frozenset() in perms  # shoulder, border, median: paved, used by nobody
+    assert len(perms) >= 10
+
+
+def test_left_hand_traffic_is_detected():
+    text = import_opendrive(XODR / "left_hand_traffic.xodr").read_text()
+    assert 'lefthand="true"' in text
+
+
+def test_rejected_file_raises_one_line_naming_the_file_and_reason():
+    with pytest.raises(NetconvertError) as info:
+        import_opendrive(XODR / "rejected_broken.xodr")
+    message = str(info.value)
+    assert "\n" not in message
+    assert str(XODR / "rejected_broken.xodr") in message
+    assert "netconvert rejected the file" in message
+    assert "end of input" in message
+
+
+def test_missing_file_is_a_network_error(tmp_path):
+    with pytest.raises(Exception, match="not found"):
+        import_opendrive(tmp_path / "nope.xodr")

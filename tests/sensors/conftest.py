@@ -1,0 +1,56 @@
+"""Hand-built scenes with analytic answers, handed to tests as the ``synth`` fixture
+(the suite runs in importlib mode, where test modules cannot import helpers)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from networks.classes import SemanticClass
+from networks.mesh import ClassedMesh, merge
+from sensors.agents import AgentBoxes, agent_meshes
+from sensors.scene import FrameScene
+
+
+def quad(corners: Sequence[Sequence[float]], cls: SemanticClass) -> ClassedMesh:
+    """Two triangles over four corners given in order around the quad."""
+    return ClassedMesh(np.asarray(corners, dtype=np.float64), np.array([[0, 1, 2], [0, 2, 3]]), np.full(2, cls))
+
+
+def ground(half_m: float = 500.0, cls: SemanticClass = SemanticClass.ROAD, z_m: float = 0.0) -> ClassedMesh:
+    h = half_m
+    return quad([(-h, -h, z_m), (h, -h, z_m), (h, h, z_m), (-h, h, z_m)], cls)
+
+
+def wall_at_x(x_m: float, half_m: float = 200.0, cls: SemanticClass = SemanticClass.BUILDING) -> ClassedMesh:
+    """A wall facing -x across the whole view, from z = -half to +half."""
+    h = half_m
+    return quad([(x_m, -h, -h), (x_m, h, -h), (x_m, h, h), (x_m, -h, h)], cls)
+
+
+def agents(rows: Sequence[tuple[int, SemanticClass, float, float, float, float, float, float, float]]) -> AgentBoxes:
+    """Rows of (id, class, x, y, z_centre, l, w, h, yaw)."""
+    if not rows:
+        return AgentBoxes.empty()
+    a = np.array([r[2:] for r in rows], dtype=np.float64)
+    return AgentBoxes(
+        np.array([r[0] for r in rows]), np.array([int(r[1]) for r in rows]), a[:, 0:3], a[:, 3:6], a[:, 6],
+        np.zeros(len(rows)),
+    )  # fmt: skip
+
+
+def scene(static: Sequence[ClassedMesh], boxes: AgentBoxes | None = None) -> FrameScene:
+    return FrameScene(merge(list(static)), agent_meshes(AgentBoxes.empty() if boxes is None else boxes))
+
+
+@pytest.fixture
+def synth() -> SimpleNamespace:
+    return SimpleNamespace(quad=quad, ground=ground, wall_at_x=wall_at_x, agents=agents, scene=scene)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(7)

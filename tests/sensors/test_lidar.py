@@ -1,0 +1,65 @@
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from networks.classes import SemanticClass
+from networks.geometry import SE3
+from sensors.lidar import Lidar, LidarScan, LidarSpec
+from sensors.weather import weather_preset
+
+
+def small_lidar(**kw: float) -> Lidar:
+    return Lidar(LidarSpec(beams=16, azimuth_steps=256, **kw))  # type: ignore[arg-type]
+
+
+def same_scan(a: LidarScan, b: LidarScan) -> bool:
+    fields = ("xyz_lidar_m", "intensity", "ring", "semantic_class", "instance_id")
+    return all(np.array_equal(getattr(a, f), getattr(b, f)) for f in fields)
+
+
+def test_a_ray_at_a_wall_returns_the_walls_distance(synth: SimpleNamespace, rng: np.random.Generator) -> None:
+    lidar = small_lidar()
+    scan = lidar.scan(synth.scene([synth.wall_at_x(10.0)]), SE3.identity(), rng)
+    ahead = scan.xyz_lidar_m[:, 0] > 0
+    assert ahead.sum() > 100
+    np.testing.assert_allclose(scan.xyz_lidar_m[ahead, 0], 10.0, atol=1e-3)
+    dirs = scan.xyz_lidar_m[ahead] / np.linalg.norm(scan.xyz_lidar_m[ahead], axis=1, keepdims=True)
+    np.testing.assert_allclose(np.linalg.norm(scan.xyz_lidar_m[ahead], axis=1), 10.0 / dirs[:, 0], rtol=1e-4)
+
+
+def test_wall_returns_carry_the_walls_class_and_instance_zero(synth: SimpleNamespace, rng: np.random.Generator) -> None:
+    scan = small_lidar().scan(synth.scene([synth.wall_at_x(10.0)]), SE3.identity(), rng)
+    assert np.all(scan.semantic_class == SemanticClass.BUILDING)
+    assert np.all(scan.instance_id == 0)
+
+
+def test_day_and_night_do_not_change_the_lidar(synth: SimpleNamespace) -> None:
+    world = synth.scene([synth.ground(), synth.wall_at_x(30.0)])
+    lidar = small_lidar(dropout=0.1, range_noise_m=0.02)
+    plain = lidar.scan(world, SE3.identity(), np.random.default_rng(1))
+    day = lidar.scan(world, SE3.identity(), np.random.default_rng(1), weather_preset("day"))
+    night = lidar.scan(world, SE3.identity(), np.random.default_rng(1), weather_preset("night"))
+    assert same_scan(plain, day) and same_scan(plain, night)
+
+
+def test_fog_hides_a_wall_beyond_its_shortened_range(synth: SimpleNamespace, rng: np.random.Generator) -> None:
+    world = synth.scene([synth.wall_at_x(60.0)])
+    assert len(small_lidar().scan(world, SE3.identity(), rng)) > 100
+    fog = small_lidar().scan(world, SE3.identity(), rng, weather_preset("fog"))
+    assert np.all(fog.semantic_class == SemanticClass.NONE)
+
+
+def test_rain_drops_and_weakens_returns_and_adds_near_spurious_ones(synth: SimpleNamespace) -> None:
+    world = synth.scene([synth.wall_at_x(20.0)])
+    lidar = Lidar(LidarSpec(beams=32, azimuth_steps=1024))
+    day = lidar.scan(world, SE3.identity(), np.random.default_rng(2))
+    rain = lidar.scan(world, SE3.identity(), np.random.default_rng(2), weather_preset("rain"))
+    on_wall = rain.semantic_class == SemanticClass.BUILDING
+    assert on_wall.sum() < 0.95 * len(day)
+    assert rain.intensity[on_wall].mean() < 0.9 * day.intensity.mean()
+    spurious = rain.semantic_class == SemanticClass.NONE
+    assert spurious.sum() > 0
+    assert np.all(np.linalg.norm(rain.xyz_lidar_m[spurious], axis=1) <= 6.2)
+    assert np.all(rain.instance_id[spurious] == 0)

@@ -1,0 +1,60 @@
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from networks.classes import SemanticClass
+from networks.geometry import SE3
+from sensors.camera import Camera, CameraSpec
+from sensors.errors import SensorConfigError
+from sensors.weather import PRESETS, Weather, haze_fraction, weather_preset
+
+SMALL = CameraSpec(width_px=160, height_px=90)
+
+
+def street(synth: SimpleNamespace) -> object:
+    boxes = synth.agents([(1, SemanticClass.CAR, 12.0, 0.0, 0.75, 4.5, 1.8, 1.5, 0.0)])
+    return synth.scene([synth.ground(), synth.wall_at_x(60.0)], boxes)
+
+
+def test_the_four_presets_exist_and_unknown_names_are_rejected() -> None:
+    assert set(PRESETS) == {"day", "night", "rain", "fog"}
+    assert weather_preset("fog").lidar_range_scale < weather_preset("rain").lidar_range_scale < 1.0
+    with pytest.raises(SensorConfigError, match="snow"):
+        weather_preset("snow")
+
+
+def test_out_of_range_weather_is_rejected() -> None:
+    with pytest.raises(SensorConfigError):
+        Weather("bad", lidar_dropout=1.0)
+
+
+def test_night_and_rain_darken_the_image_and_add_noise(synth: SimpleNamespace) -> None:
+    camera, world = Camera(SMALL), street(synth)
+    day = camera.render(world, SE3.identity(), weather_preset("day"), np.random.default_rng(0))
+    night = camera.render(world, SE3.identity(), weather_preset("night"), np.random.default_rng(0))
+    rain = camera.render(world, SE3.identity(), weather_preset("rain"), np.random.default_rng(0))
+    assert night.image_bgr.mean() < 0.4 * day.image_bgr.mean()
+    assert rain.image_bgr.mean() < day.image_bgr.mean()
+    night_again = camera.render(world, SE3.identity(), weather_preset("night"), np.random.default_rng(1))
+    day_again = camera.render(world, SE3.identity(), weather_preset("day"), np.random.default_rng(1))
+    assert np.abs(night.image_bgr.astype(int) - night_again.image_bgr).mean() > 2.0
+    np.testing.assert_array_equal(day.image_bgr, day_again.image_bgr)
+
+
+def test_weather_changes_the_image_but_not_the_masks_or_depth(synth: SimpleNamespace) -> None:
+    camera, world = Camera(SMALL), street(synth)
+    day = camera.render(world, SE3.identity())
+    for name in ("night", "rain", "fog"):
+        other = camera.render(world, SE3.identity(), weather_preset(name))
+        np.testing.assert_array_equal(other.depth_m, day.depth_m)
+        np.testing.assert_array_equal(other.instance_id, day.instance_id)
+
+
+def test_fog_hazes_far_surfaces_more_than_near_ones() -> None:
+    fog = weather_preset("fog")
+    f = haze_fraction(fog, np.array([5.0, 50.0, 150.0], np.float32), 200.0)
+    assert f[0] < 0.2 < f[1] < f[2] <= 1.0
+    assert haze_fraction(fog, np.array([200.0], np.float32), 200.0)[0] == pytest.approx(1.0)
