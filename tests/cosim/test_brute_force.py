@@ -18,7 +18,10 @@ pytestmark = pytest.mark.slow
 
 
 def test_lidar_seen_flags_match_a_brute_force_cast_per_object():
-    scenario = load_scenario(str(DATA / "tiny.yaml"), ["sensors.cameras=[]", "sensors.radars=[]", "outputs.kitti=false", "outputs.yolo=false"])
+    scenario = load_scenario(
+        str(DATA / "tiny.yaml"),
+        ["sensors.cameras=[]", "sensors.radars=[]", "outputs.kitti=false", "outputs.yolo=false"],
+    )
     prepared = prepare_network(scenario)
     rig = build_rig(scenario)
     crop = StaticCrop(prepared.world.mesh, rig.reach_m)
