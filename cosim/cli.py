@@ -25,6 +25,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                      help="override any scenario key, e.g. --set traffic.pedestrians=50 (repeatable)")  # fmt: skip
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    run.add_argument("--no-summary", action="store_true", help="skip the summary/ statistics and pictures")
     sub.add_parser("list", help="list the built-in scenarios")
     return parser
 
@@ -40,6 +41,7 @@ def _cmd_list() -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     from cosim.loop import run
     from cosim.scenario import load_scenario
+    from gtgen.summary import write_summary
 
     overrides = list(args.overrides)
     if args.frames is not None:
@@ -49,6 +51,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, overrides)
     out_dir = args.out if args.out is not None else Path("out") / scenario.name
     summary = run(scenario, out_dir, progress=not args.no_progress)
+    if not args.no_summary:
+        write_summary(out_dir)
     print(f"wrote {out_dir}/")
     for line in summary.lines():
         print(line)

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from gtgen.labels import FrameLabels
+from gtgen.objects import ObjectBoxes
 from networks.classes import SemanticClass
 
 # BGR colours per semantic class for points and boxes.
@@ -41,11 +41,13 @@ _CLASS_LUT = _lut()
 def bev_image(
     xyz_ego_m: npt.NDArray[np.floating],
     point_class: npt.NDArray[np.uint8],
-    labels: FrameLabels,
+    objects: ObjectBoxes,
+    seen: npt.NDArray[np.bool_],
     half_extent_m: float = 60.0,
     px_per_m: float = 8.0,
 ) -> npt.NDArray[np.uint8]:
-    """Top view centred on the ego, x (forward) up the image, y (left) to the left."""
+    """Top view centred on the ego, x (forward) up the image, y (left) to the left; points
+    coloured by class, boxes in their class colour (grey: no sensor saw the object)."""
     size = int(2 * half_extent_m * px_per_m)
     img = np.zeros((size, size, 3), np.uint8)
 
@@ -57,14 +59,14 @@ def bev_image(
     row, col = to_px(xyz_ego_m[:, 0], xyz_ego_m[:, 1])
     inside = (row >= 0) & (row < size) & (col >= 0) & (col < size)
     img[row[inside], col[inside]] = _CLASS_LUT[point_class[inside]]
-    o = labels.objects
+    o = objects
     for i in range(len(o)):
         c, s = np.cos(o.yaw_ego_rad[i]), np.sin(o.yaw_ego_rad[i])
         hl, hw = o.lwh_m[i, 0] / 2, o.lwh_m[i, 1] / 2
         local = np.array([[hl, hw], [hl, -hw], [-hl, -hw], [-hl, hw]])
         xy = local @ np.array([[c, s], [-s, c]]) + o.center_ego_m[i, :2]
         r, k = to_px(xy[:, 0], xy[:, 1])
-        colour = CLASS_BGR.get(int(o.semantic_class[i]), (255, 255, 255)) if labels.seen[i] else (80, 80, 80)
+        colour = CLASS_BGR.get(int(o.semantic_class[i]), (255, 255, 255)) if seen[i] else (80, 80, 80)
         poly = np.stack([k, r], axis=1).astype(np.int32)
         cv2.polylines(img, [poly], True, colour, 1, cv2.LINE_AA)
         cv2.line(

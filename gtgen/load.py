@@ -14,6 +14,7 @@ from mcap.decoder import DecoderFactory as McapDecoderFactory
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
+from gtgen.objects import ObjectBoxes
 from gtgen.sinks.foxglove import LIDAR_POINT_DTYPE, RADAR_POINT_DTYPE
 
 
@@ -49,3 +50,17 @@ def radar_points(cloud: Any) -> npt.NDArray[np.void]:
 
 def load_labels(path: Path) -> pd.DataFrame:
     return pd.read_csv(path)
+
+
+def objects_from_table(rows: pd.DataFrame) -> tuple[ObjectBoxes, npt.NDArray[np.bool_]]:
+    """Label rows (``labels.csv`` columns) as ego-frame boxes and their ``seen`` flags."""
+    boxes = ObjectBoxes(
+        rows["id"].to_numpy(),
+        rows["class_id"].to_numpy(),
+        rows[["x", "y", "z"]].to_numpy(),
+        rows[["l", "w", "h"]].to_numpy(),
+        rows["rotation_z"].to_numpy(),
+        rows[["vx", "vy", "vz"]].to_numpy(),
+        rows["parked"].to_numpy().astype(bool),
+    )
+    return boxes, rows["seen"].to_numpy().astype(bool)

@@ -124,3 +124,16 @@ def yaw_to_rotation(yaw_rad: npt.ArrayLike) -> FloatArray:
     out[:, 1, 0], out[:, 1, 1] = s, c
     out[:, 2, 2] = 1.0
     return out
+
+
+def rotation_from_quaternion_xyzw(x: float, y: float, z: float, w: float) -> FloatArray:
+    """Rotation matrix of a (not necessarily normalised) quaternion."""
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )

@@ -95,3 +95,47 @@ def test_same_seed_gives_identical_labels_and_messages(dataset, tmp_path):
 def raw_messages(path: Path) -> list[tuple[str, int, bytes]]:
     with path.open("rb") as stream:
         return [(c.topic, m.log_time, m.data) for _, c, m in make_reader(stream).iter_messages()]
+
+
+def test_kitti_layout_has_one_file_per_frame_and_parsable_labels(dataset):
+    kitti = dataset / "kitti"
+    for sub, ext in (("image_2", "png"), ("velodyne", "bin"), ("label_2", "txt"), ("calib", "txt")):
+        assert len(list((kitti / sub).glob(f"*.{ext}"))) == 20, sub
+    calib = dict(line.split(": ", 1) for line in (kitti / "calib" / "000005.txt").read_text().splitlines())
+    P2 = np.array(calib["P2"].split(), float).reshape(3, 4)
+    velo = np.fromfile(kitti / "velodyne" / "000005.bin", dtype="<f4").reshape(-1, 4)
+    assert len(velo) > 10000 and np.all((velo[:, 3] >= 0) & (velo[:, 3] <= 1))
+    rows = [line.split() for text in (kitti / "label_2").glob("*.txt") for line in text.read_text().splitlines()]
+    assert rows, "no KITTI labels in 20 frames"
+    for r in rows:
+        assert len(r) == 15 and r[0] in {"Car", "Truck", "Bus", "Motorcycle", "Cyclist", "Pedestrian"}
+        left, top, right, bottom = map(float, r[4:8])
+        h, x, y, z = float(r[8]), float(r[11]), float(r[12]), float(r[13])
+        assert 0 <= left <= right <= 1280 and 0 <= top <= bottom <= 720
+        u, v, w = P2 @ np.array([x, y - h / 2, z, 1.0])  # the box centre, from its bottom centre
+        if float(r[1]) == 0.0 and z > 0:
+            assert left - 1 <= u / w <= right + 1 and top - 1 <= v / w <= bottom + 1
+
+
+def test_yolo_boxes_are_normalised_and_name_known_classes(dataset):
+    yolo = dataset / "yolo"
+    data = (yolo / "data.yaml").read_text()
+    assert "pedestrian" in data and str(yolo.resolve()) in data
+    lines = [line.split() for f in (yolo / "labels").glob("*.txt") for line in f.read_text().splitlines()]
+    assert len(list((yolo / "images").glob("*.jpg"))) == 20
+    for cls, *box in lines:
+        assert 0 <= int(cls) <= 5
+        cx, cy, w, h = map(float, box)
+        assert 0 < w <= 1 and 0 < h <= 1 and 0 <= cx - w / 2 + 1e-6 and cx + w / 2 <= 1 + 1e-6
+
+
+def test_summary_writes_statistics_and_pictures(dataset):
+    from gtgen.summary import write_summary
+
+    stats = write_summary(dataset)
+    names = {p.name for p in (dataset / "summary").iterdir()}
+    assert {"stats.csv", "objects_per_frame.png", "distance.png", "visibility.png", "bev_000000.png"} <= names
+    assert {"camera_000000.png", "camera_000010.png", "camera_000019.png"} <= names
+    labels = load_labels(dataset / "labels.csv")
+    total = stats[stats["class"] == "all"].iloc[0]
+    assert total["seen_per_frame"] == pytest.approx((labels["seen"] == 1).sum() / 20)

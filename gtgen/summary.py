@@ -1,0 +1,143 @@
+"""``summary/``: statistics and pictures of a written dataset, read back from its files.
+
+``stats.csv`` (per class), ``objects_per_frame.png``, ``distance.png``, ``visibility.png``,
+``lidar_points.png``, and for a few frames ``bev_<frame>.png`` (LiDAR points by class with
+the label boxes) and ``camera_<frame>.png`` (the image with tight and projected boxes).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import cv2
+import matplotlib
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from gtgen.bev import bev_image
+from gtgen.load import iter_messages, lidar_points, load_labels, objects_from_table
+from networks.geometry import SE3, rotation_from_quaternion_xyzw
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+CLASS_ORDER = ["car", "truck", "bus", "motorcycle", "bicycle", "pedestrian"]
+
+
+def class_stats(labels: pd.DataFrame) -> pd.DataFrame:
+    """Per class: labelled and seen objects per frame, tracks, parked share, LiDAR points."""
+    frames = max(labels["frame"].nunique(), 1)
+    seen = labels[labels["seen"] == 1]
+    rows = []
+    for cls in [c for c in CLASS_ORDER if c in set(labels["type"])]:
+        all_c, seen_c = labels[labels["type"] == cls], seen[seen["type"] == cls]
+        rows.append({
+            "class": cls, "labelled_per_frame": len(all_c) / frames, "seen_per_frame": len(seen_c) / frames,
+            "tracks": all_c["id"].nunique(), "parked_share": float(all_c["parked"].mean()),
+            "median_lidar_points_seen": float(seen_c["lidar_points"].median()) if len(seen_c) else 0.0,
+            "camera_visible_per_frame": float((seen_c["camera_visible_px"].fillna(0) > 0).sum() / frames),
+        })  # fmt: skip
+    total = {"class": "all", "labelled_per_frame": len(labels) / frames, "seen_per_frame": len(seen) / frames,
+             "tracks": labels["id"].nunique(), "parked_share": float(labels["parked"].mean()) if len(labels) else 0.0,
+             "median_lidar_points_seen": float(seen["lidar_points"].median()) if len(seen) else 0.0,
+             "camera_visible_per_frame": float((seen["camera_visible_px"].fillna(0) > 0).sum() / frames)}  # fmt: skip
+    return pd.DataFrame([*rows, total])
+
+
+def _save(fig: Any, path: Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_summary(labels: pd.DataFrame, folder: Path) -> None:
+    seen = labels[labels["seen"] == 1]
+    classes = [c for c in CLASS_ORDER if c in set(seen["type"])]
+    fig, ax = plt.subplots(figsize=(8, 4))
+    counts = seen.groupby(["frame", "type"]).size().unstack(fill_value=0).reindex(columns=classes, fill_value=0)
+    if len(counts):
+        ax.stackplot(counts.index, counts.T.to_numpy(), labels=classes)
+        ax.legend(loc="upper left", fontsize=8)
+    ax.set(xlabel="frame", ylabel="objects seen", title="Objects seen per frame")
+    _save(fig, folder / "objects_per_frame.png")
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for cls in classes:
+        ax.hist(seen.loc[seen["type"] == cls, "distance"], bins=list(range(0, 125, 5)), histtype="step", label=cls)
+    ax.set(xlabel="distance from the ego (m)", ylabel="objects", title="Seen objects by distance")
+    ax.legend(fontsize=8)
+    _save(fig, folder / "distance.png")
+    fig, ax = plt.subplots(figsize=(8, 4))
+    in_image = labels[labels["camera_visible_px"].fillna(0) > 0]
+    bins = in_image.groupby(["type", "visibility_bin"]).size().unstack(fill_value=0)
+    bins.reindex([c for c in classes if c in bins.index]).plot.bar(ax=ax, rot=0)
+    ax.set(ylabel="objects", title="Camera visibility bins (1: 0-40 %, 2: 40-60 %, 3: 60-80 %, 4: 80-100 %)")
+    _save(fig, folder / "visibility.png")
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for cls in classes:
+        c = seen[(seen["type"] == cls) & (seen["lidar_points"] > 0)]
+        ax.scatter(c["distance"], c["lidar_points"], s=3, label=cls)
+    ax.set(xlabel="distance (m)", ylabel="LiDAR points", yscale="log", title="LiDAR points per object")
+    ax.legend(fontsize=8)
+    _save(fig, folder / "lidar_points.png")
+
+
+def _ego_SE3(transforms: Any, child: str) -> SE3:
+    for t in transforms.transforms:
+        if t.parent_frame_id == "ego" and t.child_frame_id == child:
+            q = t.rotation
+            translation = np.array([t.translation.x, t.translation.y, t.translation.z])
+            return SE3(rotation_from_quaternion_xyzw(q.x, q.y, q.z, q.w), translation)
+    return SE3.identity()
+
+
+def frame_pictures(mcap_path: Path, labels: pd.DataFrame, frames: list[int], folder: Path) -> None:
+    """BEV and camera pictures of ``frames`` (indices in the run)."""
+    wanted = set(frames)
+    index_of_time: dict[int, int] = {}
+    tf: dict[int, Any] = {}
+    for topic, log_time, msg in iter_messages(mcap_path, topics=["/tf", "/lidar", "/camera/image"]):
+        frame = index_of_time.setdefault(log_time, len(index_of_time))
+        if frame not in wanted:
+            continue
+        rows = labels[labels["frame"] == frame]
+        if topic == "/tf":
+            tf[frame] = msg
+        elif topic == "/lidar":
+            pts = lidar_points(msg)
+            xyz = np.column_stack([pts["x"], pts["y"], pts["z"]]).astype(np.float64)
+            xyz_ego = _ego_SE3(tf[frame], msg.frame_id).transform_from(xyz) if frame in tf else xyz
+            objects, seen = objects_from_table(rows)
+            cv2.imwrite(str(folder / f"bev_{frame:06d}.png"), bev_image(xyz_ego, pts["class"], objects, seen))
+        else:
+            image = np.asarray(cv2.imdecode(np.frombuffer(msg.data, np.uint8), cv2.IMREAD_COLOR), dtype=np.uint8)
+            cv2.imwrite(str(folder / f"camera_{frame:06d}.png"), draw_camera_boxes(image, rows))
+
+
+def draw_camera_boxes(image: npt.NDArray[np.uint8], rows: pd.DataFrame) -> npt.NDArray[np.uint8]:
+    out = image.copy()
+    for r in rows.itertuples():
+        if np.isfinite(r.left):
+            cv2.rectangle(out, (int(r.left), int(r.top)), (int(r.right), int(r.bottom)), (0, 220, 255), 1)
+        if r.camera_visible_px > 0 and np.isfinite(r.modal_left):
+            p0, p1 = (int(r.modal_left), int(r.modal_top)), (int(r.modal_right), int(r.modal_bottom))
+            cv2.rectangle(out, p0, p1, (0, 0, 255), 2)
+            text = f"{r.type} {r.id} occ{int(r.occluded)} {r.visible_fraction:.2f}"
+            cv2.putText(out, text, (p0[0], max(p0[1] - 4, 10)), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1)
+    return out
+
+
+def write_summary(out_dir: Path, picture_frames: int = 3) -> pd.DataFrame:
+    """Write ``out_dir/summary`` from ``labels.csv`` and ``run.mcap``; return the class table."""
+    labels = load_labels(out_dir / "labels.csv")
+    folder = out_dir / "summary"
+    folder.mkdir(exist_ok=True)
+    stats = class_stats(labels)
+    stats.to_csv(folder / "stats.csv", index=False, float_format="%.3f")
+    plot_summary(labels, folder)
+    n = int(labels["frame"].max()) + 1 if len(labels) else 0
+    if n and (out_dir / "run.mcap").exists():
+        picks = sorted({0, n // 2, n - 1}) if picture_frames >= 3 else [0]
+        frame_pictures(out_dir / "run.mcap", labels, picks, folder)
+    return stats
