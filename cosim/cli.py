@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from cosim.errors import CosimError
+from cosim.sweep import SweepResult
 from gtgen.errors import GtgenError
 from networks.errors import NetworkError
 from sensors.errors import SensorError
@@ -16,7 +17,7 @@ USER_ERRORS = (CosimError, NetworkError, SensorError, GtgenError)
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m cosim", description="SUMO-driven perception dataset factory")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="{run,list}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{run,list,sweep}")
     run = sub.add_parser("run", help="simulate a scenario and write its dataset")
     run.add_argument("scenario", help="a built-in scenario name (see `list`) or a path to a scenario .yaml")
     run.add_argument("--frames", type=int, help="number of frames (overrides the scenario)")
@@ -27,6 +28,16 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.add_argument("--no-summary", action="store_true", help="skip the summary/ statistics and pictures")
     sub.add_parser("list", help="list the built-in scenarios")
+    sweep = sub.add_parser("sweep", help="run a scenario over traffic densities and seeds, one process per run")
+    sweep.add_argument("scenario", help="a built-in scenario name or a path to a scenario .yaml")
+    sweep.add_argument("--density", type=float, nargs="+", default=[], metavar="VEH_PER_LANE_KM")
+    sweep.add_argument("--vehicles", type=int, nargs="+", default=[], metavar="COUNT")
+    sweep.add_argument("--seed", type=int, nargs="+", default=[0], metavar="SEED")
+    sweep.add_argument("--frames", type=int, help="frames per run (overrides the scenario)")
+    sweep.add_argument("--out", type=Path, help="output folder (default: out/<scenario>-sweep)")
+    sweep.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
+    sweep.add_argument("--scheduler", help="a Dask scheduler address (tcp://host:8786) instead of local processes")
+    sweep.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     return parser
 
 
@@ -59,10 +70,35 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from cosim.errors import ScenarioError
+    from cosim.scenario import resolve
+    from cosim.sweep import plan, run_dask, run_local, write_table
+
+    if args.workers < 1:
+        raise ScenarioError(f"sweep: --workers: expected a whole number >= 1, got {args.workers}")
+    overrides = list(args.overrides) + ([f"frames={args.frames}"] if args.frames is not None else [])
+    out_root = args.out if args.out is not None else Path("out") / f"{resolve(args.scenario).stem}-sweep"
+    jobs = plan(args.scenario, out_root, args.density, args.vehicles, args.seed, overrides)
+    out_root.mkdir(parents=True, exist_ok=True)
+
+    def report(result: SweepResult) -> None:
+        status = f"error: {result.error}" if result.error else f"{result.seen_per_frame:.1f} seen objects/frame"
+        print(f"{result.name}: {result.frames} frames in {result.seconds:.0f} s, {status}", flush=True)
+
+    print(f"sweep: {len(jobs)} runs into {out_root}/", flush=True)
+    results = run_dask(jobs, args.scheduler, report) if args.scheduler else run_local(jobs, args.workers, report)
+    write_table(results, out_root / "sweep.csv")
+    failed = [r for r in results if r.error]
+    print(f"wrote {out_root}/sweep.csv ({len(results) - len(failed)} runs done, {len(failed)} failed)")
+    return 1 if failed else 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        return _cmd_list() if args.command == "list" else _cmd_run(args)
+        commands = {"list": lambda: _cmd_list(), "run": lambda: _cmd_run(args), "sweep": lambda: _cmd_sweep(args)}
+        return commands[args.command]()
     except USER_ERRORS as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -71,7 +71,11 @@ def plot_summary(labels: pd.DataFrame, folder: Path) -> None:
     fig, ax = plt.subplots(figsize=(8, 4))
     in_image = labels[labels["camera_visible_px"].fillna(0) > 0]
     bins = in_image.groupby(["type", "visibility_bin"]).size().unstack(fill_value=0)
-    bins.reindex([c for c in classes if c in bins.index]).plot.bar(ax=ax, rot=0)
+    bins = bins.reindex([c for c in classes if c in bins.index])
+    if bins.size:
+        bins.plot.bar(ax=ax, rot=0)
+    else:
+        ax.text(0.5, 0.5, "no object visible in a camera", ha="center", va="center", transform=ax.transAxes)
     ax.set(ylabel="objects", title="Camera visibility bins (1: 0-40 %, 2: 40-60 %, 3: 60-80 %, 4: 80-100 %)")
     _save(fig, folder / "visibility.png")
     fig, ax = plt.subplots(figsize=(8, 4))
