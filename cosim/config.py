@@ -132,7 +132,15 @@ def _dataclass(cls: type, value: Any, source: str, key: str) -> Any:
     try:
         return cls(**kwargs)
     except ValueError as err:
-        raise ScenarioError(f"{source}: {key + '.' if key else ''}{err}") from err
+        raise ScenarioError(f"{source}: {_where(key, str(err), fields)}") from err
+
+
+def _where(key: str, message: str, fields: dict[str, Any]) -> str:
+    """``key.field: ...`` when the message starts with one of the dataclass's fields."""
+    head = message.split(":", 1)[0].split(".", 1)[0].split("[", 1)[0]
+    if head in fields:
+        return f"{key}.{message}" if key else message
+    return f"{key}: {message}" if key else message
 
 
 def set_override(data: dict[str, Any], assignment: str, source: str = "--set") -> None:

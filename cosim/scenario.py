@@ -67,8 +67,8 @@ class SensorsConfig:
 
     def __post_init__(self) -> None:
         names = [s.name for s in self.lidars] + [s.name for s in self.cameras] + [s.name for s in self.radars]
-        _check(len(set(names)) == len(names), "sensors", "distinct sensor names", names)
-        _check(len(self.lidars) + len(self.cameras) + len(self.radars) > 0, "sensors", "at least one sensor", names)
+        _check(len(set(names)) == len(names), "name", "distinct sensor names across lidars, cameras, radars", names)
+        _check(len(self.lidars) + len(self.cameras) + len(self.radars) > 0, "lidars", "at least one sensor", names)
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,4 +156,8 @@ def load_scenario(spec: str, overrides: list[str] | tuple[str, ...] = ()) -> Sce
         if reserved in data:
             raise ScenarioError(f"{path}: {reserved}: unknown key (it is set from the file's name and folder)")
     data = {**data, "name": path.stem, "source_dir": str(path.resolve().parent)}
-    return build(Scenario, data, str(path))
+    scenario = build(Scenario, data, str(path))
+    network = scenario.network_path()
+    if network is not None and not network.is_file():
+        raise ScenarioError(f"{path}: network: OpenDRIVE file {network} not found")
+    return scenario

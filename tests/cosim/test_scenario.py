@@ -70,8 +70,22 @@ def test_yaml_tags_for_python_objects_are_refused(tmp_path):
 
 
 def test_network_path_resolves_relative_to_the_scenario_file(tmp_path):
+    (tmp_path / "maps").mkdir()
+    (tmp_path / "maps" / "my.xodr").write_text("<OpenDRIVE/>")
     path = write(tmp_path, "network: maps/my.xodr\n")
     assert load_scenario(str(path)).network_path() == (tmp_path / "maps" / "my.xodr").resolve()
+
+
+def test_missing_network_file_names_the_scenario_and_the_key(tmp_path):
+    path = write(tmp_path, "network: maps/none.xodr\n")
+    with pytest.raises(ScenarioError, match=r"scene\.yaml: network: OpenDRIVE file .*none\.xodr not found"):
+        load_scenario(str(path))
+
+
+def test_sensor_spec_errors_name_the_sensor_in_the_list(tmp_path):
+    path = write(tmp_path, "network: skeleton\nsensors:\n  lidars:\n    - beams: 0\n")
+    with pytest.raises(ScenarioError, match=r"scene\.yaml: sensors\.lidars\[0\]: .*beams must be 1\.\.512, got 0"):
+        load_scenario(str(path))
 
 
 def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
