@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import hashlib
 import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -29,3 +33,15 @@ def cache_dir(kind: str, key: str) -> Path:
     path = cache_root() / kind / key
     path.mkdir(parents=True, exist_ok=True)
     return path
+
+
+@contextmanager
+def scratch_dir(folder: Path) -> Iterator[Path]:
+    """A private folder inside a cache folder for one writer's partial files (several
+    processes may fill the same cache entry at once); removed afterwards. Finished files
+    are moved into ``folder`` with ``Path.replace``, which is atomic."""
+    scratch = Path(tempfile.mkdtemp(prefix=".scratch-", dir=folder))
+    try:
+        yield scratch
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)

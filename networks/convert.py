@@ -7,7 +7,7 @@ import subprocess
 from pathlib import Path
 from xml.etree import ElementTree
 
-from networks.cache import cache_dir, digest
+from networks.cache import cache_dir, digest, scratch_dir
 from networks.errors import NetconvertError, NetworkError
 from networks.sumo_tools import sumo_binary
 
@@ -82,23 +82,25 @@ def import_opendrive(xodr_path: Path) -> Path:
     net = folder / "net.net.xml"
     if net.exists():
         return net
-    types = folder / "lanes.typ.xml"
-    types.write_text(LANE_TYPES_XML)
-    partial = folder / "net.partial.xml"
-    first_error = error = _run_netconvert(xodr_path, types, partial)
-    text = data.decode("utf-8", "replace")
-    for name, repair in (("signals.xodr", _repair_signals), ("no-georef.xodr", _strip_geo_reference)):
-        if not error:
-            break
-        repaired = repair(text)
-        if repaired == text:
-            continue
-        text = repaired
-        (folder / name).write_text(text)
-        error = _run_netconvert(folder / name, types, partial)
-    if error:
-        raise NetconvertError(f"{xodr_path}: netconvert rejected the file: {first_error}")
-    partial.replace(net)
+    with scratch_dir(folder) as scratch:
+        types = scratch / "lanes.typ.xml"
+        types.write_text(LANE_TYPES_XML)
+        partial = scratch / "net.partial.xml"
+        first_error = error = _run_netconvert(xodr_path, types, partial)
+        text = data.decode("utf-8", "replace")
+        for name, repair in (("signals.xodr", _repair_signals), ("no-georef.xodr", _strip_geo_reference)):
+            if not error:
+                break
+            repaired = repair(text)
+            if repaired == text:
+                continue
+            text = repaired
+            (scratch / name).write_text(text)
+            error = _run_netconvert(scratch / name, types, partial)
+        (scratch / "netconvert.log").replace(folder / "netconvert.log")
+        if error:
+            raise NetconvertError(f"{xodr_path}: netconvert rejected the file: {first_error}")
+        partial.replace(net)
     return net
 
 

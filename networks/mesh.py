@@ -74,7 +74,7 @@ def ribbon(
     shape_m: npt.ArrayLike, width_m: float, cls: SemanticClass, z_offset_m: float = 0.0, wall_height_m: float = 0.0
 ) -> ClassedMesh:
     """A flat strip of ``width_m`` centred on a ``(K, 3)`` polyline, optionally with
-    vertical side walls of ``wall_height_m`` below it (curbs), classed CURB."""
+    vertical walls of ``wall_height_m`` below its sides and ends (curbs), classed CURB."""
     p = np.asarray(shape_m, dtype=np.float64)
     keep = np.concatenate([[True], np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1) > 1e-3])
     p = p[keep]
@@ -89,8 +89,8 @@ def ribbon(
     i = np.arange(k - 1)
     tris = np.concatenate([np.stack([i, k + i, i + 1], 1), np.stack([i + 1, k + i, k + i + 1], 1)])
     parts = [ClassedMesh(verts, tris, np.full(tris.shape[0], cls, np.uint8))]
-    if wall_height_m > 0:
-        for edge in (left, right):
+    if wall_height_m > 0:  # both sides and both ends, so that nothing passes under the strip
+        for edge in (left, right, np.stack([left[0], right[0]]), np.stack([left[-1], right[-1]])):
             parts.append(_wall(edge, wall_height_m, SemanticClass.CURB))
     return merge(parts)
 
@@ -115,6 +115,29 @@ def flat_polygon(polygon: Polygon, z_m: float, cls: SemanticClass) -> ClassedMes
     coords = shapely.get_coordinates(shapely.get_exterior_ring(tris)).reshape(len(tris), 4, 2)[:, :3]
     verts = np.column_stack([coords.reshape(-1, 2), np.full(coords.shape[0] * 3, z_m)])
     return ClassedMesh(verts, np.arange(verts.shape[0]).reshape(-1, 3), np.full(len(tris), cls, np.uint8))
+
+
+def draped_polygon(polygon: Polygon, outline_m: npt.ArrayLike, cls: SemanticClass) -> ClassedMesh:
+    """Triangulate a polygon whose corners lie on a ``(K, 3)`` outline, each vertex at the
+    height of the nearest outline point (the triangulation adds no inner vertices)."""
+    flat = flat_polygon(polygon, 0.0, cls)
+    if flat.num_triangles == 0:
+        return flat
+    outline = np.asarray(outline_m, dtype=np.float64).reshape(-1, 3)
+    xy = flat.vertices_m[:, :2].astype(np.float64)
+    nearest = np.argmin(np.linalg.norm(xy[:, None, :] - outline[None, :, :2], axis=2), axis=1)
+    return ClassedMesh(np.column_stack([xy, outline[nearest, 2]]), flat.triangles, flat.triangle_class)
+
+
+def raised_polygon(polygon: Polygon, top_z_m: float, wall_height_m: float, cls: SemanticClass) -> ClassedMesh:
+    """A polygon at ``top_z_m`` (classed ``cls``) with CURB walls ``wall_height_m`` deep."""
+    if polygon.is_empty or polygon.area < 1e-3:
+        return ClassedMesh.empty()
+    parts = [flat_polygon(polygon, top_z_m, cls)]
+    for ring in (polygon.exterior, *polygon.interiors):
+        xy = np.asarray(ring.coords)
+        parts.append(_wall(np.column_stack([xy, np.full(len(xy), top_z_m)]), wall_height_m, SemanticClass.CURB))
+    return merge(parts)
 
 
 def prism(footprint: Polygon, z0_m: float, height_m: float, cls: SemanticClass) -> ClassedMesh:

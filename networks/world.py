@@ -9,6 +9,7 @@ under the rest. Deterministic by seed, cached by the network's content.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,13 +22,17 @@ from shapely.prepared import prep
 from networks.cache import cache_dir, digest
 from networks.classes import SemanticClass
 from networks.errors import NetworkError
-from networks.mesh import ClassedMesh, box_mesh, flat_polygon, merge, prism, ribbon
+from networks.mesh import ClassedMesh, box_mesh, draped_polygon, flat_polygon, merge, prism, raised_polygon, ribbon
 
-WORLD_VERSION = "2"
+WORLD_VERSION = "9"
 CURB_HEIGHT_M = 0.15
+CURB_WALL_M = CURB_HEIGHT_M + 0.15  # curbs reach below the road and the terrain: no ray slips under a sidewalk
+ROAD_SKIRT_M = 0.15  # below a road's outer edges, deeper than the terrain lies under it
+SEAM_OVERLAP_M = 0.1  # driving-lane strips are this much wider and longer than the lane (no cracks at seams)
 ELEVATED_M = 2.0  # a lane this far above the ground is a bridge deck (with sides and piers)
 DECK_DEPTH_M = 0.8
 PIER_SPACING_M = 30.0
+PIER_CLEARANCE_M = 1.0  # between a pier and a lane or sidewalk under the bridge
 BUILDING_GAP_M = 1.5  # between a building and any paved surface
 PROP_GAP_M = 0.4  # between a pole or tree and any paved surface
 
@@ -56,7 +61,7 @@ def build_world(net_path: Path, seed: int = 0, props: bool = True) -> StaticWorl
             mesh = ClassedMesh(data["vertices_m"], data["triangles"], data["triangle_class"])
             return StaticWorld(mesh, tuple(data["bounds_m"].tolist()), int(data["num_buildings"]))  # type: ignore[arg-type]
     world = _build(load_net(net_path), seed, props)
-    tmp = cached.with_suffix(".partial.npz")
+    tmp = cached.with_suffix(f".{os.getpid()}.partial.npz")  # one per process: others may write it too
     np.savez_compressed(
         tmp,
         vertices_m=world.mesh.vertices_m,
@@ -100,32 +105,86 @@ def _build(net: sumolib.net.Net, seed: int, props: bool) -> StaticWorld:
 
 def _lane_surfaces(net: sumolib.net.Net) -> tuple[list[ClassedMesh], list[Polygon], list[float]]:
     """Lane, sidewalk and crossing strips (with curbs, and bridge decks where a lane passes
-    over another), their 2D footprints and all their heights."""
+    over another), raised walking areas, their 2D footprints and all their heights."""
     parts: list[ClassedMesh] = []
     footprints: list[Polygon] = []
     shapes: list[tuple[np.ndarray, float]] = []
+    walking: list[np.ndarray] = []
+    inside: list[ClassedMesh] = []
     for edge in net.getEdges(withInternal=True):
         function = edge.getFunction()
-        if function == "internal":
-            continue  # junction surfaces cover internal lanes
         for lane in edge.getLanes():
             shape = np.asarray(lane.getShape3D(), dtype=np.float64)
             if shape.shape[0] < 2:
+                continue
+            if function == "walkingarea":  # its shape is an outline, not a centre line
+                walking.append(shape)
+                continue
+            if function == "internal":  # junction surfaces cover most, not all (long ramp links)
+                if lane.getPermissions() - {"pedestrian"}:
+                    inside.append(_road_strip(shape, lane.getWidth(), SemanticClass.ROAD))
                 continue
             cls = _lane_class(lane, function)
             footprints.append(LineString(shape[:, :2]).buffer(lane.getWidth() / 2.0, cap_style="flat"))
             shapes.append((shape, lane.getWidth()))
             if cls == SemanticClass.SIDEWALK:
-                parts.append(ribbon(shape, lane.getWidth(), cls, CURB_HEIGHT_M, CURB_HEIGHT_M))
+                parts.append(ribbon(shape, lane.getWidth(), cls, CURB_HEIGHT_M, CURB_WALL_M))
             elif cls == SemanticClass.CROSSING:
                 parts.append(ribbon(shape, lane.getWidth(), cls, 0.01))
-            else:
-                parts.append(ribbon(shape, lane.getWidth(), cls))
+            else:  # a little wider and longer: neighbours overlap instead of leaving cracks
+                parts.append(_road_strip(shape, lane.getWidth(), cls))
+                outer = lane.getIndex() == 0, lane.getIndex() == len(edge.getLanes()) - 1
+                if any(outer):  # the road's own edge: a skirt, so grazing rays do not slip under it
+                    width = lane.getWidth() + SEAM_OVERLAP_M
+                    parts.append(_side_walls(shape, width, ROAD_SKIRT_M, left=outer[1], right=outer[0]))
     z_values = [float(z) for shape, _ in shapes for z in shape[:, 2]]
     ground = min(z_values) if z_values else 0.0
+    low = [fp for fp, (shape, _) in zip(footprints, shapes, strict=True) if shape[:, 2].max() < ground + ELEVATED_M]
+    below = prep(shapely.union_all(low).buffer(PIER_CLEARANCE_M)) if low else None
     for k in _lanes_over_others(footprints, [shape for shape, _ in shapes]):
-        parts.append(_bridge_deck(shapes[k][0], shapes[k][1], ground))
+        parts.append(_bridge_deck(shapes[k][0], shapes[k][1], ground, below))
+    parts += inside
+    driven = _driven_area(net)
+    for outline in walking:
+        area = Polygon(outline[:, :2]).buffer(0)
+        footprints.append(area)
+        corner = area.difference(driven)
+        top = float(np.mean(outline[:, 2])) + CURB_HEIGHT_M
+        parts += [raised_polygon(p, top, CURB_WALL_M, SemanticClass.SIDEWALK) for p in shapely.get_parts(corner)]
     return parts, footprints, z_values
+
+
+def _road_strip(shape_m: np.ndarray, width_m: float, cls: SemanticClass) -> ClassedMesh:
+    return ribbon(_extended(shape_m, SEAM_OVERLAP_M), width_m + SEAM_OVERLAP_M, cls)
+
+
+def _extended(shape_m: np.ndarray, length_m: float) -> np.ndarray:
+    """A ``(K, 3)`` polyline lengthened by ``length_m`` straight on at both ends (where two
+    strips meet at an angle, the outer side of the bend would otherwise open a wedge)."""
+    step = np.diff(shape_m[:, :2], axis=0)
+    norms = np.linalg.norm(step, axis=1)
+    if not np.any(norms > 1e-6):
+        return shape_m
+    first, last = step[np.argmax(norms > 1e-6)], step[len(step) - 1 - np.argmax(norms[::-1] > 1e-6)]
+    head = shape_m[0].copy()
+    head[:2] -= first / np.linalg.norm(first) * length_m
+    tail = shape_m[-1].copy()
+    tail[:2] += last / np.linalg.norm(last) * length_m
+    return np.vstack([head, shape_m, tail])
+
+
+def _driven_area(net: sumolib.net.Net) -> shapely.Geometry:
+    """Where vehicles drive, junctions' internal lanes included: a walking area's corner is
+    raised as a sidewalk only outside it."""
+    strips = []
+    for edge in net.getEdges(withInternal=True):
+        if edge.getFunction() not in ("", "internal"):
+            continue
+        for lane in edge.getLanes():
+            shape = lane.getShape()
+            if len(shape) >= 2 and lane.getPermissions() - {"pedestrian"}:
+                strips.append(LineString([p[:2] for p in shape]).buffer(lane.getWidth() / 2.0, cap_style="flat"))
+    return shapely.union_all(strips) if strips else Polygon()
 
 
 def _lanes_over_others(footprints: list[Polygon], shapes: list[np.ndarray]) -> list[int]:
@@ -138,15 +197,16 @@ def _lanes_over_others(footprints: list[Polygon], shapes: list[np.ndarray]) -> l
     return sorted({int(i) for i, j in over.T if low[j] < top[i] - ELEVATED_M})
 
 
-def _bridge_deck(shape_m: np.ndarray, width_m: float, ground_z_m: float) -> ClassedMesh:
-    """The deck's sides under an elevated lane, and piers down to the ground (POLE)."""
+def _bridge_deck(shape_m: np.ndarray, width_m: float, ground_z_m: float, below: object) -> ClassedMesh:
+    """The deck's sides under an elevated lane, and piers down to the ground (POLE), but
+    not onto the roads and sidewalks underneath (``below``, prepared, or None)."""
     high = shape_m[:, 2] - ground_z_m > ELEVATED_M + DECK_DEPTH_M
     parts = [ribbon(shape_m, width_m + 0.02, SemanticClass.ROAD, -DECK_DEPTH_M, 0.0)]
     parts[0] = merge([parts[0], _deck_sides(shape_m, width_m)])
     line = LineString(shape_m[:, :2])
     for s in np.arange(PIER_SPACING_M / 2, line.length, PIER_SPACING_M):
         i = int(np.argmin(np.linalg.norm(shape_m[:, :2] - np.asarray(line.interpolate(s).coords[0]), axis=1)))
-        if not high[i]:
+        if not high[i] or (below is not None and below.intersects(Point(shape_m[i, 0], shape_m[i, 1]))):  # type: ignore[attr-defined]
             continue
         height = float(shape_m[i, 2] - DECK_DEPTH_M - ground_z_m)
         pier = box_mesh((0.8, 0.8, height), SemanticClass.POLE)
@@ -157,33 +217,40 @@ def _bridge_deck(shape_m: np.ndarray, width_m: float, ground_z_m: float) -> Clas
 
 def _deck_sides(shape_m: np.ndarray, width_m: float) -> ClassedMesh:
     """Vertical faces along both edges of the deck, ``DECK_DEPTH_M`` deep."""
+    return _side_walls(shape_m, width_m, DECK_DEPTH_M, left=True, right=True)
+
+
+def _side_walls(shape_m: np.ndarray, width_m: float, depth_m: float, left: bool, right: bool) -> ClassedMesh:
+    """ROAD faces hanging ``depth_m`` below the chosen edges of a lane's strip."""
     strip = ribbon(shape_m, width_m, SemanticClass.ROAD)
     k = strip.vertices_m.shape[0] // 2
     if k < 2:
         return ClassedMesh.empty()
-    left, right = strip.vertices_m[:k].astype(np.float64), strip.vertices_m[k:].astype(np.float64)
-    return merge([_hanging_wall(left), _hanging_wall(right)])
+    edges = strip.vertices_m[:k].astype(np.float64), strip.vertices_m[k:].astype(np.float64)
+    return merge([_hanging_wall(e, depth_m) for e, wanted in zip(edges, (left, right), strict=True) if wanted])
 
 
-def _hanging_wall(top: np.ndarray) -> ClassedMesh:
+def _hanging_wall(top: np.ndarray, depth_m: float) -> ClassedMesh:
     k = top.shape[0]
-    verts = np.concatenate([top, top - np.array([0.0, 0.0, DECK_DEPTH_M])])
+    verts = np.concatenate([top, top - np.array([0.0, 0.0, depth_m])])
     i = np.arange(k - 1)
     tris = np.concatenate([np.stack([i, i + 1, k + i], 1), np.stack([i + 1, k + i + 1, k + i], 1)])
     return ClassedMesh(verts, tris, np.full(tris.shape[0], SemanticClass.ROAD, np.uint8))
 
 
 def _junction_surfaces(net: sumolib.net.Net, footprints: list[Polygon]) -> list[ClassedMesh]:
+    """Junction areas, each vertex at its outline point's height (a junction on a slope,
+    where a ramp meets a bridge, is not flat), with a skirt around them."""
     parts = []
     for node in net.getNodes():
-        outline = node.getShape3D()
+        outline = np.asarray(node.getShape3D(), dtype=np.float64)
         if len(outline) < 3:
             continue
-        polygon = Polygon([(x, y) for x, y, _ in outline]).buffer(0)
-        z = float(np.mean([p[2] for p in outline]))
+        polygon = Polygon(outline[:, :2]).buffer(0)
         footprints.append(polygon)
         for piece in shapely.get_parts(polygon):
-            parts.append(flat_polygon(piece, z, SemanticClass.ROAD))
+            parts.append(draped_polygon(piece, outline, SemanticClass.ROAD))
+        parts.append(_hanging_wall(np.concatenate([outline, outline[:1]]), ROAD_SKIRT_M))
     return parts
 
 

@@ -7,7 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from networks.cache import cache_dir, digest
+from networks.cache import cache_dir, digest, scratch_dir
 from networks.plain import PlainNetwork, write_opendrive
 from networks.towns.grid import skeleton_town
 from networks.towns.town03 import town03
@@ -69,7 +69,8 @@ def town_opendrive(name: str, seed: int = 0) -> Path:
     folder = cache_dir("towns", f"{name}-{key}")
     xodr = folder / f"{name}.xodr"
     if not xodr.exists():
-        tmp = folder / f"{name}.partial.xodr"
-        write_opendrive(network, folder, tmp)
-        tmp.replace(xodr)
+        with scratch_dir(folder) as scratch:
+            write_opendrive(network, scratch, scratch / xodr.name)
+            for made in scratch.iterdir():
+                made.replace(folder / made.name)
     return xodr

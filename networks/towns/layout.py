@@ -55,12 +55,16 @@ class TownBuilder:
             if parking:
                 self.parking.append(edge_id)
 
-    def one_way(self, a: str, b: str, style: StreetStyle, via: list[Point] | None = None) -> None:
+    def one_way(
+        self, a: str, b: str, style: StreetStyle, via: list[Point] | None = None, parking: bool = False
+    ) -> None:
         """A one-way street from ``a`` to ``b`` with sidewalks on both sides."""
         self.edges.append(
             PlainEdge(f"{a}-{b}", a, b, style.lanes, style.speed_mps, style.sidewalk_width_m, style.lane_width_m,
                       self._shape(a, b, via), left_sidewalk=True, spread="center")
         )  # fmt: skip
+        if parking:
+            self.parking.append(f"{a}-{b}")
 
     def carriageway(self, a: str, b: str, lanes: int, speed_mps: float, via: list[Point] | None = None) -> None:
         """One motorway carriageway (or ramp) from ``a`` to ``b``: no sidewalk, no pedestrians."""
@@ -86,9 +90,10 @@ def bezier(p0: Point, p1: Point, p2: Point, p3: Point, n: int) -> list[Point]:
     return [(float(x), float(y), float(z)) for x, y, z in pts]
 
 
-def smooth_z(points: list[Point], z0_m: float, z1_m: float) -> list[Point]:
-    """Give interior ``points`` a smooth-step height profile from ``z0_m`` to ``z1_m``."""
-    t = np.linspace(0.0, 1.0, len(points) + 2)[1:-1]
+def smooth_z(points: list[Point], z0_m: float, z1_m: float, t0: float = 0.0, t1: float = 1.0) -> list[Point]:
+    """Give interior ``points`` a smooth-step height profile from ``z0_m`` to ``z1_m``,
+    level before the fraction ``t0`` of the way and after ``t1``."""
+    t = np.clip((np.linspace(0.0, 1.0, len(points) + 2)[1:-1] - t0) / (t1 - t0), 0.0, 1.0)
     z = z0_m + (z1_m - z0_m) * (3 * t**2 - 2 * t**3)
     return [(x, y, float(zz)) for (x, y, _), zz in zip(points, z, strict=True)]
 

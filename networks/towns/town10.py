@@ -32,7 +32,7 @@ def town10(seed: int, blocks: int = 6) -> PlainNetwork:
                 if line in two_way_lines:
                     b.street(a, c, avenue if line == blocks // 2 else street, parking=line != blocks // 2)
                 elif line % 2:
-                    b.one_way(a, c, one_way)
+                    b.one_way(a, c, one_way, parking=True)
                 else:
-                    b.one_way(c, a, one_way)
+                    b.one_way(c, a, one_way, parking=True)
     return b.network()

@@ -127,3 +127,101 @@ def _vertical_hits(tris: np.ndarray, x: float, y: float) -> list[float]:
 def test_urban_towns_expose_street_parking_edges():
     for name in ("town03", "town05", "town10"):
         assert len(town_parking_edges(name)) > 4
+
+
+def _driving_lane_points(net: sumolib.net.Net, rng: np.random.Generator, count: int) -> np.ndarray:
+    """``(count, 3)`` random points on the driving surface (lanes and junction links),
+    anywhere across each lane's width, weighted by length."""
+    lanes = [
+        lane
+        for edge in net.getEdges(withInternal=True)
+        if edge.getFunction() in ("", "internal")
+        for lane in edge.getLanes()
+        if lane.allows("passenger") and len(lane.getShape()) >= 2
+    ]
+    lengths = np.array([lane.getLength() for lane in lanes])
+    points = []
+    for k in rng.choice(len(lanes), size=count, p=lengths / lengths.sum()):
+        shape = np.asarray(lanes[k].getShape3D(), dtype=np.float64)
+        line = LineString(shape[:, :2])
+        s = float(rng.uniform(0.0, line.length))
+        ahead, behind = line.interpolate(min(s + 0.5, line.length)), line.interpolate(max(s - 0.5, 0.0))
+        direction = np.array([ahead.x - behind.x, ahead.y - behind.y])
+        left = np.array([-direction[1], direction[0]]) / max(float(np.linalg.norm(direction)), 1e-9)
+        along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1))])
+        centre = line.interpolate(s)
+        xy = np.array([centre.x, centre.y]) + left * rng.uniform(-0.45, 0.45) * lanes[k].getWidth()
+        points.append((*xy, float(np.interp(s, along, shape[:, 2]))))
+    return np.asarray(points)
+
+
+def _cast(world: StaticWorld, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance to the first hit (inf if none) and the class hit, per ray."""
+    from sensors.o3d import RaycastingScene, o3c
+
+    mesh = world.mesh
+    scene = RaycastingScene()
+    scene.add_triangles(o3c.Tensor.from_numpy(mesh.vertices_m), o3c.Tensor.from_numpy(mesh.triangles.astype(np.uint32)))
+    rays = np.hstack([origins, directions]).astype(np.float32)
+    result = scene.cast_rays(o3c.Tensor.from_numpy(rays))
+    t_hit = result["t_hit"].numpy()
+    row = np.minimum(result["primitive_ids"].numpy(), mesh.num_triangles - 1)
+    return t_hit, np.where(np.isfinite(t_hit), mesh.triangle_class[row], SemanticClass.NONE)
+
+
+def test_the_road_under_a_car_is_solid_wherever_it_drives(town):
+    """Straight down from 1.5 m above any point a car can drive on, the first surface is
+    the road itself: no hole, no sidewalk or junction slab above or below the lane."""
+    _, _, net, world = town
+    points = _driving_lane_points(net, np.random.default_rng(0), 4000)
+    down = np.tile([0.0, 0.0, -1.0], (len(points), 1))
+    t_hit, cls = _cast(world, points + np.array([0.0, 0.0, 1.5]), down)
+    surface_dz = 1.5 - t_hit
+    on_road = np.isin(cls, [SemanticClass.ROAD, SemanticClass.CROSSING]) & (np.abs(surface_dz) < 0.1)
+    assert np.isfinite(t_hit).all()
+    assert not np.any(cls == SemanticClass.TERRAIN)
+    assert on_road.mean() > 0.999, points[~on_road][:5]
+
+
+def test_no_lidar_ray_from_a_car_passes_under_the_road(town):
+    """Rays from 1.8 m above the driving surface, all round and 4 to 25 degrees down (the
+    LiDAR's lower beams), never reach the terrain where a road at ground level lies above
+    it: no crack between lane strips, junctions and curbs lets a ray slip under the road."""
+    _, _, net, world = town
+    rng = np.random.default_rng(1)
+    origins = np.repeat(_driving_lane_points(net, rng, 1000), 50, axis=0) + np.array([0.0, 0.0, 1.8])
+    azimuth = rng.uniform(0.0, 2.0 * np.pi, len(origins))
+    elevation = np.radians(rng.uniform(-25.0, -4.0, len(origins)))
+    directions = np.column_stack(
+        [np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)]
+    )
+    t_hit, cls = _cast(world, origins, directions)
+    assert np.isfinite(t_hit).all()
+    ground_level = [
+        LineString(np.asarray(lane.getShape())[:, :2]).buffer(lane.getWidth() / 2.0, cap_style="flat")
+        for edge in net.getEdges(withInternal=True)
+        if edge.getFunction() != "walkingarea"
+        for lane in edge.getLanes()
+        if len(lane.getShape()) >= 2 and max(p[2] for p in lane.getShape3D()) < 0.5
+    ]
+    paved = shapely.union_all(ground_level).buffer(-0.3)
+    terrain = cls == SemanticClass.TERRAIN
+    hits = origins[terrain] + directions[terrain] * t_hit[terrain, None]
+    under_road = shapely.contains_xy(paved, hits[:, 0], hits[:, 1])
+    assert not under_road.any(), hits[under_road][:5]
+
+
+def test_motorway_ends_turn_back_on_loops_as_wide_as_the_carriageways():
+    """town06's end loops keep every lane (a one-lane loop made all traffic merge into the
+    leftmost lane at the motorway's end) and are real roads, not squashed into a junction."""
+    net = load_net(import_opendrive(town_opendrive("town06")))
+    loops = [
+        e
+        for e in net.getEdges(withInternal=False)
+        if not e.getFunction() and e.getSpeed() < 15.0 and not e.allows("pedestrian") and e.getLaneNumber() >= 3
+    ]
+    assert len(loops) >= 2
+    for edge in loops:
+        assert edge.getLength() > 50.0, edge.getID()
+        for after in edge.getOutgoing():
+            assert len(edge.getConnections(after)) == edge.getLaneNumber(), (edge.getID(), after.getID())
