@@ -76,19 +76,24 @@ def label_frame(
     radar = sum(
         (count_hits(s.instance_id, objects.track_id) for s in hits.radar_scans), np.zeros(len(objects), np.int32)
     )
-    pixels = sum(
-        (count_hits(f.instance_id.ravel(), objects.track_id) for _, f in hits.cameras), np.zeros(len(objects), np.int32)
-    )
+    pixels_per_camera = [count_hits(f.instance_id.ravel(), objects.track_id) for _, f in hits.cameras]
+    pixels = sum(pixels_per_camera, np.zeros(len(objects), np.int32))
     seen = (lidar > 0) | (radar > 0) | (pixels > 0)
     keep = (distance <= range_m) | seen
     kept, kept_map = objects.select(keep), agents_map.select(keep)
-    cameras = tuple(_camera_labels(spec, frame, kept, kept_map, map_SE3_ego) for spec, frame in hits.cameras)
+    cameras = tuple(_camera_labels(spec, frame, kept, kept_map, map_SE3_ego, px[keep])
+                    for (spec, frame), px in zip(hits.cameras, pixels_per_camera, strict=True))  # fmt: skip
     return FrameLabels(frame_index, timestamp_ns, kept, distance[keep], lidar[keep], radar[keep], seen[keep], cameras)
 
 
 def _camera_labels(
-    spec: CameraSpec, frame: CameraFrame, objects: ObjectBoxes, agents_map: AgentBoxes, map_SE3_ego: SE3
+    spec: CameraSpec,
+    frame: CameraFrame,
+    objects: ObjectBoxes,
+    agents_map: AgentBoxes,
+    map_SE3_ego: SE3,
+    visible_px: npt.NDArray[np.int32],
 ) -> CameraLabels:
     boxes = camera_boxes(spec, objects)
-    visibility = camera_visibility(spec, map_SE3_ego, agents_map, boxes.clipped_px, frame.instance_id)
+    visibility = camera_visibility(spec, map_SE3_ego, agents_map, boxes.clipped_px, frame.instance_id, visible_px)
     return CameraLabels(spec.name, boxes, visibility)

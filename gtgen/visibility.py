@@ -2,9 +2,10 @@
 
 For each labelled object, the pixels of its instance mask are its visible pixels. Its
 unoccluded silhouette is found by casting the camera's rays over the object's clipped 2D
-box against the agents alone and keeping the rays that pass through the object, whatever
-lies in front of it. Boxes larger than ``MAX_SAMPLES`` pixels are sampled on a regular
-pixel grid (stride s); visible and silhouette pixels are then counted on the same grid.
+box against the object alone (a small scene of its own mesh), so the rays that pass
+through it count whatever lies in front of it. Boxes larger than ``MAX_SAMPLES`` pixels
+are sampled on a regular pixel grid (stride s); visible and silhouette pixels are then
+counted on the same grid.
 """
 
 from __future__ import annotations
@@ -17,10 +18,8 @@ import numpy.typing as npt
 
 from gtgen.counting import count_hits
 from networks.geometry import SE3
-from networks.mesh import ClassedMesh
 from sensors.agents import AgentBoxes, agent_meshes
 from sensors.camera import CameraSpec
-from sensors.scene import FrameScene
 
 MAX_SAMPLES = 4096
 F64 = npt.NDArray[np.float64]
@@ -90,8 +89,10 @@ def camera_visibility(
     agents_map: AgentBoxes,
     clipped_px: F64,
     instance_mask: npt.NDArray[np.uint32],
+    visible_px: npt.NDArray[np.integer] | None = None,
 ) -> CameraVisibility:
-    """``agents_map`` and ``clipped_px`` are row-aligned (one row per labelled object)."""
+    """``agents_map`` and ``clipped_px`` are row-aligned (one row per labelled object);
+    ``visible_px``: each object's pixels in ``instance_mask``, if the caller counted them already."""
     n = len(agents_map)
     track_ids = agents_map.instance_id
     grids = []
@@ -111,9 +112,10 @@ def camera_visibility(
     vis_count = np.bincount(owner, weights=visible & silhouette, minlength=n)
     with np.errstate(invalid="ignore", divide="ignore"):
         fraction = np.where(sil_count > 0, vis_count / sil_count, 0.0)
-    visible_px = count_hits(instance_mask.ravel(), track_ids).astype(np.int64)
-    fraction = np.where(visible_px > 0, fraction, 0.0)
-    return CameraVisibility(visible_px, fraction, modal_boxes(instance_mask, track_ids), occlusion_level(fraction),
+    counted = count_hits(instance_mask.ravel(), track_ids) if visible_px is None else visible_px
+    mask_px = counted.astype(np.int64)
+    fraction = np.where(mask_px > 0, fraction, 0.0)
+    return CameraVisibility(mask_px, fraction, modal_boxes(instance_mask, track_ids), occlusion_level(fraction),
                             visibility_bin(fraction))  # fmt: skip
 
 
@@ -127,11 +129,8 @@ def _silhouette_hits(
     K = spec.K
     d = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones(u.shape[0])], axis=1)
     d /= np.linalg.norm(d, axis=1, keepdims=True)
+    from sensors.scene import hits_alone  # Open3D loads only where rays are cast, not in the writer process
+
     map_SE3_cam = map_SE3_ego.compose(spec.ego_SE3_cam)
     rays = np.concatenate([np.broadcast_to(map_SE3_cam.translation, d.shape), map_SE3_cam.rotate(d)], axis=1)
-    scene = FrameScene(ClassedMesh.empty(), agent_meshes(agents_map))
-    ray_ids, instance = scene.agent_hits(rays.astype(np.float32))
-    hits = np.zeros(owner.shape[0], bool)
-    own = instance == agents_map.instance_id[owner[ray_ids]]
-    hits[ray_ids[own]] = True
-    return hits
+    return hits_alone(agent_meshes(agents_map), rays.astype(np.float32), agents_map.instance_id[owner])

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -22,10 +23,15 @@ import numpy.typing as npt
 
 from networks.geometry import SE3
 from sensors.errors import SensorConfigError, SensorError
+from sensors.hits import RayHits
 from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAINT_BGR
-from sensors.scene import FrameScene, RayHits
-from sensors.weather import DAY, Weather, add_image_noise, haze_fraction, sky_bgr
+from sensors.view import spheres_in_view
+from sensors.weather import DAY, Weather, haze_fraction, image_noise, sky_bgr
 
+if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
+    from sensors.scene import FrameScene
+
+F64 = npt.NDArray[np.float64]
 EGO_AXES_R_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 """Rotation from the optical frame (x right, y down, z forward) to the camera's body
 axes (x forward, y left, z up): its columns are the optical axes in body axes."""
@@ -69,11 +75,15 @@ class CameraSpec:
         return np.array([[f, 0.0, (self.width_px - 1) / 2.0], [0.0, f, (self.height_px - 1) / 2.0], [0.0, 0.0, 1.0]])
 
     @property
+    def ego_SE3_body(self) -> SE3:
+        """The camera body (x forward, y left, z up) in the ego frame."""
+        r, p, y = np.radians(self.mount_rpy_deg)
+        return SE3.from_xyz_rpy(self.mount_xyz_m, r, p, y)
+
+    @property
     def ego_SE3_cam(self) -> SE3:
         """The optical frame (x right, y down, z forward) in the ego frame."""
-        r, p, y = np.radians(self.mount_rpy_deg)
-        ego_SE3_body = SE3.from_xyz_rpy(self.mount_xyz_m, r, p, y)
-        return ego_SE3_body.compose(SE3(EGO_AXES_R_OPTICAL, np.zeros(3)))
+        return self.ego_SE3_body.compose(SE3(EGO_AXES_R_OPTICAL, np.zeros(3)))
 
 
 @dataclass(frozen=True, slots=True)
@@ -128,12 +138,19 @@ class Camera:
     def shape(self) -> tuple[int, int]:
         return (self.spec.height_px, self.spec.width_px)
 
+    def reaches(self, center_map_m: F64, radius_m: F64, map_SE3_ego: SE3) -> npt.NDArray[np.bool_]:
+        """Which spheres this camera's rays may meet within its range (see :mod:`sensors.view`)."""
+        body_SE3_map = map_SE3_ego.compose(self.spec.ego_SE3_body).inverse()
+        spec = self.spec
+        return spheres_in_view(body_SE3_map, center_map_m, radius_m, spec.range_m, spec.hfov_deg, spec.vfov_deg)
+
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         """``(H * W, 6) float32`` rays in the map frame, row-major over pixels."""
         map_SE3_cam = map_SE3_ego.compose(self.spec.ego_SE3_cam)
         rays = np.empty((self._dirs_cam.shape[0], 6), np.float32)
         rays[:, :3] = map_SE3_cam.translation
-        rays[:, 3:] = self._dirs_cam @ map_SE3_cam.rotation.T.astype(np.float32)
+        rotation = map_SE3_cam.rotation.astype(np.float32)
+        rays[:, 3:] = cv2.transform(self._dirs_cam.reshape(-1, 1, 3), rotation).reshape(-1, 3)
         return rays
 
     def render(
@@ -148,15 +165,27 @@ class Camera:
         w = DAY if weather is None else weather
         rays = self.rays(map_SE3_ego)
         hits = scene.cast(rays)
-        hit = hits.range_m <= np.float32(self.spec.range_m)
-        depth = np.where(hit, hits.range_m * self._dirs_cam[:, 2], np.float32(0.0)).astype(np.float32)
-        inst = np.where(hit, hits.instance_id, np.uint32(0))
-        cls = np.where(hit, hits.semantic_class, np.uint8(0))
-        image = shade(hits, rays[:, 3:6], hit, self._dirs_cam[:, 2], w, self.spec.range_m)
-        add_image_noise(image, w, np.random.default_rng(0) if rng is None else rng)
+        far = hits.range_m > np.float32(self.spec.range_m)  # nothing hit within range
+        depth = hits.range_m * self._dirs_cam[:, 2]
+        depth[far] = 0.0
+        hits.instance_id[far] = 0  # the frame's own arrays; shading paints sky over these pixels
+        hits.semantic_class[far] = 0
+        noise = image_noise(w, np.random.default_rng(0) if rng is None else rng, far.shape[0])
+        image = np.empty((far.shape[0], 3), np.uint8)
+        for start in range(0, far.shape[0], STRIPE_PX):
+            part = slice(start, start + STRIPE_PX)
+            stripe = RayHits(hits.range_m[part], hits.semantic_class[part], hits.instance_id[part], hits.normal[part])
+            shaded = shade(stripe, rays[part, 3:6], ~far[part], self._dirs_cam[part, 2], w, self.spec.range_m)
+            if noise is not None:
+                shaded += noise[part, None]
+            image[part] = to_uint8(shaded)
         h, wd = self.shape
-        return CameraFrame(depth.reshape(h, wd), inst.reshape(h, wd), cls.reshape(h, wd),
-                           to_uint8(image).reshape(h, wd, 3))  # fmt: skip
+        return CameraFrame(depth.reshape(h, wd), hits.instance_id.reshape(h, wd), hits.semantic_class.reshape(h, wd),
+                           image.reshape(h, wd, 3))  # fmt: skip
+
+
+STRIPE_PX = 1 << 15
+"""Pixels shaded at a time: a stripe's arrays stay in the CPU cache through every step."""
 
 
 def to_uint8(image: npt.NDArray[np.float32]) -> npt.NDArray[np.uint8]:
@@ -221,7 +250,13 @@ DEPTH_PNG_MAX_UNITS = 65535
 def depth_to_uint16(depth_m: npt.NDArray[np.floating], units_per_m: float = 1000.0) -> npt.NDArray[np.uint16]:
     """``(H, W) uint16`` depth in ``1 / units_per_m`` metres (millimetres by default); 0 where
     there is no depth or it does not fit (beyond 65.535 m in millimetres)."""
-    units = np.rint(np.asarray(depth_m, dtype=np.float64) * units_per_m)
+    depth = np.asarray(depth_m)
+    exact_in_float32 = depth.dtype == np.float32 and math.frexp(units_per_m)[0] == 0.5  # a power of two
+    units = (
+        np.rint(depth * np.float32(units_per_m))
+        if exact_in_float32
+        else np.rint(depth.astype(np.float64) * units_per_m)
+    )
     valid = np.isfinite(units) & (units > 0) & (units <= DEPTH_PNG_MAX_UNITS)
     return np.where(valid, units, 0).astype(np.uint16)
 

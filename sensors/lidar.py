@@ -9,6 +9,7 @@ returns and adds near spurious ones; day and night change nothing.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -16,7 +17,7 @@ import numpy.typing as npt
 from networks.geometry import SE3
 from sensors.errors import SensorConfigError
 from sensors.materials import REFLECTIVITY_BY_CLASS
-from sensors.scene import FrameScene
+from sensors.view import spheres_in_view
 from sensors.weather import (
     DAY,
     Weather,
@@ -26,6 +27,9 @@ from sensors.weather import (
     lidar_max_range_m,
     lidar_range_noise_m,
 )
+
+if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
+    from sensors.scene import FrameScene
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,6 +105,13 @@ class Lidar:
     @property
     def num_rays(self) -> int:
         return int(self._dirs_lidar.shape[0])
+
+    def reaches(
+        self, center_map_m: npt.NDArray[np.float64], radius_m: npt.NDArray[np.float64], map_SE3_ego: SE3
+    ) -> npt.NDArray[np.bool_]:
+        """Which spheres this LiDAR's rays may meet within its range (see :mod:`sensors.view`)."""
+        lidar_SE3_map = map_SE3_ego.compose(self.spec.ego_SE3_sensor).inverse()
+        return spheres_in_view(lidar_SE3_map, center_map_m, radius_m, self.spec.range_m)
 
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         map_SE3_lidar = map_SE3_ego.compose(self.spec.ego_SE3_sensor)

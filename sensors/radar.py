@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -21,7 +22,10 @@ import numpy.typing as npt
 from networks.geometry import SE3
 from sensors.errors import SensorConfigError
 from sensors.materials import RADAR_REFLECTIVITY_BY_CLASS
-from sensors.scene import FrameScene
+from sensors.view import spheres_in_view
+
+if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
+    from sensors.scene import FrameScene
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,6 +188,15 @@ class Radar:
     @property
     def num_rays(self) -> int:
         return int(self._dirs_radar.shape[0])
+
+    def reaches(
+        self, center_map_m: npt.NDArray[np.float64], radius_m: npt.NDArray[np.float64], map_SE3_ego: SE3
+    ) -> npt.NDArray[np.bool_]:
+        """Which spheres this radar's rays may meet within its range (see :mod:`sensors.view`)."""
+        radar_SE3_map = map_SE3_ego.compose(self.spec.ego_SE3_sensor).inverse()
+        spec = self.spec
+        return spheres_in_view(radar_SE3_map, center_map_m, radius_m, spec.range_m, spec.hfov_deg, spec.vfov_deg,
+                               elevation_fov=True)  # fmt: skip
 
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         map_SE3_radar = map_SE3_ego.compose(self.spec.ego_SE3_sensor)

@@ -7,7 +7,6 @@ mesh of all agents. Every hit carries the class and instance id of its triangle.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -15,23 +14,8 @@ import numpy.typing as npt
 
 from networks.mesh import ClassedMesh
 from sensors.agents import AgentMeshes
+from sensors.hits import RayHits
 from sensors.o3d import INVALID_ID, RaycastingScene, o3c
-
-
-@dataclass(frozen=True, slots=True)
-class RayHits:
-    """Per ray: ``range_m: (N,) float32`` (inf where nothing was hit),
-    ``semantic_class: (N,) uint8``, ``instance_id: (N,) uint32`` (0: static world),
-    ``normal: (N, 3) float32`` unit surface normals in the rays' frame."""
-
-    range_m: npt.NDArray[np.float32]
-    semantic_class: npt.NDArray[np.uint8]
-    instance_id: npt.NDArray[np.uint32]
-    normal: npt.NDArray[np.float32]
-
-    @property
-    def hit(self) -> npt.NDArray[np.bool_]:
-        return np.isfinite(self.range_m)
 
 
 class StaticCrop:
@@ -60,16 +44,22 @@ class StaticCrop:
 
 
 class FrameScene:
-    """One frame's raycasting scene. Rays are ``(N, 6) float32``: origin, unit direction."""
+    """One frame's raycasting scene. Rays are ``(N, 6) float32``: origin, unit direction.
+    The scene's BVH is built here, not by the first cast."""
 
     def __init__(self, static: ClassedMesh, agents: AgentMeshes, nthreads: int = 0) -> None:
         self._scene = RaycastingScene()
         self._nthreads = nthreads
-        self._static_class = static.triangle_class
-        self._agent_class = agents.triangle_class
-        self._agent_instance = agents.triangle_instance
         self._static_id = self._add(static.vertices_m, static.triangles)
         self._agent_id = self._add(agents.vertices_m, agents.triangles)
+        # One row per triangle, static ones first, and a last row for rays that hit nothing.
+        self._agent_row0 = np.uint32(static.triangle_class.shape[0])
+        self._nothing_row = np.uint32(static.triangle_class.shape[0] + agents.triangle_class.shape[0])
+        self._class_of_row = np.concatenate([static.triangle_class, agents.triangle_class, [0]]).astype(np.uint8)
+        self._instance_of_row = np.concatenate(
+            [np.zeros(static.triangle_class.shape[0], np.uint32), agents.triangle_instance, [0]]
+        ).astype(np.uint32)
+        self.cast_open3d(np.zeros((1, 6), np.float32))  # builds the BVH
 
     def _add(self, vertices: npt.NDArray[np.floating[Any]], triangles: npt.NDArray[np.integer[Any]]) -> int:
         if triangles.shape[0] == 0:
@@ -78,34 +68,56 @@ class FrameScene:
         t = o3c.Tensor.from_numpy(np.ascontiguousarray(triangles, dtype=np.uint32))
         return int(self._scene.add_triangles(v, t))
 
-    def agent_hits(self, rays: npt.NDArray[np.float32]) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint32]]:
-        """Every intersection of the rays with agents, not only the nearest: ``(ray index,
-        instance id)`` pairs. Used to render an object's silhouette as if it were alone."""
-        if self._agent_id < 0 or rays.shape[0] == 0:
-            return np.zeros(0, np.int64), np.zeros(0, np.uint32)
-        result = self._scene.list_intersections(o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32)),
-                                                nthreads=self._nthreads)  # fmt: skip
-        ray_ids = result["ray_ids"].numpy().astype(np.int64)
-        geometry = result["geometry_ids"].numpy().astype(np.int64)
-        primitive = result["primitive_ids"].numpy().astype(np.int64)
-        on_agent = geometry == self._agent_id
-        return ray_ids[on_agent], self._agent_instance[primitive[on_agent]]
+    def cast_open3d(self, rays: npt.NDArray[np.float32]) -> dict[str, Any]:
+        """Open3D's own cast (its tensors by name), nothing added: what the benchmark compares to."""
+        tensor = o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32))
+        return dict(self._scene.cast_rays(tensor, nthreads=self._nthreads))
 
     def cast(self, rays: npt.NDArray[np.float32]) -> RayHits:
-        result = self._scene.cast_rays(o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32)),
-                                       nthreads=self._nthreads)  # fmt: skip
+        result = self.cast_open3d(rays)
         t_hit = result["t_hit"].numpy()
-        geometry = result["geometry_ids"].numpy().astype(np.int64)
-        primitive = result["primitive_ids"].numpy().astype(np.int64)
+        geometry = result["geometry_ids"].numpy()
+        row = result["primitive_ids"].numpy()  # becomes the row in the class and instance tables
+        if self._agent_id >= 0 and self._agent_row0 > 0:
+            row[geometry == np.uint32(self._agent_id)] += self._agent_row0
+        np.minimum(row, self._nothing_row, out=row)  # misses (INVALID_ID) -> the last row
+        t_hit[geometry == np.uint32(INVALID_ID)] = np.inf
         normal = result["primitive_normals"].numpy()
-        n = t_hit.shape[0]
-        cls = np.zeros(n, np.uint8)
-        inst = np.zeros(n, np.uint32)
-        on_static = geometry == self._static_id
-        on_agent = geometry == self._agent_id
-        cls[on_static] = self._static_class[primitive[on_static]]
-        cls[on_agent] = self._agent_class[primitive[on_agent]]
-        inst[on_agent] = self._agent_instance[primitive[on_agent]]
-        missed = geometry == INVALID_ID
-        t_hit = np.where(missed, np.inf, t_hit).astype(np.float32)
-        return RayHits(t_hit, cls, inst, normal.astype(np.float32))
+        return RayHits(t_hit, self._class_of_row[row], self._instance_of_row[row], normal)
+
+
+def hits_alone(
+    agents: AgentMeshes, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]
+) -> npt.NDArray[np.bool_]:
+    """Whether ray ``i`` hits agent ``instance_id[i]`` with every other agent (and the static
+    world) taken away: the object's silhouette as if it were alone. One small scene per agent."""
+    hit = np.zeros(rays.shape[0], np.bool_)
+    if rays.shape[0] == 0 or agents.triangles.shape[0] == 0:
+        return hit
+    triangles_of = _triangle_runs(agents.triangle_instance)
+    order = np.argsort(instance_id, kind="stable")
+    ids = instance_id[order]
+    bounds = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1], True])
+    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+        run = triangles_of.get(int(ids[a]))
+        if run is not None:
+            mine = order[a:b]
+            hit[mine] = _cast_one(agents.vertices_m, agents.triangles[run[0] : run[1]], rays[mine])
+    return hit
+
+
+def _triangle_runs(triangle_instance: npt.NDArray[np.uint32]) -> dict[int, tuple[int, int]]:
+    """Instance id -> its ``[start, end)`` triangles (an agent's triangles are contiguous)."""
+    starts = np.flatnonzero(np.r_[True, triangle_instance[1:] != triangle_instance[:-1]])
+    ends = np.r_[starts[1:], triangle_instance.shape[0]]
+    return {int(i): (int(a), int(b)) for i, a, b in zip(triangle_instance[starts], starts, ends, strict=True)}
+
+
+def _cast_one(vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32],
+              rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:  # fmt: skip
+    first, last = int(triangles.min()), int(triangles.max())
+    scene = RaycastingScene()
+    scene.add_triangles(o3c.Tensor.from_numpy(np.ascontiguousarray(vertices[first : last + 1])),
+                        o3c.Tensor.from_numpy((triangles - first).astype(np.uint32)))  # fmt: skip
+    result = scene.cast_rays(o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32)), nthreads=1)
+    return np.asarray(result["geometry_ids"].numpy() != np.uint32(INVALID_ID))

@@ -13,7 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sensors.errors import SensorConfigError
-from sensors.scene import RayHits
+from sensors.hits import RayHits
 
 BGR = tuple[float, float, float]
 
@@ -159,8 +159,9 @@ def sky_bgr(weather: Weather, dir_z_map: npt.NDArray[np.float32]) -> npt.NDArray
     return horizon + t[:, None] * (zenith - horizon)
 
 
-def add_image_noise(image: npt.NDArray[np.float32], weather: Weather, rng: np.random.Generator) -> None:
-    """Add Gaussian sensor noise to an ``(..., 3) float32`` image in place (nothing if sigma is 0)."""
-    if weather.noise_sigma > 0:
-        noise = rng.standard_normal(image.shape[:-1], dtype=np.float32)
-        image += (np.float32(weather.noise_sigma) * noise)[..., None]
+def image_noise(weather: Weather, rng: np.random.Generator, pixels: int) -> npt.NDArray[np.float32] | None:
+    """``(pixels,) float32`` Gaussian sensor noise drawn from ``rng`` (None, and nothing drawn,
+    when sigma is 0); the same for every colour channel of a pixel."""
+    if weather.noise_sigma <= 0:
+        return None
+    return np.float32(weather.noise_sigma) * rng.standard_normal(pixels, dtype=np.float32)

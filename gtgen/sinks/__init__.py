@@ -1,18 +1,25 @@
 """Dataset writers. Each takes :class:`gtgen.frame.FrameRecord` objects in frame order.
 
-A sink writes into a ``*.partial`` path and moves it into place on ``close()``, so an
-interrupted run never leaves a file that looks complete.
+A sink works in two steps per frame: ``encode`` (pure computation: images, messages,
+text; the frame's :class:`~gtgen.sinks.images.FrameImages` is shared by all sinks) and
+``write`` (file access only). It writes into a ``*.partial`` path and moves it into place
+on ``close()``, so an interrupted run never leaves a file that looks complete.
+:class:`~gtgen.sinks.group.SinkGroup` drives a list of sinks in this process,
+:class:`~gtgen.sinks.background.BackgroundSinks` the same in a writer process.
 """
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Any, Protocol
 
 from gtgen.frame import FrameRecord
+from gtgen.sinks.images import FrameImages
 
 
 class Sink(Protocol):
-    def write(self, record: FrameRecord) -> None: ...
+    def encode(self, record: FrameRecord, images: FrameImages) -> Any: ...
+
+    def write(self, encoded: Any) -> None: ...
 
     def close(self) -> None: ...
 

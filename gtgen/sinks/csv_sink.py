@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from gtgen.frame import FrameRecord
+from gtgen.sinks.images import FrameImages
 from gtgen.table import COLUMNS, format_rows, label_table
 
 
@@ -15,10 +16,12 @@ class CsvSink:
         self._file = self._partial.open("w", encoding="utf-8", newline="\n")
         self._file.write(",".join(COLUMNS) + "\n")
 
-    def write(self, record: FrameRecord) -> None:
+    def encode(self, record: FrameRecord, images: FrameImages) -> str:
         rows = format_rows(label_table(record.labels))
-        if rows:
-            self._file.write("\n".join(rows) + "\n")
+        return "".join(row + "\n" for row in rows)
+
+    def write(self, encoded: str) -> None:
+        self._file.write(encoded)
 
     def close(self) -> None:
         self._file.close()
@@ -26,3 +29,4 @@ class CsvSink:
 
     def abort(self) -> None:
         self._file.close()
+        self._partial.unlink(missing_ok=True)

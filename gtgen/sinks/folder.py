@@ -5,6 +5,8 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+from gtgen.errors import SinkError
+
 
 class PartialFolder:
     def __init__(self, final: Path, subfolders: tuple[str, ...]) -> None:
@@ -14,6 +16,15 @@ class PartialFolder:
             shutil.rmtree(self.partial)
         for sub in subfolders:
             (self.partial / sub).mkdir(parents=True, exist_ok=True)
+
+    def write_files(self, files: dict[str, bytes]) -> None:
+        """Write ``files`` (contents by path relative to the folder) under the partial folder."""
+        for relative, data in files.items():
+            path = self.partial / relative
+            try:
+                path.write_bytes(data)
+            except OSError as err:
+                raise SinkError(f"{path}: cannot write: {err.strerror}") from err
 
     def commit(self) -> None:
         if self.final.exists():

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import cv2
 import numpy as np
 import numpy.typing as npt
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
@@ -27,12 +26,11 @@ from foxglove_schemas_protobuf.TextAnnotation_pb2 import TextAnnotation
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf.timestamp_pb2 import Timestamp
 
-from gtgen.errors import SinkError
 from gtgen.frame import CameraOutput, LidarOutput, RadarOutput
 from gtgen.labels import CameraLabels, FrameLabels
+from gtgen.sinks.images import FrameImages
 from networks.classes import SemanticClass
 from networks.geometry import SE3
-from sensors.camera import encode_depth_png
 
 _F = PackedElementField
 LIDAR_POINT_DTYPE = np.dtype(
@@ -134,26 +132,15 @@ def _compressed(ns: int, frame_id: str, fmt: str, data: bytes) -> CompressedImag
     return CompressedImage(timestamp=timestamp(ns), frame_id=frame_id, format=fmt, data=data)
 
 
-def _encode(ext: str, image: npt.NDArray[Any], params: list[int]) -> bytes:
-    ok, buf = cv2.imencode(ext, image, params)
-    if not ok:
-        raise SinkError(f"could not encode a {ext} image")
-    return bytes(buf)
-
-
-def camera_messages(ns: int, camera: CameraOutput) -> dict[str, object]:
-    """Shaded image (JPEG), depth (16-bit PNG, 1/256 m), instance ids (16-bit PNG), classes (8-bit PNG)."""
-    frame, name = camera.frame, camera.spec.name
-    if frame.instance_id.size and int(frame.instance_id.max()) > 0xFFFF:
-        raise SinkError("instance ids above 65535 do not fit the 16-bit instance mask")
-    png = [cv2.IMWRITE_PNG_COMPRESSION, 1]
+def camera_messages(ns: int, camera: CameraOutput, images: FrameImages, index: int) -> dict[str, object]:
+    """Shaded image (JPEG), depth (16-bit PNG, 1/256 m), instance ids (16-bit PNG), classes (8-bit PNG)
+    of camera ``index`` of the frame."""
+    name = camera.spec.name
     return {
-        "image": _compressed(
-            ns, name, "jpeg", _encode(".jpg", frame.image_bgr, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
-        ),
-        "depth": _compressed(ns, name, "png", encode_depth_png(frame.depth_m, DEPTH_UNITS_PER_M)),
-        "instance": _compressed(ns, name, "png", _encode(".png", frame.instance_id.astype(np.uint16), png)),
-        "class": _compressed(ns, name, "png", _encode(".png", frame.semantic_class, png)),
+        "image": _compressed(ns, name, "jpeg", images.jpeg(index, JPEG_QUALITY)),
+        "depth": _compressed(ns, name, "png", images.depth_png(index, DEPTH_UNITS_PER_M)),
+        "instance": _compressed(ns, name, "png", images.instance_png(index)),
+        "class": _compressed(ns, name, "png", images.class_png(index)),
     }
 
 

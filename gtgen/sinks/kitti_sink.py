@@ -1,7 +1,7 @@
 """``kitti/``: the KITTI object-detection layout (image_2, velodyne, label_2, calib).
 
 One frame per file, named by frame index (``000000``). Images are the first camera's
-shaded image (PNG); ``velodyne`` holds the first LiDAR's points as float32 x, y, z,
+shaded image (lossless PNG); ``velodyne`` holds the first LiDAR's points as float32 x, y, z,
 intensity in the LiDAR frame (x forward, y left, z up, like KITTI's Velodyne).
 Labels list the objects whose projected box overlaps the image and that some sensor
 saw; boxes and alpha follow KITTI's definitions, ``location`` is the bottom centre of
@@ -12,12 +12,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.sinks.folder import PartialFolder
+from gtgen.sinks.images import FrameImages
 from networks.classes import SemanticClass
 
 KITTI_TYPES = {
@@ -38,26 +38,29 @@ class KittiSink:
     def __init__(self, folder: Path) -> None:
         self._folder = PartialFolder(folder, ("image_2", "velodyne", "label_2", "calib"))
 
-    def write(self, record: FrameRecord) -> None:
+    def encode(self, record: FrameRecord, images: FrameImages) -> dict[str, bytes]:
+        """The frame's files, by path relative to the ``kitti`` folder."""
         if not record.cameras or not record.lidars:
             raise SinkError("the KITTI layout needs at least one camera and one LiDAR in the rig")
-        root, name = self._folder.partial, f"{record.frame_index:06d}"
+        name = f"{record.frame_index:06d}"
         camera, lidar, cam_labels = record.cameras[0], record.lidars[0], record.labels.cameras[0]
-        if not cv2.imwrite(
-            str(root / "image_2" / f"{name}.png"), camera.frame.image_bgr, [cv2.IMWRITE_PNG_COMPRESSION, 1]
-        ):
-            raise SinkError(f"{root / 'image_2'}: cannot write {name}.png")
         points = np.column_stack([lidar.scan.xyz_lidar_m, lidar.scan.intensity]).astype("<f4")
-        points.tofile(root / "velodyne" / f"{name}.bin")
         cam_SE3_ego = camera.spec.ego_SE3_cam.inverse()
-        (root / "label_2" / f"{name}.txt").write_text(self._labels(record, cam_SE3_ego, cam_labels))
         cam_SE3_lidar = cam_SE3_ego.compose(lidar.spec.ego_SE3_sensor)
         lidar_SE3_ego = lidar.spec.ego_SE3_sensor.inverse()
         P = np.hstack([camera.spec.K, np.zeros((3, 1))])
         lines = [_matrix_line(f"P{i}", P) for i in range(4)]
         lines += [_matrix_line("R0_rect", np.eye(3)), _matrix_line("Tr_velo_to_cam", cam_SE3_lidar.as_matrix()[:3]),
                   _matrix_line("Tr_imu_to_velo", lidar_SE3_ego.as_matrix()[:3])]  # fmt: skip
-        (root / "calib" / f"{name}.txt").write_text("\n".join(lines) + "\n")
+        return {
+            f"image_2/{name}.png": images.png(0),
+            f"velodyne/{name}.bin": points.tobytes(),
+            f"label_2/{name}.txt": self._labels(record, cam_SE3_ego, cam_labels).encode(),
+            f"calib/{name}.txt": ("\n".join(lines) + "\n").encode(),
+        }
+
+    def write(self, encoded: dict[str, bytes]) -> None:
+        self._folder.write_files(encoded)
 
     @staticmethod
     def _labels(record: FrameRecord, cam_SE3_ego, cam_labels) -> str:  # type: ignore[no-untyped-def]

@@ -14,10 +14,13 @@ Log and publish times are simulation time in nanoseconds.
 from __future__ import annotations
 
 import json
+import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
@@ -25,6 +28,7 @@ from mcap_protobuf.schema import register_schema
 
 from gtgen.frame import FrameRecord
 from gtgen.sinks import foxglove as fx
+from gtgen.sinks.images import FrameImages
 from gtgen.table import COLUMNS, label_table
 
 LABELS_SCHEMA = {
@@ -37,12 +41,62 @@ LABELS_SCHEMA = {
 }
 
 
-def _json_value(value: Any) -> Any:
-    if isinstance(value, np.floating):
-        return None if not np.isfinite(value) else round(float(value), 5)
-    if isinstance(value, np.integer):
-        return int(value)
-    return str(value)
+def json_column(values: npt.NDArray[np.generic]) -> list[Any]:
+    """A label column as JSON values: floats rounded to 5 decimals (null if not finite),
+    integers as such, anything else as text."""
+    if values.dtype.kind == "f":
+        return [round(v, 5) if math.isfinite(v) else None for v in values.tolist()]
+    if values.dtype.kind in "iu":
+        return list(values.tolist())
+    return [str(v) for v in values.tolist()]
+
+
+@dataclass(frozen=True, slots=True)
+class McapMessage:
+    """One serialized message: ``proto`` is its protobuf class (None: JSON labels)."""
+
+    topic: str
+    proto: type | None
+    data: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class McapFrame:
+    timestamp_ns: int
+    messages: tuple[McapMessage, ...]
+
+
+def _serialized(topic: str, message: Any) -> McapMessage:
+    if isinstance(message, dict):
+        return McapMessage(topic, None, json.dumps(message, separators=(",", ":")).encode())
+    return McapMessage(topic, type(message), message.SerializeToString())
+
+
+def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, Any]]:
+    """Every message of one frame, in write order, as ``(topic, protobuf message or JSON dict)``."""
+    ns = record.timestamp_ns
+    transforms = [fx.frame_transform(ns, "map", "ego", record.map_SE3_ego)]
+    transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in record.lidars]
+    transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in record.radars]
+    transforms += [fx.frame_transform(ns, "ego", c.spec.name, c.spec.ego_SE3_cam) for c in record.cameras]
+    out: list[tuple[str, Any]] = [("/tf", FrameTransforms(transforms=transforms))]
+    out += [(f"/{lidar.spec.name}", fx.lidar_cloud(ns, lidar)) for lidar in record.lidars]
+    out += [(f"/{radar.spec.name}", fx.radar_cloud(ns, radar)) for radar in record.radars]
+    for index, (camera, cam_labels) in enumerate(zip(record.cameras, record.labels.cameras, strict=True)):
+        base = f"/{camera.spec.name}"
+        out += [(f"{base}/{kind}", m) for kind, m in fx.camera_messages(ns, camera, images, index).items()]
+        out.append((f"{base}/calibration", fx.calibration(ns, camera)))
+        out.append((f"{base}/annotations", fx.image_annotations(ns, record.labels, cam_labels)))
+    out.append(("/gt/boxes", fx.box_update(ns, record.labels)))
+    out.append(("/gt/labels", labels_json(record)))
+    return out
+
+
+def labels_json(record: FrameRecord) -> dict[str, Any]:
+    table = label_table(record.labels)
+    columns = [json_column(table[c]) for c in COLUMNS]
+    objects = [dict(zip(COLUMNS, row, strict=True)) for row in zip(*columns, strict=True)]
+    return {"frame": record.frame_index, "timestamp_ns": record.timestamp_ns, "objects": objects}
 
 
 class McapSink:
@@ -54,52 +108,28 @@ class McapSink:
         self._writer.start(profile="", library="sumo-dataset-factory")
         self._channels: dict[str, int] = {}
 
-    def _channel(self, topic: str, message: Any) -> int:
-        channel = self._channels.get(topic)
+    def _channel(self, message: McapMessage) -> int:
+        channel = self._channels.get(message.topic)
         if channel is None:
-            if isinstance(message, dict):
+            if message.proto is None:
                 schema = self._writer.register_schema(
                     "gt.FrameLabels", "jsonschema", json.dumps(LABELS_SCHEMA).encode()
                 )
-                channel = self._writer.register_channel(topic, "json", schema)
+                channel = self._writer.register_channel(message.topic, "json", schema)
             else:
-                channel = self._writer.register_channel(topic, "protobuf", register_schema(self._writer, type(message)))
-            self._channels[topic] = channel
+                schema = register_schema(self._writer, message.proto)
+                channel = self._writer.register_channel(message.topic, "protobuf", schema)
+            self._channels[message.topic] = channel
         return channel
 
-    def _put(self, topic: str, message: Any, ns: int) -> None:
-        data = (
-            json.dumps(message, separators=(",", ":")).encode()
-            if isinstance(message, dict)
-            else message.SerializeToString()
-        )
-        self._writer.add_message(self._channel(topic, message), log_time=ns, data=data, publish_time=ns)
+    def encode(self, record: FrameRecord, images: FrameImages) -> McapFrame:
+        messages = tuple(_serialized(topic, m) for topic, m in frame_messages(record, images))
+        return McapFrame(record.timestamp_ns, messages)
 
-    def write(self, record: FrameRecord) -> None:
-        ns = record.timestamp_ns
-        transforms = [fx.frame_transform(ns, "map", "ego", record.map_SE3_ego)]
-        transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in record.lidars]
-        transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in record.radars]
-        transforms += [fx.frame_transform(ns, "ego", c.spec.name, c.spec.ego_SE3_cam) for c in record.cameras]
-        self._put("/tf", FrameTransforms(transforms=transforms), ns)
-        for lidar in record.lidars:
-            self._put(f"/{lidar.spec.name}", fx.lidar_cloud(ns, lidar), ns)
-        for radar in record.radars:
-            self._put(f"/{radar.spec.name}", fx.radar_cloud(ns, radar), ns)
-        for camera, cam_labels in zip(record.cameras, record.labels.cameras, strict=True):
-            base = f"/{camera.spec.name}"
-            for kind, message in fx.camera_messages(ns, camera).items():
-                self._put(f"{base}/{kind}", message, ns)
-            self._put(f"{base}/calibration", fx.calibration(ns, camera), ns)
-            self._put(f"{base}/annotations", fx.image_annotations(ns, record.labels, cam_labels), ns)
-        self._put("/gt/boxes", fx.box_update(ns, record.labels), ns)
-        self._put("/gt/labels", self._labels_json(record), ns)
-
-    @staticmethod
-    def _labels_json(record: FrameRecord) -> dict[str, Any]:
-        table = label_table(record.labels)
-        objects = [{c: _json_value(table[c][i]) for c in COLUMNS} for i in range(len(record.labels))]
-        return {"frame": record.frame_index, "timestamp_ns": record.timestamp_ns, "objects": objects}
+    def write(self, encoded: McapFrame) -> None:
+        ns = encoded.timestamp_ns
+        for message in encoded.messages:
+            self._writer.add_message(self._channel(message), log_time=ns, data=message.data, publish_time=ns)
 
     def close(self) -> None:
         self._writer.finish()
@@ -108,3 +138,4 @@ class McapSink:
 
     def abort(self) -> None:
         self._stream.close()
+        self._partial.unlink(missing_ok=True)

@@ -8,17 +8,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import cv2
 import numpy as np
 import yaml
 
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.sinks.folder import PartialFolder
+from gtgen.sinks.images import FrameImages
 from networks.classes import SemanticClass
 
 YOLO_CLASSES = (SemanticClass.CAR, SemanticClass.TRUCK, SemanticClass.BUS, SemanticClass.MOTORCYCLE,
                 SemanticClass.BICYCLE, SemanticClass.PEDESTRIAN)  # fmt: skip
+JPEG_QUALITY = 92
 _INDEX = np.full(256, -1, np.int64)
 for _i, _c in enumerate(YOLO_CLASSES):
     _INDEX[int(_c)] = _i
@@ -29,15 +30,12 @@ class YoloSink:
         self._folder = PartialFolder(folder, ("images", "labels"))
         self._min_visible_px = min_visible_px
 
-    def write(self, record: FrameRecord) -> None:
+    def encode(self, record: FrameRecord, images: FrameImages) -> dict[str, bytes]:
+        """The frame's files, by path relative to the ``yolo`` folder."""
         if not record.cameras:
             raise SinkError("the YOLO layout needs at least one camera in the rig")
-        root, name = self._folder.partial, f"{record.frame_index:06d}"
+        name = f"{record.frame_index:06d}"
         camera, cam = record.cameras[0], record.labels.cameras[0]
-        if not cv2.imwrite(
-            str(root / "images" / f"{name}.jpg"), camera.frame.image_bgr, [cv2.IMWRITE_JPEG_QUALITY, 92]
-        ):
-            raise SinkError(f"{root / 'images'}: cannot write {name}.jpg")
         cls = _INDEX[record.labels.objects.semantic_class]
         keep = (cam.visibility.visible_px >= self._min_visible_px) & (cls >= 0)
         box = cam.visibility.modal_px[keep]
@@ -46,7 +44,13 @@ class YoloSink:
         cx, cy = (box[:, 0] + box[:, 2] + 1.0) / 2.0 / w, (box[:, 1] + box[:, 3] + 1.0) / 2.0 / h
         bw, bh = (box[:, 2] - box[:, 0] + 1.0) / w, (box[:, 3] - box[:, 1] + 1.0) / h
         rows = [f"{c} {x:.6f} {y:.6f} {a:.6f} {b:.6f}" for c, x, y, a, b in zip(cls[keep], cx, cy, bw, bh, strict=True)]
-        (root / "labels" / f"{name}.txt").write_text("".join(r + "\n" for r in rows))
+        return {
+            f"images/{name}.jpg": images.jpeg(0, JPEG_QUALITY),
+            f"labels/{name}.txt": "".join(r + "\n" for r in rows).encode(),
+        }
+
+    def write(self, encoded: dict[str, bytes]) -> None:
+        self._folder.write_files(encoded)
 
     def close(self) -> None:
         data = {"path": str(self._folder.final.resolve()), "train": "images", "val": "images",

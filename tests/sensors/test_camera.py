@@ -9,11 +9,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import sensors.camera as camera_module
 from networks.classes import SemanticClass
 from networks.geometry import SE3
 from sensors.agents import box_corners_map
 from sensors.camera import Camera, CameraFrame, CameraSpec, depth_to_uint16, encode_depth_png, project_points
 from sensors.errors import SensorConfigError
+from sensors.weather import weather_preset
 
 SMALL = CameraSpec(width_px=160, height_px=90)
 
@@ -147,3 +149,18 @@ def test_depth_png_holds_millimetres_and_zero_where_unknown(filter_up: bool) -> 
     assert decoded.dtype == np.uint16
     np.testing.assert_array_equal(decoded, [[0, 1234, 65535], [0, 0, 10000]])
     np.testing.assert_array_equal(decoded, depth_to_uint16(depth))
+
+
+@pytest.mark.parametrize("weather", ["day", "night", "fog"])
+def test_shading_in_stripes_gives_the_image_of_one_pass(
+    synth: SimpleNamespace, monkeypatch: pytest.MonkeyPatch, weather: str
+) -> None:
+    boxes = synth.agents([(7, SemanticClass.CAR, 15.0, 0.0, 0.75, 4.5, 1.8, 1.5, 0.3)])
+    scene = synth.scene([synth.ground(), synth.wall_at_x(150.0)], boxes)
+    camera, w = Camera(CameraSpec(width_px=200, height_px=120)), weather_preset(weather)
+    monkeypatch.setattr(camera_module, "STRIPE_PX", 4000)  # 6 stripes, the last one short
+    striped = camera.render(scene, SE3.identity(), w, np.random.default_rng(1))
+    monkeypatch.setattr(camera_module, "STRIPE_PX", 10**9)
+    whole = camera.render(scene, SE3.identity(), w, np.random.default_rng(1))
+    for name in ("depth_m", "instance_id", "semantic_class", "image_bgr"):
+        np.testing.assert_array_equal(getattr(striped, name), getattr(whole, name), err_msg=name)

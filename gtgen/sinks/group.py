@@ -1,0 +1,84 @@
+"""The sinks of one run, chosen by :class:`SinkChoice` and driven together in this process."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from gtgen.frame import FrameRecord
+from gtgen.sinks import Sink
+from gtgen.sinks.csv_sink import CsvSink
+from gtgen.sinks.images import FrameImages
+from gtgen.sinks.kitti_sink import KittiSink
+from gtgen.sinks.mcap_sink import McapSink
+from gtgen.sinks.yolo_sink import YoloSink
+from gtgen.timing import NO_CLOCK, StageClock
+
+
+@dataclass(frozen=True, slots=True)
+class SinkChoice:
+    """Which outputs to write under ``out_dir``: ``run.mcap``, ``labels.csv``, ``kitti/``, ``yolo/``."""
+
+    out_dir: Path
+    mcap: bool = True
+    csv: bool = True
+    kitti: bool = True
+    yolo: bool = True
+    yolo_min_visible_px: int = 25
+
+    def partial_paths(self) -> list[Path]:
+        """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
+        names = {"mcap": "run.mcap", "csv": "labels.csv", "kitti": "kitti", "yolo": "yolo"}
+        return [self.out_dir / f"{name}.partial" for kind, name in names.items() if getattr(self, kind)]
+
+
+def _open_one(choice: SinkChoice, kind: str) -> Sink:
+    if kind == "mcap":
+        return McapSink(choice.out_dir / "run.mcap")
+    if kind == "csv":
+        return CsvSink(choice.out_dir / "labels.csv")
+    if kind == "kitti":
+        return KittiSink(choice.out_dir / "kitti")
+    return YoloSink(choice.out_dir / "yolo", choice.yolo_min_visible_px)
+
+
+class SinkGroup:
+    """Every chosen sink; a frame is encoded by all of them first, then written."""
+
+    def __init__(self, sinks: list[Sink], clock: StageClock = NO_CLOCK) -> None:
+        self._sinks = sinks
+        self._clock = clock
+
+    @classmethod
+    def open(cls, choice: SinkChoice, clock: StageClock = NO_CLOCK) -> SinkGroup:
+        """Open the chosen sinks; if one cannot be opened, those already open are aborted."""
+        kinds = [k for k in ("mcap", "csv", "kitti", "yolo") if getattr(choice, k)]
+        group = cls([], clock)
+        try:
+            for kind in kinds:
+                group._sinks.append(_open_one(choice, kind))
+        except BaseException:
+            group.abort()
+            raise
+        return group
+
+    def write(self, record: FrameRecord) -> None:
+        with self._clock.stage("encode"):
+            images = FrameImages(record.cameras)
+            encoded = [sink.encode(record, images) for sink in self._sinks]
+        with self._clock.stage("write"):
+            for sink, data in zip(self._sinks, encoded, strict=True):
+                sink.write(data)
+
+    def close(self) -> None:
+        """Close every sink (files move into place); if one fails, the rest are aborted."""
+        for i, sink in enumerate(self._sinks):
+            try:
+                sink.close()
+            except BaseException:
+                SinkGroup(self._sinks[i + 1 :]).abort()
+                raise
+
+    def abort(self) -> None:
+        for sink in self._sinks:
+            sink.abort()

@@ -1,0 +1,76 @@
+"""The encoded camera images of one frame, each made once however many sinks use it.
+
+MCAP, KITTI and YOLO all write the first camera's image; one :class:`FrameImages` per
+frame is handed to every sink, so an encoding asked for twice is encoded once.
+PNGs use zlib level 1 with the UP filter (lossless: the same pixels as any other level,
+a third of level 3's time).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from gtgen.errors import SinkError
+from gtgen.frame import CameraOutput
+from sensors.camera import depth_to_uint16
+
+PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 1, cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_UP]
+
+
+def encode(ext: str, image: npt.NDArray[Any], params: list[int]) -> bytes:
+    ok, buf = cv2.imencode(ext, image, params)
+    if not ok:
+        raise SinkError(f"could not encode a {ext} image")
+    return buf.tobytes()
+
+
+class FrameImages:
+    """Lazily encoded images of ``cameras`` (the frame's camera outputs, rig order)."""
+
+    def __init__(self, cameras: tuple[CameraOutput, ...]) -> None:
+        self._cameras = cameras
+        self._done: dict[tuple[object, ...], bytes] = {}
+
+    def _once(self, key: tuple[object, ...], make: Callable[[], bytes]) -> bytes:
+        data = self._done.get(key)
+        if data is None:
+            data = make()
+            self._done[key] = data
+        return data
+
+    def jpeg(self, camera: int, quality: int) -> bytes:
+        """The shaded image as a JPEG of ``quality`` (0..100)."""
+        image = self._cameras[camera].frame.image_bgr
+        return self._once(("jpeg", camera, quality), lambda: encode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality]))
+
+    def png(self, camera: int) -> bytes:
+        """The shaded image as a lossless 8-bit BGR PNG."""
+        image = self._cameras[camera].frame.image_bgr
+        return self._once(("png", camera), lambda: encode(".png", image, PNG_PARAMS))
+
+    def depth_png(self, camera: int, units_per_m: float) -> bytes:
+        """z-depth as a 16-bit PNG in ``1 / units_per_m`` metres (0: nothing, or out of range)."""
+        depth = self._cameras[camera].frame.depth_m
+        return self._once(("depth", camera, units_per_m),
+                          lambda: encode(".png", depth_to_uint16(depth, units_per_m), PNG_PARAMS))  # fmt: skip
+
+    def instance_png(self, camera: int) -> bytes:
+        """Instance ids as a 16-bit PNG (0: static world or nothing)."""
+        ids = self._cameras[camera].frame.instance_id
+        return self._once(("instance", camera), lambda: encode(".png", _uint16_ids(ids), PNG_PARAMS))
+
+    def class_png(self, camera: int) -> bytes:
+        """Semantic classes as an 8-bit PNG (0: nothing)."""
+        classes = self._cameras[camera].frame.semantic_class
+        return self._once(("class", camera), lambda: encode(".png", classes, PNG_PARAMS))
+
+
+def _uint16_ids(ids: npt.NDArray[np.uint32]) -> npt.NDArray[np.uint16]:
+    if ids.size and int(ids.max()) > 0xFFFF:
+        raise SinkError("instance ids above 65535 do not fit the 16-bit instance mask")
+    return ids.astype(np.uint16)

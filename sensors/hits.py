@@ -1,0 +1,24 @@
+"""What a cast returns per ray (no Open3D here: the writer process reads these types)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+
+@dataclass(frozen=True, slots=True)
+class RayHits:
+    """Per ray: ``range_m: (N,) float32`` (inf where nothing was hit),
+    ``semantic_class: (N,) uint8``, ``instance_id: (N,) uint32`` (0: static world),
+    ``normal: (N, 3) float32`` unit surface normals in the rays' frame."""
+
+    range_m: npt.NDArray[np.float32]
+    semantic_class: npt.NDArray[np.uint8]
+    instance_id: npt.NDArray[np.uint32]
+    normal: npt.NDArray[np.float32]
+
+    @property
+    def hit(self) -> npt.NDArray[np.bool_]:
+        return np.isfinite(self.range_m)
