@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from networks.classes import SemanticClass
 
@@ -91,3 +92,15 @@ def split_by_mix(total: int, mix: dict[str, float]) -> dict[str, int]:
     for i in np.argsort(-(exact - counts), kind="stable")[: total - counts.sum()]:
         counts[i] += 1
     return {k: int(c) for k, c in zip(kinds, counts, strict=True)}
+
+
+def busiest(
+    candidates_xy: npt.ArrayLike, agents_xy: npt.ArrayLike, radius_m: float, share: float
+) -> npt.NDArray[np.intp]:
+    """Indices (ascending) of the ``share`` of candidates (at least one) with the most
+    agents within ``radius_m``: ``candidates_xy: (K, 2)``, ``agents_xy: (N, 2)``, map frame."""
+    cand = np.asarray(candidates_xy, dtype=np.float64).reshape(-1, 2)
+    agents = np.asarray(agents_xy, dtype=np.float64).reshape(-1, 2)
+    near = np.linalg.norm(cand[:, None, :] - agents[None, :, :], axis=2) <= radius_m
+    keep = max(1, int(np.ceil(share * len(cand))))
+    return np.sort(np.argsort(-near.sum(axis=1), kind="stable")[:keep])

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 import sys
 from collections import Counter
 from dataclasses import asdict, dataclass, field
 from importlib import metadata
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 from tqdm import tqdm
@@ -16,23 +18,53 @@ from tqdm import tqdm
 from cosim.rig import Rig, build_rig
 from cosim.scenario import Scenario
 from cosim.state import WorldState
-from cosim.traffic import Traffic
+from cosim.traffic_feed import TrafficFeed, TrafficInline, TrafficProcess
 from cosim.world_setup import prepare_network
 from gtgen.frame import CameraOutput, FrameRecord, LidarOutput, RadarOutput
 from gtgen.labels import FrameLabels, SensorHits, label_frame
 from gtgen.objects import ObjectBoxes
-from gtgen.sinks import Sink
-from gtgen.sinks.csv_sink import CsvSink
-from gtgen.sinks.kitti_sink import KittiSink
-from gtgen.sinks.mcap_sink import McapSink
-from gtgen.sinks.yolo_sink import YoloSink
+from gtgen.sinks.background import BackgroundSinks
+from gtgen.sinks.group import SinkChoice, SinkGroup
+from gtgen.timing import NO_CLOCK, NoClock, StageClock
 from networks.classes import SemanticClass
-from networks.geometry import wrap_angle
+from networks.geometry import SE3, wrap_angle
 from sensors.agents import agent_meshes
 from sensors.radar import InstanceVelocities
 from sensors.scene import FrameScene, StaticCrop
 
 AGENT_MARGIN_M = 10.0
+
+
+class FrameSink(Protocol):
+    """Where the loop hands its frames: a SinkGroup, or BackgroundSinks in a writer process."""
+
+    def write(self, record: FrameRecord) -> None: ...
+
+    def close(self) -> None: ...
+
+    def abort(self) -> None: ...
+
+
+class FrameProbe(StageClock, Protocol):
+    """The benchmark's view into the loop: stage times, each frame's scene, frame ends."""
+
+    def scene(self, frame_index: int, scene: FrameScene, map_SE3_ego: SE3) -> None: ...
+
+    def frame_done(self, frame_index: int) -> None:
+        """Called with -1 before the first frame, then after each frame, and with the frame
+        count once the sinks are closed."""
+        ...
+
+
+class _NoProbe(NoClock):
+    def scene(self, frame_index: int, scene: FrameScene, map_SE3_ego: SE3) -> None:
+        pass
+
+    def frame_done(self, frame_index: int) -> None:
+        pass
+
+
+NO_PROBE: FrameProbe = _NoProbe()
 
 
 @dataclass(slots=True)
@@ -71,41 +103,69 @@ def objects_in_ego_frame(state: WorldState) -> ObjectBoxes:
 
 
 def sense_and_label(
-    frame_index: int, state: WorldState, crop: StaticCrop, rig: Rig, rng: np.random.Generator
+    frame_index: int,
+    state: WorldState,
+    crop: StaticCrop,
+    rig: Rig,
+    rng: np.random.Generator,
+    probe: FrameProbe = NO_PROBE,
 ) -> FrameRecord:
     """Cast every sensor into one scene of this frame, then label what the rays saw."""
     map_SE3_ego = state.map_SE3_ego()
-    scene = FrameScene(crop.around(map_SE3_ego.translation), agent_meshes(state.agents))
-    lidars = tuple(LidarOutput(li.spec, li.scan(scene, map_SE3_ego, rng, rig.weather)) for li in rig.lidars)
-    cameras = tuple(CameraOutput(c.spec, c.render(scene, map_SE3_ego, rig.weather, rng)) for c in rig.cameras)
-    velocities = InstanceVelocities.from_unsorted(state.agents.instance_id, state.velocity_map_mps)
-    radars = tuple(
-        RadarOutput(r.spec, r.scan(scene, map_SE3_ego, velocities, state.ego_velocity_map_mps, rng)) for r in rig.radars
-    )
-    hits = SensorHits(
-        tuple(o.scan for o in lidars), tuple(o.scan for o in radars), tuple((o.spec, o.frame) for o in cameras)
-    )
-    timestamp_ns = round(state.time_s * 1e9)
-    objects = objects_in_ego_frame(state)
-    labels = label_frame(frame_index, timestamp_ns, objects, state.agents, map_SE3_ego, hits, rig.label_range_m)
+    with probe.stage("scene"):
+        agents = rig.agents_in_view(state.agents, map_SE3_ego)
+        scene = FrameScene(crop.around(map_SE3_ego.translation), agent_meshes(agents))
+    with probe.stage("lidar"):
+        lidars = tuple(LidarOutput(li.spec, li.scan(scene, map_SE3_ego, rng, rig.weather)) for li in rig.lidars)
+    with probe.stage("camera"):
+        cameras = tuple(CameraOutput(c.spec, c.render(scene, map_SE3_ego, rig.weather, rng)) for c in rig.cameras)
+    with probe.stage("radar"):
+        velocities = InstanceVelocities.from_unsorted(state.agents.instance_id, state.velocity_map_mps)
+        radars = tuple(RadarOutput(r.spec, r.scan(scene, map_SE3_ego, velocities, state.ego_velocity_map_mps, rng))
+                       for r in rig.radars)  # fmt: skip
+    probe.scene(frame_index, scene, map_SE3_ego)
+    with probe.stage("labels"):
+        hits = SensorHits(
+            tuple(o.scan for o in lidars), tuple(o.scan for o in radars), tuple((o.spec, o.frame) for o in cameras)
+        )
+        timestamp_ns = round(state.time_s * 1e9)
+        objects = objects_in_ego_frame(state)
+        labels = label_frame(frame_index, timestamp_ns, objects, state.agents, map_SE3_ego, hits, rig.label_range_m)
     return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, lidars, cameras, radars, labels)
 
 
-def open_sinks(scenario: Scenario, out_dir: Path) -> list[Sink]:
-    sinks: list[Sink] = []
-    if scenario.outputs.mcap:
-        sinks.append(McapSink(out_dir / "run.mcap"))
-    if scenario.outputs.csv:
-        sinks.append(CsvSink(out_dir / "labels.csv"))
-    if scenario.outputs.kitti:
-        sinks.append(KittiSink(out_dir / "kitti"))
-    if scenario.outputs.yolo:
-        sinks.append(YoloSink(out_dir / "yolo", scenario.outputs.yolo_min_visible_px))
-    return sinks
+def sink_choice(scenario: Scenario, out_dir: Path) -> SinkChoice:
+    o = scenario.outputs
+    return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px)
 
 
-def run(scenario: Scenario, out_dir: Path, progress: bool = True) -> RunSummary:
-    """Produce the dataset of ``scenario`` under ``out_dir``; files appear only when complete."""
+def open_sinks(scenario: Scenario, out_dir: Path, one_process: bool = False, clock: StageClock = NO_CLOCK) -> FrameSink:
+    """The run's sinks: in a writer process, or in this one."""
+    choice = sink_choice(scenario, out_dir)
+    return SinkGroup.open(choice, clock) if one_process else BackgroundSinks(choice, clock=clock)
+
+
+def open_traffic(
+    net_path: Path, scenario: Scenario, radius_m: float, one_process: bool = False, clock: StageClock = NO_CLOCK
+) -> TrafficFeed:
+    """SUMO in a traffic process one frame ahead of the loop, or in this one."""
+    if one_process:
+        return TrafficInline(net_path, scenario, radius_m, clock)
+    return TrafficProcess(net_path, scenario, radius_m, clock)
+
+
+def run(
+    scenario: Scenario,
+    out_dir: Path,
+    progress: bool = True,
+    *,
+    one_process: bool = False,
+    probe: FrameProbe = NO_PROBE,
+) -> RunSummary:
+    """Produce the dataset of ``scenario`` under ``out_dir``; files appear only when complete.
+    SUMO and the writers run in processes of their own, beside the sensors and labels, unless
+    ``one_process``: the outputs are the same. ``probe`` sees each stage of each frame (see
+    :mod:`cosim.bench`)."""
     prepared = prepare_network(scenario)
     if prepared.notice:
         print(prepared.notice, file=sys.stderr)
@@ -115,34 +175,41 @@ def run(scenario: Scenario, out_dir: Path, progress: bool = True) -> RunSummary:
     rng = np.random.default_rng(scenario.seed)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "manifest.json").unlink(missing_ok=True)
-    traffic = Traffic(prepared.net_path, prepared.net, scenario)
-    sinks = open_sinks(scenario, out_dir)
+    sinks = open_sinks(scenario, out_dir, one_process, probe)
     summary = RunSummary()
+    traffic: TrafficFeed | None = None
     try:
-        traffic.warm_up()
-        for notice in traffic.notices:
+        traffic = open_traffic(prepared.net_path, scenario, reach + AGENT_MARGIN_M, one_process, probe)
+        for notice in traffic.warm_up():
             print(notice, file=sys.stderr)
         bar = tqdm(range(scenario.frames), desc=scenario.name, unit="frame", disable=not progress, file=sys.stderr)
+        probe.frame_done(-1)
         for frame_index in bar:
-            traffic.step()
-            state = traffic.world_state().near(reach + AGENT_MARGIN_M)
-            record = sense_and_label(frame_index, state, crop, rig, rng)
-            for sink in sinks:
-                sink.write(record)
+            record = sense_and_label(frame_index, traffic.next(), crop, rig, rng, probe)
+            sinks.write(record)
             summary.add(record.labels)
-        for sink in sinks:
-            sink.close()
-    except BaseException:
-        for sink in sinks:
-            sink.abort()
-        for partial in out_dir.glob("*.partial"):
-            if partial.is_file():
-                partial.unlink()
-        raise
-    finally:
+            probe.frame_done(frame_index)
         traffic.close()
+        traffic = None
+        sinks.close()
+        probe.frame_done(scenario.frames)
+    except BaseException:
+        if traffic is not None:
+            traffic.abort()
+        sinks.abort()
+        remove_partials(out_dir)
+        raise
     write_manifest(scenario, out_dir, summary, prepared.xodr_path)
     return summary
+
+
+def remove_partials(out_dir: Path) -> None:
+    """Remove what an interrupted run left: ``*.partial`` files and folders."""
+    for partial in out_dir.glob("*.partial"):
+        if partial.is_dir():
+            shutil.rmtree(partial, ignore_errors=True)
+        else:
+            partial.unlink(missing_ok=True)
 
 
 def _sha256(path: Path) -> str:

@@ -4,10 +4,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from cosim.scenario import Scenario
+from networks.geometry import SE3
+from sensors.agents import AgentBoxes
 from sensors.camera import Camera
 from sensors.lidar import Lidar
 from sensors.radar import Radar
+from sensors.view import bounding_radius_m
 from sensors.weather import Weather, weather_preset
 
 
@@ -24,6 +29,15 @@ class Rig:
         ranges = [s.spec.range_m for s in self.lidars] + [s.spec.range_m for s in self.cameras]
         ranges += [s.spec.range_m for s in self.radars]
         return max(ranges)
+
+    def agents_in_view(self, agents: AgentBoxes, map_SE3_ego: SE3) -> AgentBoxes:
+        """The agents some sensor's rays may reach; the others cannot change any return."""
+        radius = bounding_radius_m(agents.lwh_m)
+        keep = np.zeros(len(agents), np.bool_)
+        sensors: tuple[Lidar | Camera | Radar, ...] = (*self.lidars, *self.cameras, *self.radars)
+        for sensor in sensors:
+            keep |= sensor.reaches(agents.center_map_m, radius, map_SE3_ego)
+        return agents.select(keep)
 
     @property
     def label_range_m(self) -> float:

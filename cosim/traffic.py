@@ -5,13 +5,22 @@ libsumo runs one simulation per process; parallel runs use separate processes.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
+from collections import Counter
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
-from cosim.demand import KINDS, PEDESTRIAN, TypeVariant, sample_variants, split_by_mix, target_vehicle_count
+from cosim.demand import (
+    KINDS,
+    PEDESTRIAN,
+    TypeVariant,
+    busiest,
+    sample_variants,
+    split_by_mix,
+    target_vehicle_count,
+)
 from cosim.errors import TrafficError
 from cosim.kinematics import front_bumper_to_center, heading_vectors, sumo_angle_to_yaw
 from cosim.parking import ParkingArea, additional_xml, find_parking_areas, lane_types
@@ -26,17 +35,63 @@ import libsumo  # noqa: E402
 import sumolib  # noqa: E402
 
 EGO_ID = "ego"
+# Every vehicle re-plans its route each minute on the travel times SUMO measures, so
+# traffic spreads around queues instead of feeding them (the jams of a crowded town).
+REROUTING_OPTIONS = ("--device.rerouting.probability", "1", "--device.rerouting.period", "60")
+# The ego is drawn from the quarter of the candidate cars with the most agents within
+# 60 m: a scene is recorded where there is traffic, not on an empty edge of the town.
+EGO_BUSY_RADIUS_M = 60.0
+EGO_BUSY_SHARE = 0.25
+# A turning vehicle waits for a pedestrian this close to their conflict point (SUMO's
+# default, 10 m, lets a busy crossing hold a turn for minutes and jam the junction).
+CROSSING_GAP_M = 4.0
+ROUTING_AGGREGATED = libsumo.constants.ROUTING_MODE_AGGREGATED  # new trips, too, plan on measured times
+
+
+@dataclass(slots=True)
+class TrafficCounts:
+    """Running totals since the start: vehicles that entered the network (``parked`` of
+    them inserted parked), teleports SUMO started (a jam or a stuck vehicle), and who
+    teleported."""
+
+    inserted: int = 0
+    parked: int = 0
+    running: int = 0  # vehicles in the network now, parked ones included
+    teleports: int = 0
+    teleported_ids: set[str] = field(default_factory=set)
+
+    @property
+    def teleported_share(self) -> float:
+        """Share of the vehicles that drove (not the parked ones) that SUMO teleported."""
+        return len(self.teleported_ids) / max(self.inserted - self.parked, 1)
 
 
 @dataclass(frozen=True, slots=True)
 class NetIndex:
-    """Edges usable for routes, per SUMO vehicle class, with their mid points."""
+    """Edges usable for routes, per SUMO vehicle class, with their shapes and lengths.
+
+    ``edge_weights`` (per vehicle class, in the order of ``edges_by_vclass``) are each
+    edge's share of the lane length open to that class: trips start and end on an edge
+    with that probability, so traffic spreads over the town as the density does (a
+    motorway is not starved of trips because it has few, long edges).
+    """
 
     edges_by_vclass: dict[str, list[str]]
+    edge_weights: dict[str, npt.NDArray[np.float64]]
     walk_edges: list[str]
-    edge_mid_xy: dict[str, tuple[float, float]]
+    walk_weights: npt.NDArray[np.float64]
+    edge_shape_xy: dict[str, npt.NDArray[np.float64]]  # (K, 2) map frame
+    edge_length_m: dict[str, float]
     vehicle_lane_km: float
     on_ramps: list[str]
+
+    def distance_m(self, edge_id: str, xy: tuple[float, float]) -> float:
+        """Distance in the plane from ``xy`` to the edge's centre line."""
+        shape = self.edge_shape_xy[edge_id]
+        a, b = shape[:-1], shape[1:]
+        ab = b - a
+        t = np.clip(np.sum((np.asarray(xy) - a) * ab, axis=1) / np.maximum(np.sum(ab * ab, axis=1), 1e-9), 0.0, 1.0)
+        return float(np.min(np.linalg.norm(a + ab * t[:, None] - np.asarray(xy), axis=1)))
 
 
 def _on_ramps(net: sumolib.net.Net) -> list[str]:
@@ -54,23 +109,37 @@ def _on_ramps(net: sumolib.net.Net) -> list[str]:
     return sorted(ramps)
 
 
+def _normalised(weights: list[float]) -> npt.NDArray[np.float64]:
+    w = np.asarray(weights, dtype=np.float64)
+    return w / w.sum() if w.size and w.sum() > 0 else w
+
+
 def index_net(net: sumolib.net.Net) -> NetIndex:
     by_class: dict[str, list[str]] = {}
+    weights: dict[str, list[float]] = {}
     walk: list[str] = []
-    mids: dict[str, tuple[float, float]] = {}
+    walk_weights: list[float] = []
+    shapes: dict[str, npt.NDArray[np.float64]] = {}
+    lengths: dict[str, float] = {}
     lane_km = 0.0
     for edge in sorted(net.getEdges(withInternal=False), key=lambda e: e.getID()):
         if edge.getFunction():
             continue
-        shape = edge.getShape()
-        mids[edge.getID()] = shape[len(shape) // 2][:2]
-        for vclass in {k.sumo_vclass for k in KINDS.values()}:
+        shapes[edge.getID()] = np.asarray(edge.getShape(), dtype=np.float64)[:, :2]
+        lengths[edge.getID()] = edge.getLength()
+        for vclass in sorted({k.sumo_vclass for k in KINDS.values()}):
             if edge.allows(vclass) and edge.getLength() > 5.0:
                 by_class.setdefault(vclass, []).append(edge.getID())
+                lanes = sum(1 for lane in edge.getLanes() if lane.allows(vclass))
+                weights.setdefault(vclass, []).append(lanes * edge.getLength())
         if edge.allows("pedestrian"):
             walk.append(edge.getID())
+            walk_weights.append(edge.getLength())
         lane_km += sum(lane.getLength() for lane in edge.getLanes() if lane.allows("passenger")) / 1000.0
-    return NetIndex(by_class, walk, mids, lane_km, _on_ramps(net))
+    return NetIndex(
+        by_class, {k: _normalised(w) for k, w in weights.items()}, walk, _normalised(walk_weights), shapes, lengths,
+        lane_km, _on_ramps(net),
+    )  # fmt: skip
 
 
 class Traffic:
@@ -81,7 +150,6 @@ class Traffic:
         self._rng = np.random.default_rng(scenario.seed)
         self._index = index_net(net)
         self._track_ids: dict[str, int] = {}
-        self._alive: set[str] = set()
         self._serial = 0
         self._statics: dict[str, tuple[int, float, float, float]] = {}
         self._parking = find_parking_areas(net, lane_types(net_path)) if scenario.traffic.parked > 0 else []
@@ -90,6 +158,7 @@ class Traffic:
             str(sumo_binary("sumo")), "-n", str(net_path), "--step-length", f"{scenario.step_s}",
             "--seed", str(scenario.seed), "--no-step-log", "true", "--no-warnings", "true",
             "--time-to-teleport", "120", "--collision.action", "warn", "--begin", "0",
+            *REROUTING_OPTIONS,
         ]  # fmt: skip
         if self._parking:
             cmd += ["--additional-files", str(_write_parking(net_path, self._parking))]
@@ -108,6 +177,7 @@ class Traffic:
         self._ego_xy: tuple[float, float] | None = None
         self._ego = ""
         self.notices: list[str] = []
+        self.counts = TrafficCounts()
 
     # --- set-up --------------------------------------------------------------------------
     def _define_types(self) -> dict[str, list[TypeVariant]]:
@@ -122,6 +192,7 @@ class Traffic:
                     libsumo.vehicletype.setShapeClass(v.type_id, spec.shape_class)
                     libsumo.vehicletype.setAccel(v.type_id, v.accel_mps2)
                     libsumo.vehicletype.setDecel(v.type_id, spec.decel_mps2)
+                    libsumo.vehicletype.setParameter(v.type_id, "junctionModel.jmCrossingGap", f"{CROSSING_GAP_M}")
                 libsumo.vehicletype.setLength(v.type_id, v.length_m)
                 libsumo.vehicletype.setWidth(v.type_id, v.width_m)
                 libsumo.vehicletype.setHeight(v.type_id, v.height_m)
@@ -131,18 +202,16 @@ class Traffic:
 
     # --- demand ----------------------------------------------------------------------------
     def _far_from_ego(self, edge_id: str, radius_m: float = 90.0) -> bool:
-        if self._ego_xy is None:
-            return True
-        x, y = self._index.edge_mid_xy[edge_id]
-        return math.hypot(x - self._ego_xy[0], y - self._ego_xy[1]) > radius_m
+        """New agents enter out of the ego's sight: on an edge no part of which is near it."""
+        return self._ego_xy is None or self._index.distance_m(edge_id, self._ego_xy) > radius_m
 
     def _random_route(self, vclass: str, type_id: str) -> list[str]:
-        edges = self._index.edges_by_vclass[vclass]
+        edges, weights = self._index.edges_by_vclass[vclass], self._index.edge_weights[vclass]
         for _ in range(10):
-            a, b = (edges[i] for i in self._rng.integers(0, len(edges), 2))
+            a, b = (edges[i] for i in self._rng.choice(len(edges), size=2, p=weights))
             if a == b or not self._far_from_ego(a):
                 continue
-            route = libsumo.simulation.findRoute(a, b, vType=type_id)
+            route = libsumo.simulation.findRoute(a, b, vType=type_id, routingMode=ROUTING_AGGREGATED)
             if route.edges:
                 return list(route.edges)
         return []
@@ -157,12 +226,11 @@ class Traffic:
         libsumo.route.add(rid, edges)
         libsumo.vehicle.add(vid, rid, typeID=variant.type_id, depart="now", departLane="best",
                             departPos="random_free", departSpeed="max")  # fmt: skip
-        self._alive.add(vid)
 
     def _add_person(self) -> None:
         walk = self._index.walk_edges
         for _ in range(10):
-            a, b = (walk[i] for i in self._rng.integers(0, len(walk), 2))
+            a, b = (walk[i] for i in self._rng.choice(len(walk), size=2, p=self._index.walk_weights))
             if a == b or not self._far_from_ego(a):
                 continue
             stages = libsumo.simulation.findIntermodalRoute(a, b, modes="")
@@ -173,19 +241,18 @@ class Traffic:
             self._serial += 1
             pid = f"ped_{self._serial}"
             libsumo.person.add(pid, a, 0.0, depart=-3, typeID=variant.type_id)  # -3: depart now
-            libsumo.person.appendWalkingStage(pid, edges, arrivalPos=-1)
+            arrival_m = float(self._rng.uniform(0.0, self._index.edge_length_m.get(edges[-1], 0.0)))
+            libsumo.person.appendWalkingStage(pid, edges, arrivalPos=arrival_m)
             return
 
     def _top_up(self, max_new: int = 10) -> None:
-        for vid in libsumo.simulation.getArrivedIDList():
-            self._alive.discard(vid)
-        counts: dict[str, int] = {}
-        for vid in self._alive:
-            kind = vid.rsplit("_", 1)[0]
-            counts[kind] = counts.get(kind, 0) + 1
+        """Bring every kind back to its target count (vehicles that arrived are replaced;
+        vehicles waiting to enter count as present)."""
+        present = [*libsumo.vehicle.getIDList(), *libsumo.simulation.getPendingVehicles()]
+        counts = Counter(v.rsplit("_", 1)[0] for v in present if v != self._ego and v not in self._parked)
         added = 0
         for kind in sorted(self._targets):
-            for _ in range(min(self._targets[kind] - counts.get(kind, 0), max_new - added)):
+            for _ in range(min(self._targets[kind] - counts[kind], max_new - added)):
                 self._add_vehicle(kind)
                 added += 1
         for _ in range(min(self._scenario.traffic.pedestrians - libsumo.person.getIDCount(), 5)):
@@ -213,6 +280,7 @@ class Traffic:
                                     departLane=lane_index, departPos="stop", departSpeed="0")  # fmt: skip
                 libsumo.vehicle.setParkingAreaStop(vid, area_id, duration=1e7)
                 self._parked.add(vid)
+        self.counts.parked = len(self._parked)
 
     # --- stepping --------------------------------------------------------------------------
     def warm_up(self) -> None:
@@ -222,8 +290,10 @@ class Traffic:
         for i in range(steps):
             if i % 10 == 0:
                 self._top_up(max_new=40)
-            libsumo.simulationStep()
+            self._advance()
         self._choose_ego()
+        x, y = libsumo.vehicle.getPosition(self._ego)
+        self._ego_xy = (x, y)
 
     def _choose_ego(self) -> None:
         ego = self._scenario.ego
@@ -251,7 +321,7 @@ class Traffic:
         self._ego = EGO_ID
         self._keep_ego_going()
         for _ in range(400):
-            libsumo.simulationStep()
+            self._advance()
             if EGO_ID in libsumo.vehicle.getIDList():
                 return
         raise TrafficError(f"{what}: the ego could not enter the network within 20 s")
@@ -271,8 +341,8 @@ class Traffic:
         if not cars:
             msg = "no passenger car is driving after the warm-up to serve as the ego (raise the density or warmup_s)"
             raise TrafficError(msg)
+        cars = [cars[i] for i in busiest(_positions(cars), _positions(), EGO_BUSY_RADIUS_M, EGO_BUSY_SHARE)]
         self._ego = cars[int(self._rng.integers(0, len(cars)))]
-        self._alive.discard(self._ego)
 
     def _keep_ego_going(self) -> None:
         route = libsumo.vehicle.getRoute(self._ego)
@@ -288,14 +358,24 @@ class Traffic:
             if len(libsumo.vehicle.getRoute(self._ego)) - libsumo.vehicle.getRouteIndex(self._ego) > 3:
                 return
 
-    def step(self) -> None:
+    def _advance(self) -> None:
         libsumo.simulationStep()
-        if self._ego != EGO_ID and self._ego not in libsumo.vehicle.getIDList():
+        self.counts.inserted += libsumo.simulation.getDepartedNumber()
+        self.counts.running = libsumo.vehicle.getIDCount()
+        teleported = libsumo.simulation.getStartingTeleportIDList()
+        self.counts.teleports += len(teleported)
+        self.counts.teleported_ids.update(teleported)
+
+    def step(self) -> None:
+        self._advance()
+        if self._ego not in libsumo.vehicle.getIDList():
             raise TrafficError(
                 f"the ego vehicle {self._ego} left the simulation at t={libsumo.simulation.getTime():.2f} s"
             )
         self._keep_ego_going()
         if round(libsumo.simulation.getTime() / self._scenario.step_s) % 20 == 0:
+            x, y = libsumo.vehicle.getPosition(self._ego)
+            self._ego_xy = (x, y)
             self._top_up()
 
     def close(self) -> None:
@@ -351,12 +431,30 @@ class Traffic:
         return cached
 
     @property
+    def ego_road_id(self) -> str:
+        """The SUMO edge the ego is on (``:``-prefixed inside a junction)."""
+        return str(libsumo.vehicle.getRoadID(self._ego))
+
+    @property
+    def ego_route(self) -> tuple[str, ...]:
+        """The edges the ego is routed over now (its route grows as it drives)."""
+        return tuple(libsumo.vehicle.getRoute(self._ego))
+
+    @property
     def lane_km(self) -> float:
         return self._index.vehicle_lane_km
 
     @property
     def vehicle_target(self) -> int:
         return sum(self._targets.values())
+
+
+def _positions(vehicles: list[str] | None = None) -> npt.NDArray[np.float64]:
+    """``(N, 2)`` map positions of the given vehicles, else of every vehicle and person."""
+    if vehicles is not None:
+        return np.array([libsumo.vehicle.getPosition(v) for v in vehicles], dtype=np.float64).reshape(-1, 2)
+    people = [libsumo.person.getPosition(p) for p in libsumo.person.getIDList()]
+    return np.concatenate([_positions(list(libsumo.vehicle.getIDList())), np.array(people).reshape(-1, 2)])
 
 
 def _write_parking(net_path: Path, areas: list[ParkingArea]) -> Path:

@@ -18,9 +18,13 @@ from networks.world import StaticWorld, build_world, load_net
 class PreparedNetwork:
     xodr_path: Path
     net_path: Path
-    net: sumolib.net.Net
     world: StaticWorld
     notice: str  # shown to the user, e.g. when a stand-in town is used
+
+    @property
+    def net(self) -> sumolib.net.Net:
+        """The SUMO network, read on each access: the frame loop's traffic process reads its own."""
+        return load_net(self.net_path)
 
 
 def prepare_network(scenario: Scenario) -> PreparedNetwork:
@@ -39,4 +43,4 @@ def prepare_network(scenario: Scenario) -> PreparedNetwork:
         msg = f"{source}: network: unknown town {scenario.network!r} (known: {known}; or a path to an .xodr file)"
         raise ScenarioError(msg)
     net_path = import_opendrive(xodr)
-    return PreparedNetwork(xodr, net_path, load_net(net_path), build_world(net_path), notice)
+    return PreparedNetwork(xodr, net_path, build_world(net_path), notice)

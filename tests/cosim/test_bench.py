@@ -1,0 +1,32 @@
+"""The benchmark's probe, table and targets (the runs themselves are `make bench`)."""
+
+from cosim.bench import MEMORY_FROM_FRAME, BenchProbe, table, targets
+
+
+def test_the_probe_keeps_a_few_scenes_spread_over_the_run_and_samples_memory_at_both_ends():
+    probe = BenchProbe(frames=200, cast_scenes=4)
+    probe.frame_done(-1)
+    for i in range(200):
+        with probe.stage("camera"):
+            probe.scene(i, scene=object(), map_SE3_ego=None)  # type: ignore[arg-type]
+        probe.frame_done(i)
+    assert len(probe.scenes) == 4
+    assert probe.times.calls["camera"] == 200 and len(probe.frame_end_s) == 201
+    assert sorted(probe.rss_mb) == [MEMORY_FROM_FRAME, 200] and probe.rss_mb[200] > 10
+    assert probe.peak_mb["main"] >= probe.rss_mb[200] * 0.5
+
+
+def test_targets_compare_the_right_numbers_and_the_table_shows_every_case():
+    results = {
+        "full": {"frames": 10, "fps": 7.0, "frame_ms": 142.0, "frame_over_cast": 2.5, "rss_growth_pct": 1.0,
+                 "stages_ms": {"camera": 90.0}, "pure_cast_ms": {"camera": 55.0}},
+        "lidar": {"frames": 10, "fps": 30.0, "frame_ms": 33.0, "stages_ms": {"lidar": 9.0}},
+        "v500": {"frames": 10, "frame_ms": 140.0, "stages_ms": {}},
+        "v5000": {"frames": 10, "error": "TrafficError: boom"},
+    }  # fmt: skip
+    t = targets(results)
+    assert t["full_fps"]["met"] is True and t["lidar_fps"]["met"] is False
+    assert t["cast_ratio"]["met"] is False and t["rss_growth_pct"]["met"] is True
+    assert t["v5000_over_v500"]["met"] is None  # the 5,000-vehicle case failed: no verdict
+    text = table(results)
+    assert "camera" in text and "v5000: error: TrafficError: boom" in text

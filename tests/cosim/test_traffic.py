@@ -1,0 +1,147 @@
+"""SUMO traffic of a scene: parked cars on parking lanes, the ego kept driving, density,
+and the ego's start on a motorway entrance ramp (issue #4)."""
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numpy as np
+import pytest
+import shapely
+import sumolib
+from shapely.geometry import LineString, Point
+
+from cosim.demand import busiest
+from cosim.parking import lane_types
+from cosim.scenario import load_scenario
+from cosim.soak import soak
+from cosim.traffic import Traffic, index_net
+from cosim.world_setup import PreparedNetwork, prepare_network
+from networks.classes import SemanticClass
+
+pytestmark = pytest.mark.slow
+
+LIGHT = ("traffic.pedestrians=0", "warmup_s=5")
+MOTORWAY_MPS = 22.0
+
+
+@contextmanager
+def running(scene: str, *overrides: str) -> Iterator[tuple[Traffic, PreparedNetwork]]:
+    """A scene's traffic after its warm-up (SUMO runs one simulation per process)."""
+    scenario = load_scenario(scene, list(overrides))
+    prepared = prepare_network(scenario)
+    traffic = Traffic(prepared.net_path, prepared.net, scenario)
+    try:
+        traffic.warm_up()
+        yield traffic, prepared
+    finally:
+        traffic.close()
+
+
+def _lane_area(net: sumolib.net.Net, types: dict[str, str], kind: str) -> shapely.Geometry:
+    """Union of the footprints of one kind of lane: ``parking``, ``driving`` or ``sidewalk``."""
+
+    def kind_of(lane: sumolib.net.lane.Lane) -> str:
+        if types.get(lane.getID()) == "parking":
+            return "parking"
+        if lane.getPermissions() == {"pedestrian"}:
+            return "sidewalk"
+        return "driving" if lane.allows("passenger") else "other"
+
+    return shapely.union_all(
+        [
+            LineString([p[:2] for p in lane.getShape()]).buffer(lane.getWidth() / 2.0, cap_style="flat")
+            for edge in net.getEdges(withInternal=False)
+            if not edge.getFunction()
+            for lane in edge.getLanes()
+            if kind_of(lane) == kind
+        ]
+    )
+
+
+def _centres_by_track(state_agents_ids: np.ndarray, centres: np.ndarray) -> dict[int, np.ndarray]:
+    return {int(i): c for i, c in zip(state_agents_ids, centres, strict=True)}
+
+
+def test_parked_cars_stand_still_on_parking_lanes_and_are_labelled_parked():
+    overrides = (*LIGHT, "traffic.vehicles_per_lane_km=3", "traffic.parked=25")
+    with running("town10_crowded", *overrides) as (traffic, prepared):
+        first = traffic.world_state()
+        for _ in range(200):
+            traffic.step()
+        later = traffic.world_state()
+    parked = first.parked
+    assert parked.sum() == 25
+    assert set(np.unique(first.agents.semantic_class[parked]).tolist()) == {SemanticClass.CAR}
+    types = lane_types(prepared.net_path)
+    on_parking = _lane_area(prepared.net, types, "parking").buffer(0.3)
+    driving = _lane_area(prepared.net, types, "driving").buffer(-0.3)
+    sidewalk = _lane_area(prepared.net, types, "sidewalk").buffer(-0.3)
+    for x, y in first.agents.center_map_m[parked, :2]:
+        spot = Point(x, y)
+        assert on_parking.contains(spot), (x, y)
+        assert not driving.contains(spot) and not sidewalk.contains(spot), (x, y)
+    before = _centres_by_track(first.agents.instance_id[parked], first.agents.center_map_m[parked])
+    after = _centres_by_track(later.agents.instance_id[later.parked], later.agents.center_map_m[later.parked])
+    assert before.keys() == after.keys()
+    assert max(float(np.linalg.norm(after[k] - before[k])) for k in before) < 0.01
+
+
+def test_ego_is_rerouted_when_its_route_ends_and_stays_in_the_scene():
+    overrides = (*LIGHT, "step_s=0.1", "traffic.vehicles_per_lane_km=4", "ego.start=urban")
+    with running("town03_day", *overrides) as (traffic, _):
+        first_route = traffic.ego_route
+        visited = [traffic.ego_road_id]
+        for _ in range(3000):  # 300 s: longer than any first route across the town
+            traffic.step()  # raises if the ego left the simulation
+            road = traffic.ego_road_id
+            if road != visited[-1] and not road.startswith(":"):
+                visited.append(road)
+        assert traffic.world_state().ego.lwh_m.shape == (1, 3)
+    assert first_route[-1] in visited
+    after_first = visited[visited.index(first_route[-1]) + 1 :]
+    assert after_first, f"the ego stopped at the end of its first route {first_route}"
+
+
+@pytest.mark.parametrize("density", [6.0, 18.0])
+def test_density_sets_the_number_of_vehicles(density):
+    overrides = ("traffic.pedestrians=0", "warmup_s=20", f"traffic.vehicles_per_lane_km={density}")
+    with running("town03_day", *overrides, "traffic.parked=0") as (traffic, _):
+        state = traffic.world_state()
+        lane_km = traffic.lane_km
+    vehicles = int(np.sum(state.agents.semantic_class != SemanticClass.PEDESTRIAN)) + 1  # the ego drives too
+    expected = density * lane_km
+    assert abs(vehicles - expected) <= max(3.0, 0.1 * expected), (vehicles, expected)
+
+
+def test_on_ramp_start_puts_the_ego_on_an_entrance_ramp_that_merges_into_the_motorway():
+    overrides = (*LIGHT, "traffic.vehicles_per_lane_km=3", "ego.start=on_ramp")
+    with running("town06_entrance", *overrides) as (traffic, prepared):
+        net = prepared.net
+        ramp = traffic.ego_road_id
+        assert ramp in index_net(net).on_ramps
+        after_ramp = net.getEdge(ramp).getToNode().getOutgoing()
+        assert any(e.getSpeed() >= MOTORWAY_MPS and e.getLaneNumber() >= 3 for e in after_ramp)
+        roads = set()
+        for _ in range(600):  # 30 s
+            traffic.step()
+            roads.add(traffic.ego_road_id)
+    assert net.getEdge(ramp).getSpeed() < MOTORWAY_MPS
+    motorway = [r for r in roads if not r.startswith(":") and net.getEdge(r).getSpeed() >= MOTORWAY_MPS]
+    assert motorway, f"the ego never reached the motorway from {ramp}: {sorted(roads)}"
+
+
+@pytest.mark.parametrize("scene", ["town07_village", "town03_day"])
+def test_nominal_demand_runs_ten_minutes_with_under_one_percent_teleported(scene):
+    """Issue #3: the scene's own traffic, headless, for 600 s after its warm-up (the
+    village's narrow T-junctions; the roundabout town)."""
+    result = soak(scene, 600.0, ("step_s=0.1",))
+    assert result.counts.inserted - result.counts.parked > result.vehicle_target
+    assert result.counts.teleported_share < 0.01, result.line()
+
+
+def test_the_ego_is_drawn_from_the_busiest_cars():
+    cars = [(0.0, 0.0), (500.0, 0.0), (1000.0, 0.0), (1500.0, 0.0)]
+    agents = [(500.0, 10.0)] * 5 + [(1500.0, 5.0)] * 2 + [(0.0, 100.0)]
+    assert busiest(cars, agents, 60.0, 0.25).tolist() == [1]
+    assert busiest(cars, agents, 60.0, 0.5).tolist() == [1, 3]
+    assert busiest(cars[:1], [], 60.0, 0.25).tolist() == [0]
