@@ -8,6 +8,7 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -46,6 +47,18 @@ EGO_BUSY_SHARE = 0.25
 # default, 10 m, lets a busy crossing hold a turn for minutes and jam the junction).
 CROSSING_GAP_M = 4.0
 ROUTING_AGGREGATED = libsumo.constants.ROUTING_MODE_AGGREGATED  # new trips, too, plan on measured times
+# World states read only the agents around the ego, from two context subscriptions: the
+# vehicles around the ego itself, the persons around a point of interest kept on the ego
+# (SUMO keeps one context subscription per object). SUMO measures from front bumpers and
+# the point lags the ego by a step, hence the margin over the radius asked for.
+STATE_VARIABLES = (
+    libsumo.constants.VAR_POSITION3D,
+    libsumo.constants.VAR_ANGLE,
+    libsumo.constants.VAR_SLOPE,
+    libsumo.constants.VAR_SPEED,
+)
+CONTEXT_MARGIN_M = 25.0
+PERSON_ANCHOR = "ego_person_context"
 
 
 @dataclass(slots=True)
@@ -176,6 +189,7 @@ class Traffic:
         }
         self._ego_xy: tuple[float, float] | None = None
         self._ego = ""
+        self._watching = False
         self.notices: list[str] = []
         self.counts = TrafficCounts()
 
@@ -373,6 +387,7 @@ class Traffic:
                 f"the ego vehicle {self._ego} left the simulation at t={libsumo.simulation.getTime():.2f} s"
             )
         self._keep_ego_going()
+        self._follow_ego()
         if round(libsumo.simulation.getTime() / self._scenario.step_s) % 20 == 0:
             x, y = libsumo.vehicle.getPosition(self._ego)
             self._ego_xy = (x, y)
@@ -389,23 +404,51 @@ class Traffic:
             self._track_ids[sumo_id] = tid
         return tid
 
-    def world_state(self) -> WorldState:
-        vehicles = list(libsumo.vehicle.getIDList())
-        persons = list(libsumo.person.getIDList())
+    def watch_near_ego(self, radius_m: float) -> None:
+        """From now on, world states hold the agents within ``radius_m`` of the ego (and
+        some beyond), read from context subscriptions instead of every agent's getters."""
+        reach = radius_m + CONTEXT_MARGIN_M
+        vehicles, persons = libsumo.constants.CMD_GET_VEHICLE_VARIABLE, libsumo.constants.CMD_GET_PERSON_VARIABLE
+        libsumo.vehicle.subscribeContext(self._ego, vehicles, reach, STATE_VARIABLES)
+        x, y = libsumo.vehicle.getPosition(self._ego)
+        libsumo.poi.add(PERSON_ANCHOR, x, y, (0, 0, 0, 0), layer=-100)
+        libsumo.poi.subscribeContext(PERSON_ANCHOR, persons, reach, STATE_VARIABLES)
+        self._watching = True
+
+    def _follow_ego(self) -> None:
+        if self._watching:
+            x, y = libsumo.vehicle.getPosition(self._ego)
+            libsumo.poi.setPosition(PERSON_ANCHOR, x, y)
+
+    def _agent_variables(self, everyone: bool) -> tuple[list[str], list[str], list[tuple[Any, ...]]]:
+        """Vehicle ids, person ids and, per id, (front position, angle, slope, speed)."""
+        if self._watching and not everyone:
+            near_vehicles = libsumo.vehicle.getContextSubscriptionResults(self._ego)
+            near_persons = libsumo.poi.getContextSubscriptionResults(PERSON_ANCHOR)
+            rows = [tuple(v[k] for k in STATE_VARIABLES) for v in (*near_vehicles.values(), *near_persons.values())]
+            return list(near_vehicles), list(near_persons), rows
+        vehicles, persons = list(libsumo.vehicle.getIDList()), list(libsumo.person.getIDList())
+        rows = [
+            (d.getPosition3D(sid), d.getAngle(sid), d.getSlope(sid), d.getSpeed(sid))
+            for d, ids in ((libsumo.vehicle, vehicles), (libsumo.person, persons))
+            for sid in ids
+        ]
+        return vehicles, persons, rows
+
+    def world_state(self, everyone: bool = False) -> WorldState:
+        """The ego and the agents around it (all agents before :meth:`watch_near_ego`, or
+        with ``everyone``), in the map frame."""
+        vehicles, persons, rows = self._agent_variables(everyone)
         ids = vehicles + persons
         n = len(ids)
-        front = np.zeros((n, 3))
-        angle = np.zeros(n)
-        slope = np.zeros(n)
-        speed = np.zeros(n)
+        front = np.array([r[0] for r in rows], dtype=np.float64).reshape(n, 3)
+        angle = np.array([r[1] for r in rows], dtype=np.float64)
+        slope = np.array([r[2] for r in rows], dtype=np.float64)
+        speed = np.array([r[3] for r in rows], dtype=np.float64)
         lwh = np.zeros((n, 3))
         cls = np.zeros(n, np.uint8)
         for i, sid in enumerate(ids):
             domain = libsumo.vehicle if i < len(vehicles) else libsumo.person
-            front[i] = domain.getPosition3D(sid)
-            angle[i] = domain.getAngle(sid)
-            slope[i] = domain.getSlope(sid)
-            speed[i] = domain.getSpeed(sid)
             cls[i], lwh[i, 0], lwh[i, 1], lwh[i, 2] = self._static_attributes(sid, domain)
         yaw = sumo_angle_to_yaw(angle)
         pitch = np.radians(slope)

@@ -53,6 +53,7 @@ class TrafficInline:
 
     def warm_up(self) -> list[str]:
         self._traffic.warm_up()
+        self._traffic.watch_near_ego(self._radius_m)
         return list(self._traffic.notices)
 
     def next(self) -> WorldState:

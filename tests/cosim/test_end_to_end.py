@@ -1,5 +1,8 @@
 """A short scene on the skeleton grid, written and read back."""
 
+import os
+import subprocess
+import sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -79,7 +82,21 @@ def test_point_counts_in_labels_match_the_cloud(dataset):
 
 
 def test_same_seed_gives_identical_labels_and_messages(dataset, tmp_path):
-    run(load_scenario(str(DATA / "tiny.yaml")), tmp_path, progress=False)
+    """A second run from the command line, in a fresh interpreter with another string hash
+    seed (set and dict order must not leak into the traffic or the labels)."""
+    env = {**os.environ, "PYTHONHASHSEED": "12345"}
+    cmd = [
+        sys.executable,
+        "-m",
+        "cosim",
+        "run",
+        str(DATA / "tiny.yaml"),
+        "--out",
+        str(tmp_path),
+        "--no-summary",
+        "--no-progress",
+    ]
+    subprocess.run(cmd, check=True, env=env, capture_output=True)
     assert (tmp_path / "labels.csv").read_bytes() == (dataset / "labels.csv").read_bytes()
     assert raw_messages(tmp_path / "run.mcap") == raw_messages(dataset / "run.mcap")
 

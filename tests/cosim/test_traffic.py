@@ -145,3 +145,29 @@ def test_the_ego_is_drawn_from_the_busiest_cars():
     assert busiest(cars, agents, 60.0, 0.25).tolist() == [1]
     assert busiest(cars, agents, 60.0, 0.5).tolist() == [1, 3]
     assert busiest(cars[:1], [], 60.0, 0.25).tolist() == [0]
+
+
+def test_agents_read_around_the_ego_equal_those_found_among_all_agents():
+    """The frame loop reads only the agents near the ego (context subscriptions); they
+    are exactly the agents a search over every vehicle and person finds, parked cars and
+    pedestrians included, with the same boxes and velocities."""
+    radius_m = 60.0
+    overrides = ("warmup_s=20", "traffic.parked=60", "traffic.pedestrians=300", "traffic.vehicles_per_lane_km=10")
+    kinds = {"parked": 0, "pedestrian": 0}
+    with running("town10_crowded", *overrides) as (traffic, _):
+        traffic.watch_near_ego(radius_m)
+        for k in range(120):
+            traffic.step()
+            if k % 20:
+                continue
+            near = traffic.world_state().near(radius_m)
+            every = traffic.world_state(everyone=True).near(radius_m)
+            a, b = np.argsort(near.agents.instance_id), np.argsort(every.agents.instance_id)
+            assert near.agents.instance_id[a].tolist() == every.agents.instance_id[b].tolist()
+            np.testing.assert_allclose(near.agents.center_map_m[a], every.agents.center_map_m[b])
+            np.testing.assert_allclose(near.velocity_map_mps[a], every.velocity_map_mps[b])
+            np.testing.assert_array_equal(near.parked[a], every.parked[b])
+            np.testing.assert_allclose(near.ego.center_map_m, every.ego.center_map_m)
+            kinds["parked"] += int(near.parked.sum())
+            kinds["pedestrian"] += int(np.sum(near.agents.semantic_class == SemanticClass.PEDESTRIAN))
+    assert kinds["parked"] > 0 and kinds["pedestrian"] > 0, kinds
