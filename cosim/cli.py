@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from gtgen.errors import GtgenError
 from networks.errors import NetworkError
 from sensors.errors import SensorError
 
+DEFAULT_WORKERS = max(1, (os.cpu_count() or 2) // 2)
 USER_ERRORS = (CosimError, NetworkError, SensorError, GtgenError)
 
 
@@ -35,7 +37,8 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--seed", type=int, nargs="+", default=[0], metavar="SEED")
     sweep.add_argument("--frames", type=int, help="frames per run (overrides the scenario)")
     sweep.add_argument("--out", type=Path, help="output folder (default: out/<scenario>-sweep)")
-    sweep.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
+    workers_help = f"runs at once on this machine (default {DEFAULT_WORKERS}: a run keeps about two cores busy)"
+    sweep.add_argument("--workers", type=int, default=DEFAULT_WORKERS, help=workers_help)
     sweep.add_argument("--scheduler", help="a Dask scheduler address (tcp://host:8786) instead of local processes")
     sweep.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     return parser

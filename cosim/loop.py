@@ -134,14 +134,20 @@ def sense_and_label(
     return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, lidars, cameras, radars, labels)
 
 
-def sink_choice(scenario: Scenario, out_dir: Path) -> SinkChoice:
+def sink_choice(scenario: Scenario, out_dir: Path, map_world: Path | None = None) -> SinkChoice:
     o = scenario.outputs
-    return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px)
+    return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world)
 
 
-def open_sinks(scenario: Scenario, out_dir: Path, one_process: bool = False, clock: StageClock = NO_CLOCK) -> FrameSink:
+def open_sinks(
+    scenario: Scenario,
+    out_dir: Path,
+    one_process: bool = False,
+    clock: StageClock = NO_CLOCK,
+    map_world: Path | None = None,
+) -> FrameSink:
     """The run's sinks: in a writer process, or in this one."""
-    choice = sink_choice(scenario, out_dir)
+    choice = sink_choice(scenario, out_dir, map_world)
     return SinkGroup.open(choice, clock) if one_process else BackgroundSinks(choice, clock=clock)
 
 
@@ -175,7 +181,7 @@ def run(
     rng = np.random.default_rng(scenario.seed)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "manifest.json").unlink(missing_ok=True)
-    sinks = open_sinks(scenario, out_dir, one_process, probe)
+    sinks = open_sinks(scenario, out_dir, one_process, probe, prepared.world.path)
     summary = RunSummary()
     traffic: TrafficFeed | None = None
     try:

@@ -8,6 +8,7 @@ under the rest. Deterministic by seed, cached by the network's content.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from dataclasses import dataclass
@@ -42,6 +43,18 @@ class StaticWorld:
     mesh: ClassedMesh
     bounds_m: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax in the map frame
     num_buildings: int
+    path: Path | None = None  # the cached world file, readable with :func:`read_world`
+
+
+def read_world(path: Path) -> StaticWorld:
+    """A static world written by :func:`build_world` (its ``path``)."""
+    try:
+        with np.load(path) as data:
+            mesh = ClassedMesh(data["vertices_m"], data["triangles"], data["triangle_class"])
+            bounds = tuple(float(v) for v in data["bounds_m"].tolist())
+            return StaticWorld(mesh, bounds, int(data["num_buildings"]), path)  # type: ignore[arg-type]
+    except (OSError, KeyError, ValueError) as err:
+        raise NetworkError(f"{path}: not a readable world file ({err})") from err
 
 
 def load_net(net_path: Path) -> sumolib.net.Net:
@@ -57,9 +70,7 @@ def build_world(net_path: Path, seed: int = 0, props: bool = True) -> StaticWorl
     key = digest(WORLD_VERSION, net_path.read_bytes(), str(seed), str(props))
     cached = cache_dir("worlds", key) / "world.npz"
     if cached.exists():
-        with np.load(cached) as data:
-            mesh = ClassedMesh(data["vertices_m"], data["triangles"], data["triangle_class"])
-            return StaticWorld(mesh, tuple(data["bounds_m"].tolist()), int(data["num_buildings"]))  # type: ignore[arg-type]
+        return read_world(cached)
     world = _build(load_net(net_path), seed, props)
     tmp = cached.with_suffix(f".{os.getpid()}.partial.npz")  # one per process: others may write it too
     np.savez_compressed(
@@ -71,7 +82,7 @@ def build_world(net_path: Path, seed: int = 0, props: bool = True) -> StaticWorl
         num_buildings=world.num_buildings,
     )
     tmp.replace(cached)
-    return world
+    return dataclasses.replace(world, path=cached)
 
 
 def _lane_class(lane: sumolib.net.lane.Lane, function: str) -> SemanticClass:

@@ -25,6 +25,7 @@ class SinkChoice:
     kitti: bool = True
     yolo: bool = True
     yolo_min_visible_px: int = 25
+    map_world: Path | None = None  # a static world file (networks.world.read_world) for the MCAP's /map
 
     def partial_paths(self) -> list[Path]:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
@@ -34,7 +35,7 @@ class SinkChoice:
 
 def _open_one(choice: SinkChoice, kind: str) -> Sink:
     if kind == "mcap":
-        return McapSink(choice.out_dir / "run.mcap")
+        return McapSink(choice.out_dir / "run.mcap", choice.map_world)
     if kind == "csv":
         return CsvSink(choice.out_dir / "labels.csv")
     if kind == "kitti":

@@ -7,7 +7,8 @@ range, radial_velocity, azimuth, elevation, strength, instance, class);
 ``/camera/image`` JPEG, ``/camera/depth`` 16-bit PNG in 1/256 m (0: nothing within range), ``/camera/instance``
 16-bit PNG of instance ids, ``/camera/class`` 8-bit PNG of class ids,
 ``/camera/calibration``, ``/camera/annotations`` tight 2D boxes; ``/gt/boxes`` SceneUpdate
-(one cube per labelled object, ego frame); ``/gt/labels`` the label table as JSON.
+(one cube per labelled object, ego frame); ``/gt/labels`` the label table as JSON;
+``/map`` the static world once (SceneUpdate, map frame, one triangle list per class).
 Log and publish times are simulation time in nanoseconds.
 """
 
@@ -29,7 +30,11 @@ from mcap_protobuf.schema import register_schema
 from gtgen.frame import FrameRecord
 from gtgen.sinks import foxglove as fx
 from gtgen.sinks.images import FrameImages
+from gtgen.static_map import static_map_update
 from gtgen.table import COLUMNS, label_table
+from networks.world import read_world
+
+MAP_TOPIC = "/map"
 
 LABELS_SCHEMA = {
     "type": "object",
@@ -100,8 +105,12 @@ def labels_json(record: FrameRecord) -> dict[str, Any]:
 
 
 class McapSink:
-    def __init__(self, path: Path) -> None:
+    """``run.mcap``; with ``map_world`` (a static world file), the static map goes on
+    ``/map`` once, at the first frame's time."""
+
+    def __init__(self, path: Path, map_world: Path | None = None) -> None:
         self._path = path
+        self._map_world = map_world
         self._partial = path.with_name(path.name + ".partial")
         self._stream = self._partial.open("wb")
         self._writer = McapWriter(self._stream, compression=CompressionType.LZ4)
@@ -124,6 +133,10 @@ class McapSink:
 
     def encode(self, record: FrameRecord, images: FrameImages) -> McapFrame:
         messages = tuple(_serialized(topic, m) for topic, m in frame_messages(record, images))
+        if self._map_world is not None:
+            world = read_world(self._map_world)
+            messages = (_serialized(MAP_TOPIC, static_map_update(world.mesh, record.timestamp_ns)), *messages)
+            self._map_world = None
         return McapFrame(record.timestamp_ns, messages)
 
     def write(self, encoded: McapFrame) -> None:

@@ -8,13 +8,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.reader import make_reader
 
 from cosim.loop import run
 from cosim.scenario import load_scenario
+from cosim.world_setup import prepare_network
 from gtgen.load import iter_messages, lidar_points, load_labels, objects_from_table
 from gtgen.objects import points_in_boxes
+from gtgen.static_map import MAP_RGBA
 from gtgen.table import REFERENCE_COLUMNS
+from networks.classes import SemanticClass
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 pytestmark = pytest.mark.slow
@@ -41,7 +45,9 @@ def test_every_frame_has_transforms_a_point_cloud_and_boxes(dataset):
     expected = {"/tf", "/lidar", "/radar", "/gt/boxes", "/gt/labels"} | {
         f"/camera/{k}" for k in ("image", "depth", "instance", "class", "calibration", "annotations")
     }
-    assert all(topics == expected for topics in topics_per_time.values())
+    first, *rest = (topics_per_time[t] for t in sorted(topics_per_time))
+    assert first == expected | {"/map"}
+    assert all(topics == expected for topics in rest)
 
 
 def test_labels_csv_starts_with_the_reference_columns(dataset):
@@ -149,3 +155,23 @@ def test_summary_writes_statistics_and_pictures(dataset):
     labels = load_labels(dataset / "labels.csv")
     total = stats[stats["class"] == "all"].iloc[0]
     assert total["seen_per_frame"] == pytest.approx((labels["seen"] == 1).sum() / 20)
+
+
+def test_static_map_is_written_once_at_the_first_frame_with_every_classed_triangle(dataset):
+    with (dataset / "run.mcap").open("rb") as stream:
+        messages = [(c.topic, m.log_time, m.data) for _, c, m in make_reader(stream).iter_messages()]
+    maps = [(t, data) for topic, t, data in messages if topic == "/map"]
+    assert len(maps) == 1
+    assert maps[0][0] == min(t for _, t, _ in messages)
+    (entity,) = SceneUpdate.FromString(maps[0][1]).entities
+    assert entity.frame_id == "map" and entity.frame_locked
+    mesh = prepare_network(load_scenario(str(DATA / "tiny.yaml"))).world.mesh
+    expected = {cls: int(np.sum(mesh.triangle_class == cls)) for cls in MAP_RGBA}
+    written = {
+        cls: len(prim.indices) // 3
+        for prim in entity.triangles
+        for cls, rgba in MAP_RGBA.items()
+        if np.allclose([prim.color.r, prim.color.g, prim.color.b, prim.color.a], rgba)
+    }
+    assert written == {cls: n for cls, n in expected.items() if n}
+    assert written[SemanticClass.ROAD] > 100 and written[SemanticClass.BUILDING] > 100
