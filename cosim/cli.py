@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from pathlib import Path
@@ -29,6 +30,8 @@ def _parser() -> argparse.ArgumentParser:
                      help="override any scenario key, e.g. --set traffic.pedestrians=50 (repeatable)")  # fmt: skip
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.add_argument("--no-summary", action="store_true", help="skip the summary/ statistics and pictures")
+    run.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT",
+                     help="also serve the frames to Foxglove over a WebSocket (default 127.0.0.1:8765)")  # fmt: skip
     sub.add_parser("list", help="list the built-in scenarios")
     sweep = sub.add_parser("sweep", help="run a scenario over traffic densities and seeds, one process per run")
     sweep.add_argument("scenario", help="a built-in scenario name or a path to a scenario .yaml")
@@ -62,6 +65,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         overrides.append(f"frames={args.frames}")
     if args.seed is not None:
         overrides.append(f"seed={args.seed}")
+    if args.live is not None:
+        overrides.append(f"outputs.live={json.dumps(args.live)}")  # a YAML string, whatever it holds
     scenario = load_scenario(args.scenario, overrides)
     out_dir = args.out if args.out is not None else Path("out") / scenario.name
     summary = run(scenario, out_dir, progress=not args.no_progress)

@@ -61,7 +61,12 @@ def _convert(tp: Any, value: Any, source: str, key: str) -> Any:
         if value is None and type(None) in options:
             return None
         inner = [o for o in options if o is not type(None)]
-        return _convert(inner[0], value, source, key)
+        for option in inner[:-1]:  # the first type the value fits; the last one's error otherwise
+            try:
+                return _convert(option, value, source, key)
+            except ScenarioError:
+                continue
+        return _convert(inner[-1], value, source, key)
     if origin is Literal:
         if value not in get_args(tp):
             raise _fail(source, key, _type_name(tp), value)

@@ -136,7 +136,7 @@ def sense_and_label(
 
 def sink_choice(scenario: Scenario, out_dir: Path, map_world: Path | None = None) -> SinkChoice:
     o = scenario.outputs
-    return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world)
+    return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address)
 
 
 def open_sinks(

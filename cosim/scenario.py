@@ -13,6 +13,7 @@ from typing import Any, Literal
 
 from cosim.config import build, read_yaml, set_override
 from cosim.errors import ScenarioError
+from gtgen.sinks.live import LiveAddress, parse_live_address
 from sensors.camera import CameraSpec
 from sensors.lidar import LidarSpec
 from sensors.radar import RadarSpec
@@ -78,9 +79,19 @@ class OutputsConfig:
     kitti: bool = True
     yolo: bool = True
     yolo_min_visible_px: int = 25  # objects with fewer visible camera pixels get no YOLO box
+    live: str | int = ""  # serve a live view on PORT, HOST:PORT or HOST ("" = none)
 
     def __post_init__(self) -> None:
         _check(self.yolo_min_visible_px >= 1, "yolo_min_visible_px", "a whole number >= 1", self.yolo_min_visible_px)
+        if self.live != "":
+            try:
+                parse_live_address(str(self.live))
+            except ValueError as err:
+                raise ValueError(f"live: expected {err}") from None
+
+    @property
+    def live_address(self) -> LiveAddress | None:
+        return parse_live_address(str(self.live)) if self.live != "" else None
 
 
 @dataclass(frozen=True, slots=True)

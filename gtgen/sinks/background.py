@@ -18,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import pickle
 import shutil
+import sys
 from collections.abc import Callable
 from multiprocessing import resource_tracker
 from multiprocessing.connection import Connection
@@ -142,6 +143,8 @@ class BackgroundSinks:
         kind = message[0]
         if kind == "free":
             self._free.append(message[1])
+        elif kind == "notice":
+            print(message[1], file=sys.stderr)
         elif kind == "closed":
             self._child_times = message[1]
         elif kind == "error":
@@ -184,7 +187,9 @@ def serve(frames_rx: Connection, acks_tx: Connection) -> None:  # runs in the wr
     group: SinkGroup | None = None
     try:
         _, choice, timed = frames_rx.recv()
-        group = SinkGroup.open(choice, times if timed else NO_CLOCK)
+        group = SinkGroup.open(choice, times if timed else NO_CLOCK, announce=False)
+        for line in group.notices:
+            acks_tx.send(("notice", line))
         while True:
             message = frames_rx.recv()
             kind = message[0]

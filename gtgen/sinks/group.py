@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -10,6 +11,7 @@ from gtgen.sinks import Sink
 from gtgen.sinks.csv_sink import CsvSink
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.kitti_sink import KittiSink
+from gtgen.sinks.live import LiveAddress, LiveSink
 from gtgen.sinks.mcap_sink import McapSink
 from gtgen.sinks.yolo_sink import YoloSink
 from gtgen.timing import NO_CLOCK, StageClock
@@ -26,6 +28,7 @@ class SinkChoice:
     yolo: bool = True
     yolo_min_visible_px: int = 25
     map_world: Path | None = None  # a static world file (networks.world.read_world) for the MCAP's /map
+    live: LiveAddress | None = None  # serve the MCAP's messages to Foxglove over a WebSocket
 
     def partial_paths(self) -> list[Path]:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
@@ -36,6 +39,9 @@ class SinkChoice:
 def _open_one(choice: SinkChoice, kind: str) -> Sink:
     if kind == "mcap":
         return McapSink(choice.out_dir / "run.mcap", choice.map_world)
+    if kind == "live":
+        assert choice.live is not None
+        return LiveSink(choice.live, choice.map_world)
     if kind == "csv":
         return CsvSink(choice.out_dir / "labels.csv")
     if kind == "kitti":
@@ -50,10 +56,17 @@ class SinkGroup:
         self._sinks = sinks
         self._clock = clock
 
+    @property
+    def notices(self) -> list[str]:
+        """Lines for the user from the sinks (where the live view listens)."""
+        return [f"live view: ws://{s.host}:{s.port} (in Foxglove: Open connection)"
+                for s in self._sinks if isinstance(s, LiveSink)]  # fmt: skip
+
     @classmethod
-    def open(cls, choice: SinkChoice, clock: StageClock = NO_CLOCK) -> SinkGroup:
-        """Open the chosen sinks; if one cannot be opened, those already open are aborted."""
-        kinds = [k for k in ("mcap", "csv", "kitti", "yolo") if getattr(choice, k)]
+    def open(cls, choice: SinkChoice, clock: StageClock = NO_CLOCK, announce: bool = True) -> SinkGroup:
+        """Open the chosen sinks; if one cannot be opened, those already open are aborted.
+        With ``announce``, their notices go to stderr."""
+        kinds = [k for k in ("mcap", "csv", "kitti", "yolo", "live") if getattr(choice, k)]
         group = cls([], clock)
         try:
             for kind in kinds:
@@ -61,6 +74,9 @@ class SinkGroup:
         except BaseException:
             group.abort()
             raise
+        if announce:
+            for line in group.notices:
+                print(line, file=sys.stderr)
         return group
 
     def write(self, record: FrameRecord) -> None:

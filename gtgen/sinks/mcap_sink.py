@@ -77,6 +77,16 @@ def _serialized(topic: str, message: Any) -> McapMessage:
     return McapMessage(topic, type(message), message.SerializeToString())
 
 
+def serialized_frame(record: FrameRecord, images: FrameImages) -> McapFrame:
+    """Every message of one frame, serialized, in write order."""
+    return McapFrame(record.timestamp_ns, tuple(_serialized(topic, m) for topic, m in frame_messages(record, images)))
+
+
+def map_message(world_path: Path, timestamp_ns: int) -> McapMessage:
+    """The static world of a world file (:func:`networks.world.read_world`) on ``/map``."""
+    return _serialized(MAP_TOPIC, static_map_update(read_world(world_path).mesh, timestamp_ns))
+
+
 def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, Any]]:
     """Every message of one frame, in write order, as ``(topic, protobuf message or JSON dict)``."""
     ns = record.timestamp_ns
@@ -132,12 +142,11 @@ class McapSink:
         return channel
 
     def encode(self, record: FrameRecord, images: FrameImages) -> McapFrame:
-        messages = tuple(_serialized(topic, m) for topic, m in frame_messages(record, images))
+        frame = serialized_frame(record, images)
         if self._map_world is not None:
-            world = read_world(self._map_world)
-            messages = (_serialized(MAP_TOPIC, static_map_update(world.mesh, record.timestamp_ns)), *messages)
+            frame = McapFrame(frame.timestamp_ns, (map_message(self._map_world, record.timestamp_ns), *frame.messages))
             self._map_world = None
-        return McapFrame(record.timestamp_ns, messages)
+        return frame
 
     def write(self, encoded: McapFrame) -> None:
         ns = encoded.timestamp_ns

@@ -118,3 +118,24 @@ def test_cli_list_shows_each_scene_with_a_description():
 def test_cli_help_lists_the_subcommands():
     proc = run_cli("--help", cwd=ROOT)
     assert proc.returncode == 0 and "run" in proc.stdout and "list" in proc.stdout
+
+
+def test_cli_live_view_on_a_bad_address_or_a_busy_port_is_one_line_and_no_dataset(tmp_path):
+    from gtgen.sinks.live import LiveAddress, LiveSink
+
+    proc = run_cli(
+        "run", str(ROOT / "tests/data/tiny.yaml"), "--live", "host:port", "--out", str(tmp_path / "a"), cwd=ROOT
+    )
+    assert proc.returncode != 0
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "outputs.live: expected PORT, HOST:PORT or HOST" in lines[0]
+    busy = LiveSink(LiveAddress("127.0.0.1", 0))
+    try:
+        out = tmp_path / "b"
+        proc = run_cli("run", str(ROOT / "tests/data/tiny.yaml"), "--live", str(busy.port), "--out", str(out), cwd=ROOT)
+    finally:
+        busy.close()
+    assert proc.returncode != 0
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and f"live view: cannot listen on 127.0.0.1:{busy.port}" in errors[0], proc.stderr
+    assert not any(p.suffix in (".mcap", ".csv", ".json") for p in out.rglob("*")), sorted(out.rglob("*"))
