@@ -13,8 +13,9 @@ show a sky gradient. No shadows, no textures.
 
 from __future__ import annotations
 
+import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import cv2
@@ -87,22 +88,50 @@ class CameraSpec:
 
 
 @dataclass(frozen=True, slots=True)
+class Shading:
+    """What a frame's shaded image is made from: the surface normal per pixel (map frame,
+    row-major), the camera's orientation in the map, the weather and the seed of its image
+    noise. The image is made on first use, so where the frame is encoded (a writer process)
+    rather than where its rays are cast."""
+
+    spec: CameraSpec
+    map_R_cam: npt.NDArray[np.float32]
+    normal: npt.NDArray[np.float32]
+    weather: Weather
+    noise_seed: int | None
+
+
+@dataclass(frozen=True, slots=True)
 class CameraFrame:
     """One rendered frame: ``depth_m: (H, W) float32`` z-depth along the optical axis (0: no
     hit within range), ``instance_id: (H, W) uint32`` (0: static world or nothing),
-    ``semantic_class: (H, W) uint8`` (0: nothing), ``image_bgr: (H, W, 3) uint8``."""
+    ``semantic_class: (H, W) uint8`` (0: nothing), and ``image_bgr: (H, W, 3) uint8``: given,
+    or shaded from ``shading`` on first use."""
 
     depth_m: npt.NDArray[np.float32]
     instance_id: npt.NDArray[np.uint32]
     semantic_class: npt.NDArray[np.uint8]
-    image_bgr: npt.NDArray[np.uint8]
+    shading: Shading | None = None
+    given_image_bgr: npt.NDArray[np.uint8] | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         hw = self.depth_m.shape
         fields = ((self.depth_m, np.float32, hw), (self.instance_id, np.uint32, hw),
-                  (self.semantic_class, np.uint8, hw), (self.image_bgr, np.uint8, (*hw, 3)))  # fmt: skip
+                  (self.semantic_class, np.uint8, hw))  # fmt: skip
         if len(hw) != 2 or any(a.dtype != dt or a.shape != shape for a, dt, shape in fields):
-            raise ValueError("CameraFrame: need (H, W) float32 depth, uint32 instance, uint8 class, (H, W, 3) uint8")
+            raise ValueError("CameraFrame: need (H, W) float32 depth, uint32 instance, uint8 class")
+        image = self.given_image_bgr
+        if image is None and self.shading is None:
+            raise ValueError("CameraFrame: need an image or what to shade it from")
+        if image is not None and (image.dtype != np.uint8 or image.shape != (*hw, 3)):
+            raise ValueError("CameraFrame: the image must be (H, W, 3) uint8")
+
+    @property
+    def image_bgr(self) -> npt.NDArray[np.uint8]:
+        if self.given_image_bgr is None:
+            object.__setattr__(self, "given_image_bgr", shade_frame(self))
+        assert self.given_image_bgr is not None
+        return self.given_image_bgr
 
     @property
     def hit(self) -> npt.NDArray[np.bool_]:
@@ -170,18 +199,40 @@ class Camera:
         depth[far] = 0.0
         hits.instance_id[far] = 0  # the frame's own arrays; shading paints sky over these pixels
         hits.semantic_class[far] = 0
-        noise = image_noise(w, np.random.default_rng(0) if rng is None else rng, far.shape[0])
-        image = np.empty((far.shape[0], 3), np.uint8)
-        for start in range(0, far.shape[0], STRIPE_PX):
-            part = slice(start, start + STRIPE_PX)
-            stripe = RayHits(hits.range_m[part], hits.semantic_class[part], hits.instance_id[part], hits.normal[part])
-            shaded = shade(stripe, rays[part, 3:6], ~far[part], self._dirs_cam[part, 2], w, self.spec.range_m)
-            if noise is not None:
-                shaded += noise[part, None]
-            image[part] = to_uint8(shaded)
+        seed = None
+        if w.noise_sigma > 0:
+            seed = 0 if rng is None else int(rng.integers(0, 2**63))
+        map_R_cam = map_SE3_ego.compose(self.spec.ego_SE3_cam).rotation.astype(np.float32)
         h, wd = self.shape
         return CameraFrame(depth.reshape(h, wd), hits.instance_id.reshape(h, wd), hits.semantic_class.reshape(h, wd),
-                           image.reshape(h, wd, 3))  # fmt: skip
+                           Shading(self.spec, map_R_cam, hits.normal, w, seed))  # fmt: skip
+
+
+def shade_frame(frame: CameraFrame) -> npt.NDArray[np.uint8]:
+    """The shaded ``(H, W, 3) uint8`` image of a rendered frame (see :class:`Shading`)."""
+    sh = frame.shading
+    assert sh is not None
+    dirs_cam = _pixel_directions(sh.spec)
+    depth = frame.depth_m.ravel()
+    hit = depth > 0
+    range_m = depth / dirs_cam[:, 2]
+    dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
+    classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
+    noise = None if sh.noise_seed is None else image_noise(sh.weather, np.random.default_rng(sh.noise_seed), len(depth))
+    image = np.empty((len(depth), 3), np.uint8)
+    for start in range(0, len(depth), STRIPE_PX):
+        part = slice(start, start + STRIPE_PX)
+        stripe = RayHits(range_m[part], classes[part], instances[part], sh.normal[part])
+        shaded = shade(stripe, dirs_map[part], hit[part], dirs_cam[part, 2], sh.weather, sh.spec.range_m)
+        if noise is not None:
+            shaded += noise[part, None]
+        image[part] = to_uint8(shaded)
+    return image.reshape(*frame.depth_m.shape, 3)
+
+
+@functools.lru_cache(maxsize=8)
+def _pixel_directions(spec: CameraSpec) -> npt.NDArray[np.float32]:
+    return pixel_directions_cam(spec)
 
 
 STRIPE_PX = 1 << 15

@@ -138,7 +138,9 @@ def test_a_full_size_render_has_the_documented_shapes_and_types(synth: SimpleNam
 def test_camera_frame_rejects_mismatched_arrays() -> None:
     with pytest.raises(ValueError):
         CameraFrame(np.zeros((4, 5), np.float32), np.zeros((4, 5), np.uint32), np.zeros((4, 5), np.uint8),
-                    np.zeros((4, 6, 3), np.uint8))  # fmt: skip
+                    given_image_bgr=np.zeros((4, 6, 3), np.uint8))  # fmt: skip
+    with pytest.raises(ValueError):
+        CameraFrame(np.zeros((4, 5), np.float32), np.zeros((4, 5), np.uint32), np.zeros((4, 5), np.uint8))
 
 
 @pytest.mark.parametrize("filter_up", [False, True])
@@ -160,6 +162,7 @@ def test_shading_in_stripes_gives_the_image_of_one_pass(
     camera, w = Camera(CameraSpec(width_px=200, height_px=120)), weather_preset(weather)
     monkeypatch.setattr(camera_module, "STRIPE_PX", 4000)  # 6 stripes, the last one short
     striped = camera.render(scene, SE3.identity(), w, np.random.default_rng(1))
+    assert striped.image_bgr.any()  # shaded now, in stripes (the image is made on first use)
     monkeypatch.setattr(camera_module, "STRIPE_PX", 10**9)
     whole = camera.render(scene, SE3.identity(), w, np.random.default_rng(1))
     for name in ("depth_m", "instance_id", "semantic_class", "image_bgr"):
