@@ -6,32 +6,14 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from gtgen.colours import CLASS_RGB, class_bgr255
 from gtgen.objects import ObjectBoxes
-from networks.classes import SemanticClass
-
-# BGR colours per semantic class for points and boxes.
-CLASS_BGR: dict[int, tuple[int, int, int]] = {
-    SemanticClass.ROAD: (90, 90, 90),
-    SemanticClass.SIDEWALK: (150, 150, 170),
-    SemanticClass.CURB: (190, 190, 200),
-    SemanticClass.BUILDING: (70, 130, 200),
-    SemanticClass.VEGETATION: (60, 170, 60),
-    SemanticClass.POLE: (0, 220, 220),
-    SemanticClass.TERRAIN: (60, 90, 60),
-    SemanticClass.CROSSING: (230, 230, 230),
-    SemanticClass.CAR: (255, 150, 50),
-    SemanticClass.TRUCK: (30, 150, 255),
-    SemanticClass.BUS: (30, 220, 255),
-    SemanticClass.MOTORCYCLE: (230, 50, 230),
-    SemanticClass.BICYCLE: (230, 230, 50),
-    SemanticClass.PEDESTRIAN: (60, 60, 255),
-}
 
 
 def _lut() -> npt.NDArray[np.uint8]:
     lut = np.full((256, 3), 128, np.uint8)
-    for cls, bgr in CLASS_BGR.items():
-        lut[int(cls)] = bgr
+    for cls in CLASS_RGB:
+        lut[int(cls)] = class_bgr255(cls)
     return lut
 
 
@@ -66,7 +48,7 @@ def bev_image(
         local = np.array([[hl, hw], [hl, -hw], [-hl, -hw], [-hl, hw]])
         xy = local @ np.array([[c, s], [-s, c]]) + o.center_ego_m[i, :2]
         r, k = to_px(xy[:, 0], xy[:, 1])
-        colour = CLASS_BGR.get(int(o.semantic_class[i]), (255, 255, 255)) if seen[i] else (80, 80, 80)
+        colour = class_bgr255(int(o.semantic_class[i]), (255, 255, 255)) if seen[i] else (80, 80, 80)
         poly = np.stack([k, r], axis=1).astype(np.int32)
         cv2.polylines(img, [poly], True, colour, 1, cv2.LINE_AA)
         cv2.line(

@@ -26,6 +26,7 @@ from foxglove_schemas_protobuf.TextAnnotation_pb2 import TextAnnotation
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf.timestamp_pb2 import Timestamp
 
+from gtgen.colours import CLASS_RGB
 from gtgen.frame import CameraOutput, LidarOutput, RadarOutput
 from gtgen.labels import CameraLabels, FrameLabels
 from gtgen.sinks.images import FrameImages
@@ -51,14 +52,6 @@ RADAR_FIELDS = (
     ("strength", 28, _F.FLOAT32), ("instance", 32, _F.UINT32), ("class", 36, _F.UINT8),
 )  # fmt: skip
 
-CLASS_RGB: dict[int, tuple[float, float, float]] = {
-    SemanticClass.CAR: (0.2, 0.6, 1.0),
-    SemanticClass.TRUCK: (1.0, 0.6, 0.1),
-    SemanticClass.BUS: (1.0, 0.85, 0.1),
-    SemanticClass.MOTORCYCLE: (0.9, 0.2, 0.9),
-    SemanticClass.BICYCLE: (0.2, 0.9, 0.9),
-    SemanticClass.PEDESTRIAN: (1.0, 0.25, 0.25),
-}
 JPEG_QUALITY = 90
 DEPTH_UNITS_PER_M = 256.0  # 16-bit depth PNG: 1/256 m steps up to 255.99 m (as KITTI's depth maps)
 
