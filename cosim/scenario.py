@@ -117,15 +117,12 @@ class Scenario:
         _check(self.seed >= 0, "seed", "a whole number >= 0", self.seed)
         _check(bool(self.network), "network", "a town name or a path to an .xodr file", self.network)
         rig = self.sensors
-        if self.outputs.kitti:
-            _check(
-                bool(rig.cameras and rig.lidars),
-                "outputs.kitti",
-                "a rig with a camera and a LiDAR (or kitti: false)",
-                "",
-            )
-        if self.outputs.yolo:
-            _check(bool(rig.cameras), "outputs.yolo", "a rig with a camera (or yolo: false)", "")
+        kinds = f"{len(rig.cameras)} camera(s) and {len(rig.lidars)} LiDAR(s)"
+        if self.outputs.kitti and not (rig.cameras and rig.lidars):
+            raise ValueError(f"outputs.kitti: needs a rig with a camera and a LiDAR, this one has {kinds}; "
+                             "set outputs.kitti=false")  # fmt: skip
+        if self.outputs.yolo and not rig.cameras:
+            raise ValueError("outputs.yolo: needs a rig with a camera, this one has none; set outputs.yolo=false")
 
     def network_path(self) -> Path | None:
         """The user's OpenDRIVE file, resolved against the scenario file; None for a built-in town."""

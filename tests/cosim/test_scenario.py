@@ -139,3 +139,11 @@ def test_cli_live_view_on_a_bad_address_or_a_busy_port_is_one_line_and_no_datase
     errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
     assert len(errors) == 1 and f"live view: cannot listen on 127.0.0.1:{busy.port}" in errors[0], proc.stderr
     assert not any(p.suffix in (".mcap", ".csv", ".json") for p in out.rglob("*")), sorted(out.rglob("*"))
+
+
+def test_kitti_and_yolo_without_a_camera_say_what_to_change(tmp_path):
+    path = write(tmp_path, "network: skeleton\nsensors: {cameras: []}\n")
+    with pytest.raises(ScenarioError, match=r"outputs\.kitti: needs a rig with a camera and a LiDAR, this one has 0"):
+        load_scenario(str(path))
+    with pytest.raises(ScenarioError, match=r"outputs\.yolo: needs a rig with a camera.*set outputs\.yolo=false"):
+        load_scenario(str(path), ["outputs.kitti=false"])
