@@ -15,6 +15,7 @@ from typing import Protocol
 import numpy as np
 from tqdm import tqdm
 
+from cosim.errors import CosimError
 from cosim.rig import Rig, build_rig
 from cosim.scenario import Scenario
 from cosim.state import WorldState
@@ -195,6 +196,8 @@ def run(
             sinks.write(record)
             summary.add(record.labels)
             probe.frame_done(frame_index)
+            if frame_index == disk_check_frame(scenario.frames):
+                check_disk_space(out_dir, frame_index + 1, scenario.frames)
         traffic.close()
         traffic = None
         sinks.close()
@@ -207,6 +210,39 @@ def run(
         raise
     write_manifest(scenario, out_dir, summary, prepared.xodr_path)
     return summary
+
+
+DISK_CHECK_FRAMES = 30  # the frames written before the output size is extrapolated
+DISK_MARGIN = 1.1
+WRITER_LAG_FRAMES = 3  # frames still in the writer's queue or buffers
+
+
+def disk_check_frame(frames: int) -> int:
+    """The frame after which :func:`check_disk_space` runs (-1: a run too short to check)."""
+    return min(DISK_CHECK_FRAMES, frames // 2) if frames >= 2 * WRITER_LAG_FRAMES + 2 else -1
+
+
+def check_disk_space(out_dir: Path, frames_done: int, frames_total: int) -> None:
+    """Stop early, with one line, when the run's files (extrapolated from what the first
+    frames wrote) will not fit on the disk: not after hours, with the disk full."""
+    written = sum(f.stat().st_size for partial in out_dir.glob("*.partial") for f in _files(partial))
+    frames_written = max(frames_done - WRITER_LAG_FRAMES, 1)
+    needed = written / frames_written * frames_total
+    free = shutil.disk_usage(out_dir).free
+    if (needed - written) * DISK_MARGIN > free:
+        raise CosimError(
+            f"{out_dir}: not enough free disk space for this run: about {_size(needed)} in all "
+            f"(from its first {frames_written} frames), {_size(free)} free; free some space, write "
+            "fewer frames or turn outputs off (outputs.kitti=false, outputs.yolo=false, outputs.mcap=false)"
+        )
+
+
+def _size(n_bytes: float) -> str:
+    return f"{n_bytes / 1e9:.1f} GB" if n_bytes >= 1e9 else f"{n_bytes / 1e6:.0f} MB"
+
+
+def _files(path: Path) -> list[Path]:
+    return [path] if path.is_file() else [f for f in path.rglob("*") if f.is_file()]
 
 
 def remove_partials(out_dir: Path) -> None:

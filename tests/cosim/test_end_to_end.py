@@ -175,3 +175,18 @@ def test_static_map_is_written_once_at_the_first_frame_with_every_classed_triang
     }
     assert written == {cls: n for cls, n in expected.items() if n}
     assert written[SemanticClass.ROAD] > 100 and written[SemanticClass.BUILDING] > 100
+
+
+def test_a_run_that_will_not_fit_on_the_disk_stops_early_with_one_line_and_no_dataset(tmp_path, monkeypatch):
+    import shutil
+    from collections import namedtuple
+
+    from cosim.errors import CosimError
+
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: usage(10**9, 10**9 - 10**6, 10**6))  # 1 MB free
+    expected = r"not enough free disk space for this run: about [0-9.]+ [MG]B in all .* 1 MB free"
+    with pytest.raises(CosimError, match=expected) as err:
+        run(load_scenario(str(DATA / "tiny.yaml"), ["frames=200"]), tmp_path, progress=False)
+    assert "\n" not in str(err.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
