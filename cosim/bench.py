@@ -200,7 +200,7 @@ def _measure(case: Case, out_root: Path, one_process: bool, keep: bool) -> dict[
     probe = BenchProbe(case.frames, case.cast_scenes)
     out_dir = out_root / case.name
     try:
-        run(scenario, out_dir, progress=False, one_process=one_process, probe=probe)
+        summary = run(scenario, out_dir, progress=False, one_process=one_process, probe=probe)
     finally:
         if not keep:
             shutil.rmtree(out_dir, ignore_errors=True)
@@ -215,6 +215,7 @@ def _measure(case: Case, out_root: Path, one_process: bool, keep: bool) -> dict[
         "title": case.title, "scenario": case.scenario, "overrides": list(case.overrides), "frames": case.frames,
         "one_process": one_process, "setup_s": probe.frame_end_s[0] - start, "loop_s": loop_s,
         "fps": case.frames / loop_s,
+        "labelled_per_frame": summary.objects / case.frames, "seen_per_frame": summary.seen / case.frames,
         "frame_ms": frame_ms, "stages_ms": stages, "pure_cast_ms": casts, "pure_cast_total_ms": cast_total,
         "frame_over_cast": frame_ms / cast_total if cast_total > 0 else None,
         "cpu_ms_per_frame": {who: 1e3 * s / case.frames for who, s in probe.cpu_s.items()},
@@ -256,6 +257,8 @@ def table(results: dict[str, dict[str, Any]]) -> str:
     rows.append(["frames", *[str(results[n]["frames"]) for n in names]])
     rows.append(["frames/s", *[_fmt(results[n].get("fps")) for n in names]])
     rows.append(["ms/frame (wall)", *[_fmt(results[n].get("frame_ms")) for n in names]])
+    rows.append(["labelled objects/frame", *[_fmt(results[n].get("labelled_per_frame")) for n in names]])
+    rows.append(["seen objects/frame", *[_fmt(results[n].get("seen_per_frame")) for n in names]])
     stages: list[str] = []
     for n in ok:
         stages += [s for s in results[n]["stages_ms"] if s not in stages]
