@@ -26,6 +26,7 @@ from networks.geometry import SE3
 from sensors.errors import SensorConfigError, SensorError
 from sensors.hits import RayHits
 from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAINT_BGR
+from sensors.rays import sensor_rays
 from sensors.view import spheres_in_view
 from sensors.weather import DAY, Weather, haze_fraction, image_noise, sky_bgr
 
@@ -175,12 +176,7 @@ class Camera:
 
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         """``(H * W, 6) float32`` rays in the map frame, row-major over pixels."""
-        map_SE3_cam = map_SE3_ego.compose(self.spec.ego_SE3_cam)
-        rays = np.empty((self._dirs_cam.shape[0], 6), np.float32)
-        rays[:, :3] = map_SE3_cam.translation
-        rotation = map_SE3_cam.rotation.astype(np.float32)
-        rays[:, 3:] = cv2.transform(self._dirs_cam.reshape(-1, 1, 3), rotation).reshape(-1, 3)
-        return rays
+        return sensor_rays(map_SE3_ego.compose(self.spec.ego_SE3_cam), self._dirs_cam)
 
     def render(
         self,

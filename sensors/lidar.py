@@ -17,6 +17,7 @@ import numpy.typing as npt
 from networks.geometry import SE3
 from sensors.errors import SensorConfigError
 from sensors.materials import REFLECTIVITY_BY_CLASS
+from sensors.rays import sensor_rays
 from sensors.view import spheres_in_view
 from sensors.weather import (
     DAY,
@@ -101,6 +102,7 @@ class Lidar:
     def __init__(self, spec: LidarSpec) -> None:
         self.spec = spec
         self._dirs_lidar, self._ring = spec.directions()
+        self._dirs32 = self._dirs_lidar.astype(np.float32)
 
     @property
     def num_rays(self) -> int:
@@ -114,10 +116,7 @@ class Lidar:
         return spheres_in_view(lidar_SE3_map, center_map_m, radius_m, self.spec.range_m)
 
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
-        map_SE3_lidar = map_SE3_ego.compose(self.spec.ego_SE3_sensor)
-        dirs = map_SE3_lidar.rotate(self._dirs_lidar)
-        origin = np.broadcast_to(map_SE3_lidar.translation, dirs.shape)
-        return np.concatenate([origin, dirs], axis=1).astype(np.float32)
+        return sensor_rays(map_SE3_ego.compose(self.spec.ego_SE3_sensor), self._dirs32)
 
     def scan(
         self, scene: FrameScene, map_SE3_ego: SE3, rng: np.random.Generator, weather: Weather | None = None
@@ -131,21 +130,22 @@ class Lidar:
         dropout = lidar_dropout(w, self.spec.dropout) if w.lidar_dropout > 0 else self.spec.dropout
         if dropout > 0:
             keep &= rng.random(keep.shape[0]) >= dropout
-        rng_m = hits.range_m[keep].astype(np.float64)
+        idx = np.flatnonzero(keep)
+        rng_m = hits.range_m[idx]
         noise_m = lidar_range_noise_m(w, self.spec.range_noise_m)
         if noise_m > 0:
-            rng_m = rng_m + rng.normal(0.0, noise_m, rng_m.shape[0])
-        xyz = self._dirs_lidar[keep] * rng_m[:, None]
-        cos_inc = np.abs(np.sum(rays[keep, 3:6] * hits.normal[keep], axis=1))
-        cls = hits.semantic_class[keep]
-        intensity = REFLECTIVITY_BY_CLASS[cls] * cos_inc * np.exp(-rng_m / 200.0)
+            rng_m = (rng_m + rng.normal(0.0, noise_m, rng_m.shape[0])).astype(np.float32)
+        xyz = self._dirs32[idx] * rng_m[:, None]
+        cos_inc = np.abs(np.einsum("ij,ij->i", rays[idx, 3:6], hits.normal[idx]))
+        cls = hits.semantic_class[idx]
+        intensity = REFLECTIVITY_BY_CLASS[cls].astype(np.float32) * cos_inc * np.exp(rng_m * np.float32(-1.0 / 200.0))
         if w.lidar_spurious_rate > 0 or w.lidar_intensity_scale != 1.0 or w.lidar_extinction_per_m > 0:
             intensity = intensity * lidar_intensity_factor(w, rng_m)
-            intensity = np.where(spurious[keep], w.lidar_spurious_intensity, intensity)
+            intensity = np.where(spurious[idx], w.lidar_spurious_intensity, intensity)
         return LidarScan(
-            xyz.astype(np.float32),
-            intensity.astype(np.float32),
-            self._ring[keep],
+            xyz.astype(np.float32, copy=False),
+            intensity.astype(np.float32, copy=False),
+            self._ring[idx],
             cls,
-            hits.instance_id[keep],
+            hits.instance_id[idx],
         )

@@ -22,6 +22,7 @@ import numpy.typing as npt
 from networks.geometry import SE3
 from sensors.errors import SensorConfigError
 from sensors.materials import RADAR_REFLECTIVITY_BY_CLASS
+from sensors.rays import sensor_rays
 from sensors.view import spheres_in_view
 
 if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
@@ -184,6 +185,7 @@ class Radar:
     def __init__(self, spec: RadarSpec) -> None:
         self.spec = spec
         self._dirs_radar = spec.directions()
+        self._dirs32 = self._dirs_radar.astype(np.float32)
 
     @property
     def num_rays(self) -> int:
@@ -199,10 +201,7 @@ class Radar:
                                elevation_fov=True)  # fmt: skip
 
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
-        map_SE3_radar = map_SE3_ego.compose(self.spec.ego_SE3_sensor)
-        dirs = map_SE3_radar.rotate(self._dirs_radar)
-        origin = np.broadcast_to(map_SE3_radar.translation, dirs.shape)
-        return np.concatenate([origin, dirs], axis=1).astype(np.float32)
+        return sensor_rays(map_SE3_ego.compose(self.spec.ego_SE3_sensor), self._dirs32)
 
     def scan(
         self,
