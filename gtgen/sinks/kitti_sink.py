@@ -1,4 +1,5 @@
-"""``kitti/``: the KITTI object-detection layout (image_2, velodyne, label_2, calib).
+"""``kitti/``: the KITTI object-detection layout (image_2, velodyne, label_2, calib), and
+SemanticKITTI's point labels beside it (labels, poses.txt, calib.txt).
 
 One frame per file, named by frame index (``000000``). Images are the first camera's
 shaded image (lossless PNG); ``velodyne`` holds the first LiDAR's points as float32 x, y, z,
@@ -6,6 +7,12 @@ intensity in the LiDAR frame (x forward, y left, z up, like KITTI's Velodyne).
 Labels list the objects whose projected box overlaps the image and that some sensor
 saw; boxes and alpha follow KITTI's definitions, ``location`` is the bottom centre of
 the 3D box in the camera frame.
+
+``labels/NNNNNN.label`` has one uint32 per ``velodyne`` point, as SemanticKITTI: the class
+id of SemanticKITTI's label set in the low 16 bits, the track id (0 for the static world)
+in the high 16 bits. ``poses.txt`` has one line per frame, the camera's pose in the first
+frame's camera frame (3x4, row-major), and ``calib.txt`` the rig's P0..P3 and Tr (LiDAR to
+camera), so that ``kitti/`` reads as a SemanticKITTI sequence folder.
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ from gtgen.frame import FrameRecord
 from gtgen.sinks.folder import PartialFolder
 from gtgen.sinks.images import FrameImages
 from networks.classes import SemanticClass
+from networks.geometry import SE3
 
 KITTI_TYPES = {
     SemanticClass.CAR: "Car",
@@ -30,13 +38,46 @@ KITTI_TYPES = {
 }
 
 
+# Our classes as SemanticKITTI's label ids (its semantic-kitti.yaml): bicycles and
+# motorcycles include their riders, which SemanticKITTI would label bicyclist/motorcyclist;
+# the curb goes with the sidewalk, crossings with the road; 1 "outlier" for spurious returns.
+SEMANTIC_KITTI_IDS = {
+    SemanticClass.NONE: 1,
+    SemanticClass.ROAD: 40,
+    SemanticClass.CROSSING: 40,
+    SemanticClass.SIDEWALK: 48,
+    SemanticClass.CURB: 48,
+    SemanticClass.BUILDING: 50,
+    SemanticClass.VEGETATION: 70,
+    SemanticClass.POLE: 80,
+    SemanticClass.TERRAIN: 72,
+    SemanticClass.CAR: 10,
+    SemanticClass.TRUCK: 18,
+    SemanticClass.BUS: 13,
+    SemanticClass.MOTORCYCLE: 15,
+    SemanticClass.BICYCLE: 11,
+    SemanticClass.PEDESTRIAN: 30,
+}
+SEMANTIC_KITTI_LUT = np.zeros(256, np.uint32)  # 0 "unlabeled" for any class not listed
+for _cls, _id in SEMANTIC_KITTI_IDS.items():
+    SEMANTIC_KITTI_LUT[int(_cls)] = _id
+
+
+def semantic_kitti_labels(semantic_class: np.ndarray, instance_id: np.ndarray) -> np.ndarray:
+    """``(N,) uint32`` SemanticKITTI point labels: label id | (instance & 0xFFFF) << 16."""
+    return SEMANTIC_KITTI_LUT[semantic_class] | ((instance_id.astype(np.uint32) & 0xFFFF) << 16)
+
+
 def _matrix_line(name: str, m: np.ndarray) -> str:
     return f"{name}: " + " ".join(f"{v:.12e}" for v in np.asarray(m, dtype=np.float64).ravel())
 
 
 class KittiSink:
     def __init__(self, folder: Path) -> None:
-        self._folder = PartialFolder(folder, ("image_2", "velodyne", "label_2", "calib"))
+        self._folder = PartialFolder(folder, ("image_2", "velodyne", "label_2", "calib", "labels"))
+        self._first_map_SE3_cam: SE3 | None = None
+        self._calib = ""
+        self._poses: list[str] = []
 
     def encode(self, record: FrameRecord, images: FrameImages) -> dict[str, bytes]:
         """The frame's files, by path relative to the ``kitti`` folder."""
@@ -50,11 +91,20 @@ class KittiSink:
         lidar_SE3_ego = lidar.spec.ego_SE3_sensor.inverse()
         P = np.hstack([camera.spec.K, np.zeros((3, 1))])
         lines = [_matrix_line(f"P{i}", P) for i in range(4)]
+        sequence_calib = [*lines, _matrix_line("Tr", cam_SE3_lidar.as_matrix()[:3])]
         lines += [_matrix_line("R0_rect", np.eye(3)), _matrix_line("Tr_velo_to_cam", cam_SE3_lidar.as_matrix()[:3]),
                   _matrix_line("Tr_imu_to_velo", lidar_SE3_ego.as_matrix()[:3])]  # fmt: skip
+        map_SE3_cam = record.map_SE3_ego.compose(camera.spec.ego_SE3_cam)
+        if self._first_map_SE3_cam is None:
+            self._first_map_SE3_cam = map_SE3_cam
+            self._calib = "\n".join(sequence_calib) + "\n"
+        pose = self._first_map_SE3_cam.inverse().compose(map_SE3_cam).as_matrix()[:3]
+        self._poses.append(" ".join(f"{v:.12e}" for v in pose.ravel()) + "\n")
+        point_labels = semantic_kitti_labels(lidar.scan.semantic_class, lidar.scan.instance_id).astype("<u4")
         return {
             f"image_2/{name}.png": images.png(0),
             f"velodyne/{name}.bin": points.tobytes(),
+            f"labels/{name}.label": point_labels.tobytes(),
             f"label_2/{name}.txt": self._labels(record, cam_SE3_ego, cam_labels).encode(),
             f"calib/{name}.txt": ("\n".join(lines) + "\n").encode(),
         }
@@ -85,6 +135,7 @@ class KittiSink:
         return "".join(r + "\n" for r in rows)
 
     def close(self) -> None:
+        self._folder.write_files({"poses.txt": "".join(self._poses).encode(), "calib.txt": self._calib.encode()})
         self._folder.commit()
 
     def abort(self) -> None:

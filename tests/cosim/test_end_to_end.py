@@ -16,9 +16,11 @@ from cosim.scenario import load_scenario
 from cosim.world_setup import prepare_network
 from gtgen.load import iter_messages, lidar_points, load_labels, objects_from_table
 from gtgen.objects import points_in_boxes
+from gtgen.sinks.kitti_sink import SEMANTIC_KITTI_LUT
 from gtgen.static_map import MAP_RGBA
 from gtgen.table import REFERENCE_COLUMNS
 from networks.classes import SemanticClass
+from networks.geometry import rotation_from_quaternion_xyzw
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 pytestmark = pytest.mark.slow
@@ -190,3 +192,34 @@ def test_a_run_that_will_not_fit_on_the_disk_stops_early_with_one_line_and_no_da
         run(load_scenario(str(DATA / "tiny.yaml"), ["frames=200"]), tmp_path, progress=False)
     assert "\n" not in str(err.value)
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_semantic_kitti_point_labels_match_the_point_cloud_and_poses_follow_the_ego(dataset):
+    kitti = dataset / "kitti"
+    clouds = [lidar_points(m) for _, _, m in iter_messages(dataset / "run.mcap", ["/lidar"])]
+    assert len(list((kitti / "labels").glob("*.label"))) == len(clouds) == 20
+    for index in (0, 7, 19):
+        labels = np.fromfile(kitti / "labels" / f"{index:06d}.label", dtype="<u4")
+        velo = np.fromfile(kitti / "velodyne" / f"{index:06d}.bin", dtype="<f4").reshape(-1, 4)
+        cloud = clouds[index]
+        assert len(labels) == len(velo) == len(cloud)
+        np.testing.assert_array_equal(labels & 0xFFFF, SEMANTIC_KITTI_LUT[cloud["class"]])
+        np.testing.assert_array_equal(labels >> 16, cloud["instance"] & 0xFFFF)
+        assert set(np.unique(labels & 0xFFFF)) <= {1, 10, 11, 13, 15, 18, 30, 40, 48, 50, 70, 72, 80}
+        assert {10, 40, 50} <= set(np.unique(labels & 0xFFFF))
+    poses = np.loadtxt(kitti / "poses.txt").reshape(-1, 3, 4)
+    assert poses.shape == (20, 3, 4)
+    np.testing.assert_allclose(poses[0], np.eye(4)[:3], atol=1e-9)
+    tf = [m.transforms[0] for _, _, m in iter_messages(dataset / "run.mcap", ["/tf"])]  # map -> ego
+
+    def camera_in_map(t) -> np.ndarray:
+        q = t.rotation
+        return rotation_from_quaternion_xyzw(q.x, q.y, q.z, q.w) @ [0.41, 0.0, 1.64] + [
+            t.translation.x, t.translation.y, t.translation.z
+        ]  # fmt: skip
+
+    moved = np.linalg.norm(camera_in_map(tf[-1]) - camera_in_map(tf[0]))
+    assert moved > 1.0
+    assert abs(np.linalg.norm(poses[-1][:, 3]) - moved) < 0.01
+    calib = dict(line.split(": ", 1) for line in (kitti / "calib.txt").read_text().splitlines())
+    assert {"P0", "P1", "P2", "P3", "Tr"} <= set(calib)
