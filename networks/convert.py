@@ -7,11 +7,15 @@ import subprocess
 from pathlib import Path
 from xml.etree import ElementTree
 
+import shapely
+import sumolib
+from shapely.geometry import LineString
+
 from networks.cache import cache_dir, digest, scratch_dir
 from networks.errors import NetconvertError, NetworkError
 from networks.sumo_tools import sumo_binary
 
-CONVERT_VERSION = "3"
+CONVERT_VERSION = "4"
 
 # Sidewalks and crossings for pedestrians, smooth lane shapes, z kept from the file.
 IMPORT_OPTIONS: tuple[str, ...] = (
@@ -58,6 +62,8 @@ LANE_TYPES_XML = "\n".join(
     ]
 )
 
+NOTICE_FILE = "notice.txt"
+MISREAD_SIDEWALK_SHARE = 0.5  # of the sidewalk area on driving lanes: the file is left-hand traffic
 SIDEWALK_MAX_SPEED_MPS = 13.89  # netconvert's default for --sidewalks.guess.max-speed
 
 _SIGNAL_TAG = re.compile(r"<signal(?:Reference)?\s[^>]*>")
@@ -86,7 +92,8 @@ def import_opendrive(xodr_path: Path) -> Path:
         types = scratch / "lanes.typ.xml"
         types.write_text(LANE_TYPES_XML)
         partial = scratch / "net.partial.xml"
-        first_error = error = _run_netconvert(xodr_path, types, partial)
+        source = xodr_path  # the file as converted: the user's, or a repaired copy
+        first_error = error = _run_netconvert(source, types, partial)
         text = data.decode("utf-8", "replace")
         for name, repair in (("signals.xodr", _repair_signals), ("no-georef.xodr", _strip_geo_reference)):
             if not error:
@@ -94,14 +101,52 @@ def import_opendrive(xodr_path: Path) -> Path:
             repaired = repair(text)
             if repaired == text:
                 continue
-            text = repaired
-            (scratch / name).write_text(text)
-            error = _run_netconvert(scratch / name, types, partial)
-        (scratch / "netconvert.log").replace(folder / "netconvert.log")
+            text, source = repaired, scratch / name
+            source.write_text(text)
+            error = _run_netconvert(source, types, partial)
         if error:
+            (scratch / "netconvert.log").replace(folder / "netconvert.log")
             raise NetconvertError(f"{xodr_path}: netconvert rejected the file: {first_error}")
+        if not road_facts(source)[1] and sidewalks_on_driving_lanes(partial) > MISREAD_SIDEWALK_SHARE:
+            # Left-hand geometry read as right-hand traffic puts every sidewalk on a lane.
+            mirrored = scratch / "net.lefthand.xml"
+            if not _run_netconvert(source, types, mirrored, left_hand=True) and (
+                sidewalks_on_driving_lanes(mirrored) < MISREAD_SIDEWALK_SHARE / 5
+            ):
+                mirrored.replace(partial)
+                (folder / NOTICE_FILE).write_text(
+                    f'note: {xodr_path}: read as left-hand traffic (its roads do not say rule="LHT", '
+                    "but read as right-hand traffic its sidewalks lay on the driving lanes)"
+                )
+        (scratch / "netconvert.log").replace(folder / "netconvert.log")
         partial.replace(net)
     return net
+
+
+def conversion_notice(net_path: Path) -> str:
+    """What the user should know about how :func:`import_opendrive` read the file ('' if nothing)."""
+    notice = net_path.with_name(NOTICE_FILE)
+    return notice.read_text() if notice.exists() else ""
+
+
+def sidewalks_on_driving_lanes(net_path: Path) -> float:
+    """Share of the pedestrian-only lanes' area that lies on lanes open to cars (0 if none)."""
+    net = sumolib.net.readNet(str(net_path))
+    walk, drive = [], []
+    for edge in net.getEdges(withInternal=False):
+        for lane in edge.getLanes():
+            shape = [p[:2] for p in lane.getShape()]
+            if edge.getFunction() or len(shape) < 2:
+                continue
+            footprint = LineString(shape).buffer(lane.getWidth() / 2.0, cap_style="flat")
+            if lane.getPermissions() == {"pedestrian"}:
+                walk.append(footprint)
+            elif lane.allows("passenger"):
+                drive.append(footprint)
+    if not walk or not drive:
+        return 0.0
+    sidewalks = shapely.union_all(walk)
+    return float(sidewalks.intersection(shapely.union_all(drive)).area / max(sidewalks.area, 1e-9))
 
 
 def _strip_geo_reference(text: str) -> str:
@@ -122,16 +167,17 @@ def _repair_signals(text: str) -> str:
     return _SIGNAL_TAG.sub(fix, text)
 
 
-def _run_netconvert(xodr_path: Path, types_path: Path, out_path: Path) -> str:
-    """Run netconvert; return '' on success, else its reason on one line."""
+def _run_netconvert(xodr_path: Path, types_path: Path, out_path: Path, left_hand: bool = False) -> str:
+    """Run netconvert (as left-hand traffic if the file says so, or ``left_hand``); return ''
+    on success, else its reason on one line."""
     cmd = [
         str(sumo_binary("netconvert")), "--opendrive-files", str(xodr_path), "--type-files", str(types_path),
         *IMPORT_OPTIONS, "-o", str(out_path),
     ]  # fmt: skip
-    fast, left_hand = road_facts(xodr_path)
+    fast, says_left_hand = road_facts(xodr_path)
     if fast:
         cmd += ["--sidewalks.guess.exclude", ",".join(fast)]
-    if left_hand:
+    if left_hand or says_left_hand:
         cmd += ["--lefthand", "true"]
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     out_path.with_name("netconvert.log").write_text(proc.stderr)

@@ -5,7 +5,7 @@ from pathlib import Path
 import pytest
 import sumolib
 
-from networks.convert import import_opendrive
+from networks.convert import conversion_notice, import_opendrive, sidewalks_on_driving_lanes
 from networks.errors import NetconvertError
 from networks.world import build_world, load_net
 
@@ -90,3 +90,12 @@ def test_rejected_file_raises_one_line_naming_the_file_and_reason():
 def test_missing_file_is_a_network_error(tmp_path):
     with pytest.raises(Exception, match="not found"):
         import_opendrive(tmp_path / "nope.xodr")
+
+
+def test_left_hand_geometry_without_a_rule_is_read_as_left_hand_traffic():
+    """netconvert's own export of a left-hand network has no rule="LHT": read as right-hand
+    traffic, its sidewalks lie on the driving lanes. It is read as left-hand, and said so."""
+    net_path = import_opendrive(XODR / "left_hand_no_rule.xodr")
+    assert sidewalks_on_driving_lanes(net_path) < 0.01
+    assert "read as left-hand traffic" in conversion_notice(net_path)
+    assert conversion_notice(import_opendrive(XODR / "lane_types.xodr")) == ""
