@@ -275,7 +275,11 @@ class Traffic:
     def _add_parked(self) -> None:
         """Vehicles standing in street-parking spaces for the whole scene (inserted parked)."""
         slots = [(a, i) for a in self._parking for i in range(len(a.spaces))]
-        count = min(self._scenario.traffic.parked, len(slots))
+        asked = self._scenario.traffic.parked
+        count = min(asked, len(slots))
+        if count < asked:
+            where = "has no parking lanes" if not slots else f"has parking spaces for {len(slots)}"
+            self.notices.append(f"note: traffic.parked asks for {asked} parked vehicles; the network {where}")
         per_area: dict[str, int] = {}
         for k in sorted(self._rng.choice(len(slots), size=count, replace=False).tolist()):
             area = slots[k][0]

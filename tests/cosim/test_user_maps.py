@@ -15,11 +15,13 @@ LIGHT_RIG = ("sensors.cameras=[]", "outputs.kitti=false", "outputs.yolo=false")
 
 
 @pytest.mark.parametrize("name", ["spiral_parampoly3.xodr", "left_hand_traffic.xodr", "elevation_superelevation.xodr"])
-def test_a_drive_on_a_users_map_writes_labelled_frames(name, tmp_path):
+def test_a_drive_on_a_users_map_writes_labelled_frames(name, tmp_path, capsys):
     scene = tmp_path / "scene.yaml"
-    scene.write_text(f"network: {XODR / name}\nframes: 60\nwarmup_s: 20\ntraffic: {{vehicles: 10, pedestrians: 5}}\n")
+    traffic = "{vehicles: 10, pedestrians: 5, parked: 4}"
+    scene.write_text(f"network: {XODR / name}\nframes: 60\nwarmup_s: 20\ntraffic: {traffic}\n")
     summary = run(load_scenario(str(scene), list(LIGHT_RIG)), tmp_path / "out", progress=False)
     assert summary.frames == 60
+    assert "traffic.parked asks for 4 parked vehicles; the network has no parking lanes" in capsys.readouterr().err
     labels = load_labels(tmp_path / "out" / "labels.csv")
     assert len(labels) > 0 and labels["lidar_points"].sum() > 0
     ego = np.array([(m.transforms[0].translation.x, m.transforms[0].translation.y)
