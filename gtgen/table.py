@@ -1,7 +1,8 @@
 """The label table: one column per field, one row per labelled object of a frame.
 
 CSV, JSON (MCAP ``/gt/labels``), KITTI and YOLO writers all read these columns, so a
-field has one definition. Camera columns come from the first camera of the rig.
+field has one definition. The camera columns of ``COLUMNS`` come from the first camera of
+the rig; every further camera adds its own, prefixed with its name (``rear_occluded``).
 """
 
 from __future__ import annotations
@@ -21,6 +22,12 @@ CAMERA_EXTRA_COLUMNS = [
 ]  # fmt: skip
 EXTRA_COLUMNS = ["class_id", "parked", "distance", "lidar_points", "radar_points", *CAMERA_EXTRA_COLUMNS, "seen"]
 COLUMNS = REFERENCE_COLUMNS + EXTRA_COLUMNS
+
+# Columns of every camera after the first: "<camera name>_<column>".
+PER_CAMERA_COLUMNS = [
+    "alpha", "left", "top", "right", "bottom", "truncated", "occluded", "visible_px", "visible_fraction",
+    "visibility_bin", "modal_left", "modal_top", "modal_right", "modal_bottom",
+]  # fmt: skip
 
 CLASS_NAMES = np.array([SemanticClass(c).label if c in SemanticClass._value2member_map_ else "" for c in range(256)])
 
@@ -62,14 +69,25 @@ def label_table(labels: FrameLabels) -> dict[str, npt.NDArray[np.generic]]:
     else:
         for name in ("alpha", "left", "top", "right", "bottom", "truncated", "occluded", *CAMERA_EXTRA_COLUMNS):
             table[name] = nan
-    return {name: table[name] for name in COLUMNS}
+    ordered = {name: table[name] for name in COLUMNS}
+    for cam in labels.cameras[1:]:
+        boxes, vis = cam.boxes, cam.visibility
+        values = (boxes.alpha_rad, *boxes.clipped_px.T, boxes.truncated, vis.occluded, vis.visible_px, vis.fraction,
+                  vis.visibility_bin, *vis.modal_px.T)  # fmt: skip
+        ordered.update({f"{cam.name}_{c}": v for c, v in zip(PER_CAMERA_COLUMNS, values, strict=True)})
+    return ordered
+
+
+def table_columns(labels: FrameLabels) -> list[str]:
+    """The columns of :func:`label_table` for frames of this rig: ``COLUMNS``, then those of
+    every camera after the first."""
+    return COLUMNS + [f"{cam.name}_{c}" for cam in labels.cameras[1:] for c in PER_CAMERA_COLUMNS]
 
 
 def format_rows(table: dict[str, npt.NDArray[np.generic]]) -> list[str]:
     """CSV rows: floats with 4 decimals (timestamp 3), integers as such, NaN as empty."""
     columns = []
-    for name in COLUMNS:
-        values = table[name]
+    for name, values in table.items():
         if values.dtype.kind == "f":
             decimals = 3 if name == "timestamp" else 4
             text = np.char.mod(f"%.{decimals}f", values)

@@ -109,8 +109,8 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
 
 def labels_json(record: FrameRecord) -> dict[str, Any]:
     table = label_table(record.labels)
-    columns = [json_column(table[c]) for c in COLUMNS]
-    objects = [dict(zip(COLUMNS, row, strict=True)) for row in zip(*columns, strict=True)]
+    columns = [json_column(values) for values in table.values()]
+    objects = [dict(zip(table, row, strict=True)) for row in zip(*columns, strict=True)]
     return {"frame": record.frame_index, "timestamp_ns": record.timestamp_ns, "objects": objects}
 
 

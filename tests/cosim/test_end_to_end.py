@@ -223,3 +223,18 @@ def test_semantic_kitti_point_labels_match_the_point_cloud_and_poses_follow_the_
     assert abs(np.linalg.norm(poses[-1][:, 3]) - moved) < 0.01
     calib = dict(line.split(": ", 1) for line in (kitti / "calib.txt").read_text().splitlines())
     assert {"P0", "P1", "P2", "P3", "Tr"} <= set(calib)
+
+
+def test_every_further_camera_gets_its_own_label_columns(tmp_path):
+    cameras = "sensors.cameras=[{name: front}, {name: rear, mount_xyz_m: [-1.0, 0, 1.6], mount_rpy_deg: [0, 0, 180]}]"
+    overrides = ["frames=8", cameras, "outputs.kitti=false", "outputs.yolo=false"]
+    run(load_scenario(str(DATA / "tiny.yaml"), overrides), tmp_path, progress=False)
+    labels = load_labels(tmp_path / "labels.csv")
+    assert list(labels.columns[: len(REFERENCE_COLUMNS)]) == REFERENCE_COLUMNS
+    assert {"rear_occluded", "rear_visible_fraction", "rear_modal_left", "rear_alpha"} <= set(labels.columns)
+    seen_behind = labels[labels["rear_visible_px"] > 0]
+    assert len(seen_behind) > 0 and (seen_behind["x"] < 0).all()
+    seen_ahead = labels[labels["camera_visible_px"] > 0]
+    assert len(seen_ahead) > 0 and (seen_ahead["x"] > 0).all()
+    json_rows = [o for _, _, m in iter_messages(tmp_path / "run.mcap", ["/gt/labels"]) for o in m["objects"]]
+    assert len(json_rows) == len(labels) and "rear_visible_fraction" in json_rows[0]
