@@ -30,11 +30,13 @@ from mcap_protobuf.schema import register_schema
 from gtgen.frame import FrameRecord
 from gtgen.sinks import foxglove as fx
 from gtgen.sinks.images import FrameImages
+from gtgen.sinks.layout import layout_for
 from gtgen.static_map import static_map_update
 from gtgen.table import COLUMNS, label_table
 from networks.world import read_world
 
 MAP_TOPIC = "/map"
+LAYOUT_FILE = "foxglove_layout.json"
 
 LABELS_SCHEMA = {
     "type": "object",
@@ -121,6 +123,7 @@ class McapSink:
     def __init__(self, path: Path, map_world: Path | None = None) -> None:
         self._path = path
         self._map_world = map_world
+        self._layout = ""  # foxglove_layout.json beside the MCAP, written on close
         self._partial = path.with_name(path.name + ".partial")
         self._stream = self._partial.open("wb")
         self._writer = McapWriter(self._stream, compression=CompressionType.LZ4)
@@ -143,6 +146,8 @@ class McapSink:
 
     def encode(self, record: FrameRecord, images: FrameImages) -> McapFrame:
         frame = serialized_frame(record, images)
+        if not self._layout:
+            self._layout = layout_for(record)
         if self._map_world is not None:
             frame = McapFrame(frame.timestamp_ns, (map_message(self._map_world, record.timestamp_ns), *frame.messages))
             self._map_world = None
@@ -156,6 +161,10 @@ class McapSink:
     def close(self) -> None:
         self._writer.finish()
         self._stream.close()
+        if self._layout:
+            layout = self._path.with_name(LAYOUT_FILE)
+            layout.with_name(LAYOUT_FILE + ".partial").write_text(self._layout)
+            layout.with_name(LAYOUT_FILE + ".partial").replace(layout)
         self._partial.replace(self._path)
 
     def abort(self) -> None:

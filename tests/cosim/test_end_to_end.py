@@ -238,3 +238,27 @@ def test_every_further_camera_gets_its_own_label_columns(tmp_path):
     assert len(seen_ahead) > 0 and (seen_ahead["x"] > 0).all()
     json_rows = [o for _, _, m in iter_messages(tmp_path / "run.mcap", ["/gt/labels"]) for o in m["objects"]]
     assert len(json_rows) == len(labels) and "rear_visible_fraction" in json_rows[0]
+
+
+def test_foxglove_layout_names_only_topics_of_the_mcap(dataset):
+    import json
+
+    layout = json.loads((dataset / "foxglove_layout.json").read_text())
+    named: set[str] = set()
+
+    def walk(node) -> None:
+        if isinstance(node, dict):
+            for key, value in node.items():
+                if key in ("topics", "annotations"):
+                    named.update(value)
+                elif key in ("imageTopic", "calibrationTopic", "topicPath"):
+                    named.add(value)
+                walk(value)
+        elif isinstance(node, list):
+            for item in node:
+                walk(item)
+
+    walk(layout)
+    topics = {topic for topic, _, _ in raw_messages(dataset / "run.mcap")}
+    assert {"/lidar", "/radar", "/gt/boxes", "/map", "/camera/image", "/camera/annotations", "/gt/labels"} <= named
+    assert named <= topics

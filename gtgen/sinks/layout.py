@@ -1,0 +1,79 @@
+"""``foxglove_layout.json``: a Foxglove layout for a run's MCAP (Import layout from file).
+
+A 3D panel that follows the ego, with the LiDAR coloured by class, the radar, the boxes
+and the static map; an image panel per camera with its 2D boxes drawn on it; the label
+table of the current frame.
+"""
+
+from __future__ import annotations
+
+from foxglove.layouts import (
+    BaseRendererPointCloudTopicSettings,
+    BaseRendererSceneUpdateTopicSettings,
+    BaseRendererTopicSettings,
+    ImageAnnotationSettings,
+    ImageConfig,
+    ImageModeConfig,
+    ImagePanel,
+    Layout,
+    RawMessagesConfig,
+    RawMessagesPanel,
+    SplitContainer,
+    SplitItem,
+    ThreeDeeConfig,
+    ThreeDeePanel,
+)
+
+from gtgen.frame import FrameRecord
+
+RADAR_COLOUR = "#ff40ff"
+
+
+def foxglove_layout(lidars: list[str], cameras: list[str], radars: list[str]) -> str:
+    """The layout as JSON, for a rig with these sensor names (topics as in ``run.mcap``)."""
+    topics: dict[str, BaseRendererTopicSettings] = {
+        f"/{name}": BaseRendererPointCloudTopicSettings(
+            visible=True, color_mode="colormap", color_field="class", color_map="turbo", point_size=2.0
+        )
+        for name in lidars
+    }
+    topics |= {
+        f"/{name}": BaseRendererPointCloudTopicSettings(
+            visible=True, color_mode="flat", flat_color=RADAR_COLOUR, point_size=6.0
+        )
+        for name in radars
+    }
+    topics |= {
+        "/gt/boxes": BaseRendererSceneUpdateTopicSettings(visible=True, show_outlines=True),
+        "/map": BaseRendererSceneUpdateTopicSettings(visible=True),
+    }
+    scene = ThreeDeePanel(
+        title="drive", config=ThreeDeeConfig(topics=topics, follow_tf="ego", follow_mode="follow-pose")
+    )
+    images = [
+        ImagePanel(
+            title=name,
+            config=ImageConfig(
+                image_mode=ImageModeConfig(
+                    image_topic=f"/{name}/image",
+                    calibration_topic=f"/{name}/calibration",
+                    annotations={f"/{name}/annotations": ImageAnnotationSettings(visible=True)},
+                )
+            ),
+        )
+        for name in cameras
+    ]
+    table = RawMessagesPanel(title="labels", config=RawMessagesConfig(topic_path="/gt/labels"))
+    side = [*images, table]
+    column = SplitContainer(direction="column", items=[SplitItem(proportion=1.0, content=p) for p in side])
+    content = SplitContainer(
+        direction="row", items=[SplitItem(proportion=0.55, content=scene), SplitItem(proportion=0.45, content=column)]
+    )
+    return str(Layout(content=content).to_json())
+
+
+def layout_for(record: FrameRecord) -> str:
+    """The layout for the rig of a frame record."""
+    names = ([o.spec.name for o in record.lidars], [c.spec.name for c in record.cameras],
+             [o.spec.name for o in record.radars])  # fmt: skip
+    return foxglove_layout(*names)
