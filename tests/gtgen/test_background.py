@@ -12,7 +12,7 @@ from gtgen.sinks.background import BackgroundSinks
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.timing import StageTimes
 
-OUTPUTS = ("run.mcap", "labels.csv", "kitti", "yolo")
+OUTPUTS = ("run.mcap", "foxglove_layout.json", "labels.csv", "kitti", "yolo")
 
 
 def files(folder: Path) -> dict[str, bytes]:
@@ -104,4 +104,4 @@ def test_the_writer_process_reports_its_stage_times_on_close(records, tmp_path):
     writer.close()
     assert times.calls["handoff"] == len(records)
     assert times.calls["writer encode"] == len(records) and times.calls["writer write"] == len(records)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["labels.csv", "run.mcap"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["foxglove_layout.json", "labels.csv", "run.mcap"]
