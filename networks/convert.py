@@ -8,12 +8,11 @@ from pathlib import Path
 from xml.etree import ElementTree
 
 import shapely
-import sumolib
-from shapely.geometry import LineString
 
 from networks.cache import cache_dir, digest, scratch_dir
 from networks.errors import NetconvertError, NetworkError
 from networks.sumo_tools import sumo_binary
+from networks.world import lane_footprint, load_net
 
 CONVERT_VERSION = "4"
 
@@ -131,18 +130,15 @@ def conversion_notice(net_path: Path) -> str:
 
 def sidewalks_on_driving_lanes(net_path: Path) -> float:
     """Share of the pedestrian-only lanes' area that lies on lanes open to cars (0 if none)."""
-    net = sumolib.net.readNet(str(net_path))
     walk, drive = [], []
-    for edge in net.getEdges(withInternal=False):
+    for edge in load_net(net_path).getEdges(withInternal=False):
         for lane in edge.getLanes():
-            shape = [p[:2] for p in lane.getShape()]
-            if edge.getFunction() or len(shape) < 2:
+            if edge.getFunction() or len(lane.getShape()) < 2:
                 continue
-            footprint = LineString(shape).buffer(lane.getWidth() / 2.0, cap_style="flat")
             if lane.getPermissions() == {"pedestrian"}:
-                walk.append(footprint)
+                walk.append(lane_footprint(lane))
             elif lane.allows("passenger"):
-                drive.append(footprint)
+                drive.append(lane_footprint(lane))
     if not walk or not drive:
         return 0.0
     sidewalks = shapely.union_all(walk)

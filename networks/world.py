@@ -46,6 +46,11 @@ class StaticWorld:
     path: Path | None = None  # the cached world file, readable with :func:`read_world`
 
 
+def lane_footprint(lane: sumolib.net.lane.Lane) -> Polygon:
+    """The lane's area in the plane: its centre line widened to its width, ends cut square."""
+    return LineString([p[:2] for p in lane.getShape()]).buffer(lane.getWidth() / 2.0, cap_style="flat")
+
+
 def read_world(path: Path) -> StaticWorld:
     """A static world written by :func:`build_world` (its ``path``)."""
     try:
@@ -136,7 +141,7 @@ def _lane_surfaces(net: sumolib.net.Net) -> tuple[list[ClassedMesh], list[Polygo
                     inside.append(_road_strip(shape, lane.getWidth(), SemanticClass.ROAD))
                 continue
             cls = _lane_class(lane, function)
-            footprints.append(LineString(shape[:, :2]).buffer(lane.getWidth() / 2.0, cap_style="flat"))
+            footprints.append(lane_footprint(lane))
             shapes.append((shape, lane.getWidth()))
             if cls == SemanticClass.SIDEWALK:
                 parts.append(ribbon(shape, lane.getWidth(), cls, CURB_HEIGHT_M, CURB_WALL_M))
@@ -192,9 +197,8 @@ def _driven_area(net: sumolib.net.Net) -> shapely.Geometry:
         if edge.getFunction() not in ("", "internal"):
             continue
         for lane in edge.getLanes():
-            shape = lane.getShape()
-            if len(shape) >= 2 and lane.getPermissions() - {"pedestrian"}:
-                strips.append(LineString([p[:2] for p in shape]).buffer(lane.getWidth() / 2.0, cap_style="flat"))
+            if len(lane.getShape()) >= 2 and lane.getPermissions() - {"pedestrian"}:
+                strips.append(lane_footprint(lane))
     return shapely.union_all(strips) if strips else Polygon()
 
 

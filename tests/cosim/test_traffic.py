@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import shapely
 import sumolib
-from shapely.geometry import LineString, Point
+from shapely.geometry import Point
 
 from cosim.demand import busiest
 from cosim.parking import lane_types
@@ -17,6 +17,7 @@ from cosim.soak import soak
 from cosim.traffic import Traffic, index_net
 from cosim.world_setup import PreparedNetwork, prepare_network
 from networks.classes import SemanticClass
+from networks.world import lane_footprint
 
 pytestmark = pytest.mark.slow
 
@@ -49,7 +50,7 @@ def _lane_area(net: sumolib.net.Net, types: dict[str, str], kind: str) -> shapel
 
     return shapely.union_all(
         [
-            LineString([p[:2] for p in lane.getShape()]).buffer(lane.getWidth() / 2.0, cap_style="flat")
+            lane_footprint(lane)
             for edge in net.getEdges(withInternal=False)
             if not edge.getFunction()
             for lane in edge.getLanes()

@@ -11,7 +11,7 @@ from shapely.geometry import LineString, Polygon
 from networks.classes import SemanticClass
 from networks.convert import import_opendrive
 from networks.towns import TOWNS, town_opendrive, town_parking_edges
-from networks.world import StaticWorld, build_world, load_net
+from networks.world import StaticWorld, build_world, lane_footprint, load_net
 
 BUILT_IN = ["town03", "town05", "town06", "town07", "town10"]
 
@@ -70,10 +70,7 @@ def test_urban_towns_have_signalised_junctions(town):
 
 def test_no_building_stands_on_a_lane_or_sidewalk(town):
     _, _, net, world = town
-    lanes = [
-        LineString(np.asarray(lane.getShape())[:, :2]).buffer(lane.getWidth() / 2.0, cap_style="flat")
-        for lane in _lanes(net, True) + _lanes(net, False)
-    ]
+    lanes = [lane_footprint(lane) for lane in _lanes(net, True) + _lanes(net, False)]
     buildings = _building_footprints(world)
     assert world.num_buildings > 50
     hits = [poly for poly in lanes if poly.intersects(buildings) and poly.intersection(buildings).area > 1e-3]
@@ -198,7 +195,7 @@ def test_no_lidar_ray_from_a_car_passes_under_the_road(town):
     t_hit, cls = _cast(world, origins, directions)
     assert np.isfinite(t_hit).all()
     ground_level = [
-        LineString(np.asarray(lane.getShape())[:, :2]).buffer(lane.getWidth() / 2.0, cap_style="flat")
+        lane_footprint(lane)
         for edge in net.getEdges(withInternal=True)
         if edge.getFunction() != "walkingarea"
         for lane in edge.getLanes()
