@@ -9,17 +9,14 @@ made; a slow viewer drops messages, never the run.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mcap_protobuf.schema import build_file_descriptor_set
-
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.sinks.images import FrameImages
-from gtgen.sinks.mcap_sink import LABELS_SCHEMA, McapFrame, McapMessage, map_message, serialized_frame
+from gtgen.sinks.mcap_sink import McapFrame, McapMessage, channel_schema, map_message, serialized_frame
 
 if TYPE_CHECKING:
     import foxglove
@@ -87,17 +84,10 @@ class LiveSink:
     def _channel(self, message: McapMessage) -> foxglove.Channel:
         channel = self._channels.get(message.topic)
         if channel is None:
-            fg = self._foxglove
-            if message.proto is None:
-                labels_schema = json.dumps(LABELS_SCHEMA).encode()
-                schema = fg.Schema(name="gt.FrameLabels", encoding="jsonschema", data=labels_schema)
-                encoding = "json"
-            else:
-                descriptors = build_file_descriptor_set(message.proto).SerializeToString()
-                name = message.proto.DESCRIPTOR.full_name  # type: ignore[attr-defined]
-                schema = fg.Schema(name=name, encoding="protobuf", data=descriptors)
-                encoding = "protobuf"
-            channel = fg.Channel(message.topic, schema=schema, message_encoding=encoding, context=self._context)
+            fg, described = self._foxglove, channel_schema(message)
+            schema = fg.Schema(name=described.name, encoding=described.encoding, data=described.data)
+            channel = fg.Channel(message.topic, schema=schema, message_encoding=described.message_encoding,
+                                 context=self._context)  # fmt: skip
             self._channels[message.topic] = channel
         return channel
 

@@ -25,7 +25,7 @@ import numpy.typing as npt
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
-from mcap_protobuf.schema import register_schema
+from mcap_protobuf.schema import build_file_descriptor_set
 
 from gtgen.frame import FrameRecord
 from gtgen.sinks import foxglove as fx
@@ -71,6 +71,25 @@ class McapMessage:
 class McapFrame:
     timestamp_ns: int
     messages: tuple[McapMessage, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelSchema:
+    """How a topic's messages are described to a reader (MCAP file or live viewer)."""
+
+    name: str
+    encoding: str  # of the schema: "protobuf" or "jsonschema"
+    data: bytes
+    message_encoding: str  # "protobuf" or "json"
+
+
+def channel_schema(message: McapMessage) -> ChannelSchema:
+    """The schema of a serialized message: its protobuf's file descriptors, or the labels'
+    JSON schema."""
+    if message.proto is None:
+        return ChannelSchema("gt.FrameLabels", "jsonschema", json.dumps(LABELS_SCHEMA).encode(), "json")
+    descriptors = build_file_descriptor_set(message.proto).SerializeToString()
+    return ChannelSchema(message.proto.DESCRIPTOR.full_name, "protobuf", descriptors, "protobuf")  # type: ignore[attr-defined]
 
 
 def _serialized(topic: str, message: Any) -> McapMessage:
@@ -133,14 +152,9 @@ class McapSink:
     def _channel(self, message: McapMessage) -> int:
         channel = self._channels.get(message.topic)
         if channel is None:
-            if message.proto is None:
-                schema = self._writer.register_schema(
-                    "gt.FrameLabels", "jsonschema", json.dumps(LABELS_SCHEMA).encode()
-                )
-                channel = self._writer.register_channel(message.topic, "json", schema)
-            else:
-                schema = register_schema(self._writer, message.proto)
-                channel = self._writer.register_channel(message.topic, "protobuf", schema)
+            schema = channel_schema(message)
+            schema_id = self._writer.register_schema(schema.name, schema.encoding, schema.data)
+            channel = self._writer.register_channel(message.topic, schema.message_encoding, schema_id)
             self._channels[message.topic] = channel
         return channel
 
