@@ -386,15 +386,17 @@ class Traffic:
 
     def step(self) -> None:
         self._advance()
-        if self._ego not in libsumo.vehicle.getIDList():
+        try:  # raises for a vehicle no longer in the simulation (cheaper than the list of all ids)
+            x, y = libsumo.vehicle.getPosition(self._ego)
+        except libsumo.TraCIException:
             raise TrafficError(
                 f"the ego vehicle {self._ego} left the simulation at t={libsumo.simulation.getTime():.2f} s"
-            )
+            ) from None
+        self._ego_xy = (x, y)
         self._keep_ego_going()
-        self._follow_ego()
+        if self._watching:
+            libsumo.poi.setPosition(PERSON_ANCHOR, x, y)
         if round(libsumo.simulation.getTime() / self._scenario.step_s) % 20 == 0:
-            x, y = libsumo.vehicle.getPosition(self._ego)
-            self._ego_xy = (x, y)
             self._top_up()
 
     def close(self) -> None:
@@ -418,11 +420,6 @@ class Traffic:
         libsumo.poi.add(PERSON_ANCHOR, x, y, (0, 0, 0, 0), layer=-100)
         libsumo.poi.subscribeContext(PERSON_ANCHOR, persons, reach, STATE_VARIABLES)
         self._watching = True
-
-    def _follow_ego(self) -> None:
-        if self._watching:
-            x, y = libsumo.vehicle.getPosition(self._ego)
-            libsumo.poi.setPosition(PERSON_ANCHOR, x, y)
 
     def _agent_variables(self, everyone: bool) -> tuple[list[str], list[str], list[tuple[Any, ...]]]:
         """Vehicle ids, person ids and, per id, (front position, angle, slope, speed)."""
