@@ -165,7 +165,8 @@ def pure_cast_ms(scenes: list[tuple[FrameScene, SE3]], rig: Any) -> dict[str, fl
     """Median per frame of Open3D's own cast of each sensor's rays (best of a few repeats)."""
     per_sensor: dict[str, list[float]] = {}
     for scene, map_SE3_ego in scenes:
-        for kind, sensors in (("lidar", rig.lidars), ("camera", rig.cameras), ("radar", rig.radars)):
+        for kind in ("lidar", "camera", "radar"):
+            sensors = rig.of_kind(kind)
             if not sensors:
                 continue
             total = 0.0

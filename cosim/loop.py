@@ -21,16 +21,13 @@ from cosim.scenario import Scenario
 from cosim.state import WorldState
 from cosim.traffic_feed import TrafficFeed, TrafficInline, TrafficProcess
 from cosim.world_setup import prepare_network
-from gtgen.frame import CameraOutput, FrameRecord, LidarOutput, RadarOutput
-from gtgen.labels import FrameLabels, SensorHits, label_frame
-from gtgen.objects import ObjectBoxes
+from gtgen.frame import FrameRecord
+from gtgen.labels import FrameLabels, label_frame
 from gtgen.sinks.background import BackgroundSinks
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.timing import NO_CLOCK, NoClock, StageClock
 from networks.classes import SemanticClass
-from networks.geometry import SE3, wrap_angle
-from sensors.agents import agent_meshes
-from sensors.radar import InstanceVelocities
+from networks.geometry import SE3
 from sensors.scene import FrameScene, StaticCrop
 
 AGENT_MARGIN_M = 10.0
@@ -89,20 +86,6 @@ class RunSummary:
         return out
 
 
-def objects_in_ego_frame(state: WorldState) -> ObjectBoxes:
-    ego_SE3_map = state.map_SE3_ego().inverse()
-    agents = state.agents
-    return ObjectBoxes(
-        track_id=agents.instance_id,
-        semantic_class=agents.semantic_class,
-        center_ego_m=ego_SE3_map.transform_from(agents.center_map_m),
-        lwh_m=agents.lwh_m,
-        yaw_ego_rad=wrap_angle(agents.yaw_map_rad - state.ego.yaw_map_rad[0]),
-        velocity_ego_mps=ego_SE3_map.rotate(state.velocity_map_mps - state.ego_velocity_map_mps),
-        parked=state.parked,
-    )
-
-
 def sense_and_label(
     frame_index: int,
     state: WorldState,
@@ -112,27 +95,15 @@ def sense_and_label(
     probe: FrameProbe = NO_PROBE,
 ) -> FrameRecord:
     """Cast every sensor into one scene of this frame, then label what the rays saw."""
-    map_SE3_ego = state.map_SE3_ego()
+    map_SE3_ego = state.ego.map_SE3_ego()
     with probe.stage("scene"):
-        agents = rig.agents_in_view(state.agents, map_SE3_ego)
-        scene = FrameScene(crop.around(map_SE3_ego.translation), agent_meshes(agents))
-    with probe.stage("lidar"):
-        lidars = tuple(LidarOutput(li.spec, li.scan(scene, map_SE3_ego, rng, rig.weather)) for li in rig.lidars)
-    with probe.stage("camera"):
-        cameras = tuple(CameraOutput(c.spec, c.render(scene, map_SE3_ego, rig.weather, rng)) for c in rig.cameras)
-    with probe.stage("radar"):
-        velocities = InstanceVelocities.from_unsorted(state.agents.instance_id, state.velocity_map_mps)
-        radars = tuple(RadarOutput(r.spec, r.scan(scene, map_SE3_ego, velocities, state.ego_velocity_map_mps, rng))
-                       for r in rig.radars)  # fmt: skip
+        scene = FrameScene(crop.around(map_SE3_ego.translation), rig.agents_in_view(state.agents, map_SE3_ego))
+    outputs = rig.sense(scene, state.ego, rng, probe)
     probe.scene(frame_index, scene, map_SE3_ego)
     with probe.stage("labels"):
-        hits = SensorHits(
-            tuple(o.scan for o in lidars), tuple(o.scan for o in radars), tuple((o.spec, o.frame) for o in cameras)
-        )
         timestamp_ns = round(state.time_s * 1e9)
-        objects = objects_in_ego_frame(state)
-        labels = label_frame(frame_index, timestamp_ns, objects, state.agents, map_SE3_ego, hits, rig.label_range_m)
-    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, lidars, cameras, radars, labels)
+        labels = label_frame(frame_index, timestamp_ns, state.agents, state.ego, outputs, scene, rig.label_range_m)
+    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels)
 
 
 def sink_choice(scenario: Scenario, out_dir: Path, map_world: Path | None = None) -> SinkChoice:

@@ -1,4 +1,4 @@
-"""The scenario's sensor rig as sensor models."""
+"""The scenario's sensor rig as sensor models, and one frame of all of them."""
 
 from __future__ import annotations
 
@@ -7,49 +7,61 @@ from dataclasses import dataclass
 import numpy as np
 
 from cosim.scenario import Scenario
+from gtgen.timing import NO_CLOCK, StageClock
 from networks.geometry import SE3
-from sensors.agents import AgentBoxes
+from sensors.agents import Agents, EgoState
 from sensors.camera import Camera
 from sensors.lidar import Lidar
 from sensors.radar import Radar
+from sensors.scene import FrameScene
+from sensors.sensor import Sensor, SensorOutput
 from sensors.view import bounding_radius_m
 from sensors.weather import Weather, weather_preset
 
 
 @dataclass(frozen=True, slots=True)
 class Rig:
-    lidars: tuple[Lidar, ...]
-    cameras: tuple[Camera, ...]
-    radars: tuple[Radar, ...]
+    """``sensors`` in the order they sense each frame (LiDARs, cameras, radars: the order in
+    which they draw from the frame loop's random generator)."""
+
+    sensors: tuple[Sensor, ...]
     weather: Weather
+
+    def of_kind(self, kind: str) -> tuple[Sensor, ...]:
+        return tuple(s for s in self.sensors if s.kind == kind)
 
     @property
     def reach_m(self) -> float:
         """The farthest any sensor sees: agents beyond it need not enter the scene."""
-        ranges = [s.spec.range_m for s in self.lidars] + [s.spec.range_m for s in self.cameras]
-        ranges += [s.spec.range_m for s in self.radars]
-        return max(ranges)
-
-    def agents_in_view(self, agents: AgentBoxes, map_SE3_ego: SE3) -> AgentBoxes:
-        """The agents some sensor's rays may reach; the others cannot change any return."""
-        radius = bounding_radius_m(agents.lwh_m)
-        keep = np.zeros(len(agents), np.bool_)
-        sensors: tuple[Lidar | Camera | Radar, ...] = (*self.lidars, *self.cameras, *self.radars)
-        for sensor in sensors:
-            keep |= sensor.reaches(agents.center_map_m, radius, map_SE3_ego)
-        return agents.select(keep)
+        return max(s.spec.range_m for s in self.sensors)
 
     @property
     def label_range_m(self) -> float:
         """Objects within this distance are labelled even when no ray hit them."""
-        return max((li.spec.range_m for li in self.lidars), default=self.reach_m)
+        return max((s.spec.range_m for s in self.of_kind("lidar")), default=self.reach_m)
+
+    def agents_in_view(self, agents: Agents, map_SE3_ego: SE3) -> Agents:
+        """The agents some sensor's rays may reach; the others cannot change any return."""
+        radius = bounding_radius_m(agents.lwh_m)
+        keep = np.zeros(len(agents), np.bool_)
+        for sensor in self.sensors:
+            keep |= sensor.reaches(agents.center_map_m, radius, map_SE3_ego)
+        return agents.select(keep)
+
+    def sense(
+        self, scene: FrameScene, ego: EgoState, rng: np.random.Generator, clock: StageClock = NO_CLOCK
+    ) -> tuple[SensorOutput, ...]:
+        """Every sensor's output of this frame, in rig order (each timed as its kind)."""
+        outputs = []
+        for sensor in self.sensors:
+            with clock.stage(sensor.kind):
+                outputs.append(sensor.sense(scene, ego, self.weather, rng))
+        return tuple(outputs)
 
 
 def build_rig(scenario: Scenario) -> Rig:
-    sensors = scenario.sensors
-    return Rig(
-        tuple(Lidar(spec) for spec in sensors.lidars),
-        tuple(Camera(spec) for spec in sensors.cameras),
-        tuple(Radar(spec) for spec in sensors.radars),
-        weather_preset(scenario.weather),
-    )
+    spec = scenario.sensors
+    sensors: list[Sensor] = [Lidar(s) for s in spec.lidars]
+    sensors += [Camera(s) for s in spec.cameras]
+    sensors += [Radar(s) for s in spec.radars]
+    return Rig(tuple(sensors), weather_preset(scenario.weather))

@@ -29,7 +29,7 @@ from cosim.scenario import Scenario
 from cosim.state import WorldState
 from networks.cache import cache_dir, digest
 from networks.sumo_tools import sumo_binary, sumo_home
-from sensors.agents import AgentBoxes
+from sensors.agents import Agents, EgoState
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
@@ -456,13 +456,18 @@ class Traffic:
         center = front_bumper_to_center(front, yaw, pitch, lwh[:, 0], lwh[:, 2])
         velocity = heading_vectors(yaw, pitch) * speed[:, None]
         track = np.array([self._track_id(s) for s in ids], dtype=np.uint32)
-        boxes = AgentBoxes(track, cls, center, lwh, yaw, pitch)
-        is_ego = np.array([s == self._ego for s in ids], dtype=bool)
         parked = np.array([s in self._parked for s in ids], dtype=bool)
-        return WorldState(
-            libsumo.simulation.getTime(), boxes.select(~is_ego), velocity[~is_ego], parked[~is_ego],
-            boxes.select(is_ego), velocity[is_ego].reshape(3),
-        )  # fmt: skip
+        is_ego = np.array([s == self._ego for s in ids], dtype=bool)
+        agents = Agents(track, cls, center, lwh, yaw, pitch, velocity, parked)
+        if not is_ego.any():
+            raise TrafficError(f"the ego vehicle {self._ego!r} is not among the agents read at t={self._time():.2f} s")
+        e = int(np.flatnonzero(is_ego)[0])
+        ego = EgoState(center[e], lwh[e], float(yaw[e]), float(pitch[e]), velocity[e])
+        return WorldState(self._time(), agents.select(~is_ego), ego)
+
+    @staticmethod
+    def _time() -> float:
+        return float(libsumo.simulation.getTime())
 
     def _static_attributes(self, sid: str, domain: object) -> tuple[int, float, float, float]:
         cached = self._statics.get(sid)

@@ -4,7 +4,9 @@ can be checked to agree across machines, interpreters and versions of this softw
 
 ``python -m gtgen.compare A B`` prints one line per difference (at most ``--show``) and a
 last line with the counts; exit code 0 when the datasets agree, 1 when they differ, 2 when
-a folder is missing. ``manifest.json`` (versions, paths) is not compared.
+a folder is missing. ``manifest.json`` (versions, paths) is not compared; a file that
+names its own dataset's folder (``yolo/data.yaml``) is compared with that folder's path
+taken out.
 """
 
 from __future__ import annotations
@@ -62,9 +64,13 @@ def compare_datasets(a: Path, b: Path) -> Comparison:
         result.files += 1
         if name == MCAP_NAME:
             compare_mcap(a / name, b / name, result)
-        elif (a / name).read_bytes() != (b / name).read_bytes():
+        elif _content(a, name) != _content(b, name):
             result.differences.append(name)
     return result
+
+
+def _content(root: Path, name: str) -> bytes:
+    return (root / name).read_bytes().replace(str(root.resolve()).encode(), b"<dataset>")
 
 
 def main(argv: list[str] | None = None) -> int:

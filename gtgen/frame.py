@@ -6,35 +6,31 @@ from dataclasses import dataclass
 
 from gtgen.labels import FrameLabels
 from networks.geometry import SE3
-from sensors.camera import CameraFrame, CameraSpec
-from sensors.lidar import LidarScan, LidarSpec
-from sensors.radar import RadarScan, RadarSpec
-
-
-@dataclass(frozen=True, slots=True)
-class LidarOutput:
-    spec: LidarSpec
-    scan: LidarScan
-
-
-@dataclass(frozen=True, slots=True)
-class CameraOutput:
-    spec: CameraSpec
-    frame: CameraFrame
-
-
-@dataclass(frozen=True, slots=True)
-class RadarOutput:
-    spec: RadarSpec
-    scan: RadarScan
+from sensors.camera import CameraOutput
+from sensors.lidar import LidarOutput
+from sensors.radar import RadarOutput
+from sensors.sensor import SensorOutput
 
 
 @dataclass(frozen=True, slots=True)
 class FrameRecord:
+    """One frame: the ego's pose, every sensor's output in rig order, and the labels (one
+    :class:`~gtgen.labels.CameraLabels` per camera, in the order of :attr:`cameras`)."""
+
     frame_index: int
     timestamp_ns: int
     map_SE3_ego: SE3
-    lidars: tuple[LidarOutput, ...]
-    cameras: tuple[CameraOutput, ...]
-    radars: tuple[RadarOutput, ...]
+    sensors: tuple[SensorOutput, ...]
     labels: FrameLabels
+
+    @property
+    def lidars(self) -> tuple[LidarOutput, ...]:
+        return tuple(o for o in self.sensors if isinstance(o, LidarOutput))
+
+    @property
+    def cameras(self) -> tuple[CameraOutput, ...]:
+        return tuple(o for o in self.sensors if isinstance(o, CameraOutput))
+
+    @property
+    def radars(self) -> tuple[RadarOutput, ...]:
+        return tuple(o for o in self.sensors if isinstance(o, RadarOutput))

@@ -1,4 +1,4 @@
-"""Per-frame labels computed from the objects and the sensors' rays (numpy, all objects at once)."""
+"""Per-frame labels computed from the agents and the sensors' rays (numpy, all objects at once)."""
 
 from __future__ import annotations
 
@@ -10,12 +10,14 @@ import numpy.typing as npt
 from gtgen.counting import count_hits
 from gtgen.objects import ObjectBoxes
 from gtgen.projection import CameraBoxes, camera_boxes
-from gtgen.visibility import CameraVisibility, camera_visibility
+from gtgen.visibility import CameraVisibility, SilhouetteCaster, camera_visibility
 from networks.geometry import SE3
-from sensors.agents import AgentBoxes
-from sensors.camera import CameraFrame, CameraSpec
-from sensors.lidar import LidarScan
-from sensors.radar import RadarScan
+from networks.records import check_arrays
+from sensors.agents import Agents, EgoState
+from sensors.camera import CameraOutput
+from sensors.lidar import LidarOutput
+from sensors.radar import RadarOutput
+from sensors.sensor import SensorOutput
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,56 +46,57 @@ class FrameLabels:
     seen: npt.NDArray[np.bool_]
     cameras: tuple[CameraLabels, ...] = ()
 
+    def __post_init__(self) -> None:
+        n = len(self.objects)
+        check_arrays(self, distance_m=(np.float64, (n,)), lidar_points=(np.int32, (n,)),
+                     radar_points=(np.int32, (n,)), seen=(np.bool_, (n,)))  # fmt: skip
+
     def __len__(self) -> int:
         return len(self.objects)
 
 
-@dataclass(frozen=True, slots=True)
-class SensorHits:
-    """What the frame's sensors returned, as the labeller needs it."""
-
-    lidar_scans: tuple[LidarScan, ...] = ()
-    radar_scans: tuple[RadarScan, ...] = ()
-    cameras: tuple[tuple[CameraSpec, CameraFrame], ...] = ()
+def _hits(outputs: tuple[SensorOutput, ...], kind: type[LidarOutput | RadarOutput], track_ids: npt.NDArray[np.uint32]
+          ) -> npt.NDArray[np.int32]:  # fmt: skip
+    counts = [count_hits(o.scan.instance_id, track_ids) for o in outputs if isinstance(o, kind)]
+    return sum(counts, np.zeros(track_ids.shape[0], np.int32))
 
 
 def label_frame(
     frame_index: int,
     timestamp_ns: int,
-    objects: ObjectBoxes,
-    agents_map: AgentBoxes,
-    map_SE3_ego: SE3,
-    hits: SensorHits,
+    agents: Agents,
+    ego: EgoState,
+    outputs: tuple[SensorOutput, ...],
+    scene: SilhouetteCaster,
     range_m: float,
 ) -> FrameLabels:
-    """Label every object whose box centre lies within ``range_m`` of the ego, and every
-    object a sensor ray hit (a long bus can be hit while its centre is out of range).
-    ``agents_map`` is row-aligned with ``objects`` (the same agents in the map frame)."""
+    """Label every agent whose box centre lies within ``range_m`` of the ego, and every agent
+    a sensor ray hit (a long bus can be hit while its centre is out of range). ``outputs`` are
+    the frame's sensor outputs, ``scene`` the scene they were cast in."""
+    objects = ObjectBoxes.seen_from(ego, agents)
     distance = np.linalg.norm(objects.center_ego_m[:, :2], axis=1)
-    lidar = sum(
-        (count_hits(s.instance_id, objects.track_id) for s in hits.lidar_scans), np.zeros(len(objects), np.int32)
-    )
-    radar = sum(
-        (count_hits(s.instance_id, objects.track_id) for s in hits.radar_scans), np.zeros(len(objects), np.int32)
-    )
-    pixels_per_camera = [count_hits(f.instance_id.ravel(), objects.track_id) for _, f in hits.cameras]
+    lidar = _hits(outputs, LidarOutput, objects.track_id)
+    radar = _hits(outputs, RadarOutput, objects.track_id)
+    cameras = [o for o in outputs if isinstance(o, CameraOutput)]
+    pixels_per_camera = [count_hits(c.frame.instance_id.ravel(), objects.track_id) for c in cameras]
     pixels = sum(pixels_per_camera, np.zeros(len(objects), np.int32))
     seen = (lidar > 0) | (radar > 0) | (pixels > 0)
     keep = (distance <= range_m) | seen
-    kept, kept_map = objects.select(keep), agents_map.select(keep)
-    cameras = tuple(_camera_labels(spec, frame, kept, kept_map, map_SE3_ego, px[keep])
-                    for (spec, frame), px in zip(hits.cameras, pixels_per_camera, strict=True))  # fmt: skip
-    return FrameLabels(frame_index, timestamp_ns, kept, distance[keep], lidar[keep], radar[keep], seen[keep], cameras)
+    kept = objects.select(keep)
+    map_SE3_ego = ego.map_SE3_ego()
+    camera_labels = tuple(_camera_labels(camera, kept, map_SE3_ego, scene, px[keep])
+                          for camera, px in zip(cameras, pixels_per_camera, strict=True))  # fmt: skip
+    return FrameLabels(frame_index, timestamp_ns, kept, distance[keep], lidar[keep], radar[keep], seen[keep],
+                       camera_labels)  # fmt: skip
 
 
 def _camera_labels(
-    spec: CameraSpec,
-    frame: CameraFrame,
-    objects: ObjectBoxes,
-    agents_map: AgentBoxes,
-    map_SE3_ego: SE3,
+    camera: CameraOutput, objects: ObjectBoxes, map_SE3_ego: SE3, scene: SilhouetteCaster,
     visible_px: npt.NDArray[np.int32],
-) -> CameraLabels:
-    boxes = camera_boxes(spec, objects)
-    visibility = camera_visibility(spec, map_SE3_ego, agents_map, boxes.clipped_px, frame.instance_id, visible_px)
+) -> CameraLabels:  # fmt: skip
+    spec, pinhole = camera.spec, camera.spec.pinhole
+    boxes = camera_boxes(pinhole, spec.ego_SE3_sensor, objects)
+    map_SE3_cam = map_SE3_ego.compose(spec.ego_SE3_sensor)
+    visibility = camera_visibility(pinhole, map_SE3_cam, objects.track_id, boxes.clipped_px, camera.frame.instance_id,
+                                   scene, visible_px)  # fmt: skip
     return CameraLabels(spec.name, boxes, visibility)

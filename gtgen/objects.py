@@ -1,4 +1,5 @@
-"""The objects gtgen labels: boxes in the ego frame, one row per object (struct of arrays)."""
+"""The objects gtgen labels: the frame's agents seen from the ego, boxes in the ego frame,
+one row per object (struct of arrays)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+
+from networks.geometry import wrap_angle, yaw_to_rotation
+from networks.records import check_arrays
+from sensors.agents import Agents, EgoState
 
 
 @dataclass(frozen=True, slots=True)
@@ -28,18 +33,25 @@ class ObjectBoxes:
     parked: npt.NDArray[np.bool_]
 
     def __post_init__(self) -> None:
-        n = np.asarray(self.track_id).shape[0]
-        spec = {
-            "track_id": (np.uint32, (n,)),
-            "semantic_class": (np.uint8, (n,)),
-            "center_ego_m": (np.float64, (n, 3)),
-            "lwh_m": (np.float64, (n, 3)),
-            "yaw_ego_rad": (np.float64, (n,)),
-            "velocity_ego_mps": (np.float64, (n, 3)),
-            "parked": (np.bool_, (n,)),
-        }
-        for name, (dtype, shape) in spec.items():
-            object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=dtype).reshape(shape))
+        check_arrays(
+            self, track_id=(np.uint32, ("N",)), semantic_class=(np.uint8, ("N",)), center_ego_m=(np.float64, ("N", 3)),
+            lwh_m=(np.float64, ("N", 3)), yaw_ego_rad=(np.float64, ("N",)), velocity_ego_mps=(np.float64, ("N", 3)),
+            parked=(np.bool_, ("N",)),
+        )  # fmt: skip
+
+    @classmethod
+    def seen_from(cls, ego: EgoState, agents: Agents) -> ObjectBoxes:
+        """The agents as the ego sees them: boxes in its frame (yaw only), velocities relative to it."""
+        ego_SE3_map = ego.map_SE3_ego().inverse()
+        return cls(
+            agents.instance_id, agents.semantic_class, ego_SE3_map.transform_from(agents.center_map_m), agents.lwh_m,
+            wrap_angle(agents.yaw_map_rad - ego.yaw_map_rad),
+            ego_SE3_map.rotate(agents.velocity_map_mps - ego.velocity_map_mps), agents.parked,
+        )  # fmt: skip
+
+    def rotations(self) -> npt.NDArray[np.float64]:
+        """``(N, 3, 3)`` ego_R_box (yaw only)."""
+        return yaw_to_rotation(self.yaw_ego_rad)
 
     def __len__(self) -> int:
         return int(self.track_id.shape[0])

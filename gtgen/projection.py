@@ -1,39 +1,22 @@
 """Camera geometry of the labels: projected (amodal) 2D boxes, truncation, KITTI alpha.
 
-All functions take every object at once. Boxes are the labels' ego-frame boxes (yaw only).
+All functions take every object at once. Boxes are the labels' ego-frame boxes (yaw only);
+the camera model is :mod:`sensors.pinhole`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from gtgen.objects import ObjectBoxes
 from networks.geometry import SE3, wrap_angle
+from sensors.pinhole import BOX_EDGES, Pinhole, box_corners, project
 
 F64 = npt.NDArray[np.float64]
 NEAR_PLANE_M = 0.1
-
-# Unit box corners (x, y, z in {-1/2, 1/2}) and the 12 edges between them.
-UNIT_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64) / 2
-BOX_EDGES = np.array([[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7], [0, 4], [1, 5], [2, 6], [3, 7]])
-
-
-class PinholeCamera(Protocol):
-    @property
-    def width_px(self) -> int: ...
-
-    @property
-    def height_px(self) -> int: ...
-
-    @property
-    def K(self) -> F64: ...
-
-    @property
-    def ego_SE3_cam(self) -> SE3: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -51,21 +34,6 @@ class CameraBoxes:
     depth_m: F64
 
 
-def box_corners(boxes: ObjectBoxes) -> F64:
-    """``(N, 8, 3)`` corners in the ego frame."""
-    c, s = np.cos(boxes.yaw_ego_rad), np.sin(boxes.yaw_ego_rad)
-    local = UNIT_CORNERS[None] * boxes.lwh_m[:, None, :]
-    x = c[:, None] * local[..., 0] - s[:, None] * local[..., 1]
-    y = s[:, None] * local[..., 0] + c[:, None] * local[..., 1]
-    return np.stack([x, y, local[..., 2]], axis=-1) + boxes.center_ego_m[:, None, :]
-
-
-def project(K: F64, xyz_cam: F64) -> F64:
-    """Pinhole projection of ``(..., 3)`` camera-frame points (z > 0) to ``(..., 2)`` pixels."""
-    uvw = xyz_cam @ K.T
-    return uvw[..., :2] / uvw[..., 2:3]
-
-
 def clipped_corner_pixels(K: F64, corners_cam: F64) -> tuple[F64, npt.NDArray[np.bool_]]:
     """Pixels of the box clipped at the near plane: corners in front, plus where edges cross it.
     Returns ``(N, 20, 2)`` pixels and ``(N, 20)`` validity."""
@@ -81,16 +49,19 @@ def clipped_corner_pixels(K: F64, corners_cam: F64) -> tuple[F64, npt.NDArray[np
     return project(K, safe), valid
 
 
-def camera_boxes(camera: PinholeCamera, boxes: ObjectBoxes) -> CameraBoxes:
-    cam_SE3_ego = camera.ego_SE3_cam.inverse()
+def camera_boxes(pinhole: Pinhole, ego_SE3_cam: SE3, boxes: ObjectBoxes) -> CameraBoxes:
+    """The 2D boxes, truncation and angles of ``boxes`` (ego frame) in a camera with the
+    optical frame ``ego_SE3_cam``."""
+    cam_SE3_ego = ego_SE3_cam.inverse()
     n = len(boxes)
-    corners_cam = cam_SE3_ego.transform_from(box_corners(boxes).reshape(-1, 3)).reshape(n, 8, 3)
-    uv, valid = clipped_corner_pixels(camera.K, corners_cam)
+    corners_ego = box_corners(boxes.center_ego_m, boxes.lwh_m, boxes.rotations())
+    corners_cam = cam_SE3_ego.transform_from(corners_ego.reshape(-1, 3)).reshape(n, 8, 3)
+    uv, valid = clipped_corner_pixels(pinhole.K, corners_cam)
     any_valid: npt.NDArray[np.bool_] = np.asarray(valid.any(axis=1))
     lo = np.where(valid[..., None], uv, np.inf).min(axis=1)
     hi = np.where(valid[..., None], uv, -np.inf).max(axis=1)
     amodal = np.where(any_valid[:, None], np.concatenate([lo, hi], axis=1), np.nan)
-    w, h = float(camera.width_px), float(camera.height_px)
+    w, h = float(pinhole.width_px), float(pinhole.height_px)
     clipped = np.stack(
         [
             np.clip(amodal[:, 0], 0, w),

@@ -2,8 +2,8 @@
 
 For each labelled object, the pixels of its instance mask are its visible pixels. Its
 unoccluded silhouette is found by casting the camera's rays over the object's clipped 2D
-box against the object alone (a small scene of its own mesh), so the rays that pass
-through it count whatever lies in front of it. Boxes larger than ``MAX_SAMPLES`` pixels
+box against the object alone (its own mesh in the frame's scene, with everything else taken
+away), so the rays that pass through it count whatever lies in front of it. Boxes larger than ``MAX_SAMPLES`` pixels
 are sampled on a regular pixel grid (stride s); visible and silhouette pixels are then
 counted on the same grid.
 """
@@ -12,17 +12,25 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from gtgen.counting import count_hits
 from networks.geometry import SE3
-from sensors.agents import AgentBoxes, agent_meshes
-from sensors.camera import CameraSpec
+from sensors.pinhole import Pinhole
 
 MAX_SAMPLES = 4096
 F64 = npt.NDArray[np.float64]
+
+
+class SilhouetteCaster(Protocol):
+    """The frame's scene as the labels use it (:class:`sensors.scene.FrameScene`)."""
+
+    def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
+        """Whether ray ``i`` meets agent ``instance_id[i]`` with everything else taken away."""
+        ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,29 +92,29 @@ def _stride(box: F64) -> int:
 
 
 def camera_visibility(
-    spec: CameraSpec,
-    map_SE3_ego: SE3,
-    agents_map: AgentBoxes,
+    pinhole: Pinhole,
+    map_SE3_cam: SE3,
+    track_ids: npt.NDArray[np.uint32],
     clipped_px: F64,
     instance_mask: npt.NDArray[np.uint32],
+    scene: SilhouetteCaster,
     visible_px: npt.NDArray[np.integer] | None = None,
 ) -> CameraVisibility:
-    """``agents_map`` and ``clipped_px`` are row-aligned (one row per labelled object);
+    """``track_ids`` and ``clipped_px`` are row-aligned (one row per labelled object);
     ``visible_px``: each object's pixels in ``instance_mask``, if the caller counted them already."""
-    n = len(agents_map)
-    track_ids = agents_map.instance_id
+    n = track_ids.shape[0]
     grids = []
     for i in range(n):
         box = clipped_px[i]
         if not np.all(np.isfinite(box)):
             grids.append((np.zeros(0, np.int64), np.zeros(0, np.int64)))
             continue
-        u, v = _grid(np.clip(box, 0, [spec.width_px - 1, spec.height_px - 1] * 2), _stride(box))
+        u, v = _grid(np.clip(box, 0, [pinhole.width_px - 1, pinhole.height_px - 1] * 2), _stride(box))
         grids.append((u, v))
     owner = np.concatenate([np.full(g[0].shape[0], i) for i, g in enumerate(grids)] or [np.zeros(0, int)])
     u_all = np.concatenate([g[0] for g in grids] or [np.zeros(0, np.int64)])
     v_all = np.concatenate([g[1] for g in grids] or [np.zeros(0, np.int64)])
-    silhouette = _silhouette_hits(spec, map_SE3_ego, agents_map, owner, u_all, v_all)
+    silhouette = _silhouette_hits(pinhole, map_SE3_cam, scene, track_ids[owner], u_all, v_all)
     visible = instance_mask[v_all, u_all] == track_ids[owner] if owner.size else np.zeros(0, bool)
     sil_count = np.bincount(owner, weights=silhouette, minlength=n)
     vis_count = np.bincount(owner, weights=visible & silhouette, minlength=n)
@@ -120,17 +128,12 @@ def camera_visibility(
 
 
 def _silhouette_hits(
-    spec: CameraSpec, map_SE3_ego: SE3, agents_map: AgentBoxes, owner: npt.NDArray[np.int64],
+    pinhole: Pinhole, map_SE3_cam: SE3, scene: SilhouetteCaster, instance_id: npt.NDArray[np.uint32],
     u: npt.NDArray[np.int64], v: npt.NDArray[np.int64],
 ) -> npt.NDArray[np.bool_]:  # fmt: skip
-    """Whether the ray of pixel (u, v) passes through object ``owner`` (other objects ignored)."""
-    if owner.size == 0:
+    """Whether the ray of pixel (u, v) passes through agent ``instance_id`` (others ignored)."""
+    if u.size == 0:
         return np.zeros(0, bool)
-    K = spec.K
-    d = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones(u.shape[0])], axis=1)
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    from sensors.scene import hits_alone  # Open3D loads only where rays are cast, not in the writer process
-
-    map_SE3_cam = map_SE3_ego.compose(spec.ego_SE3_cam)
+    d = pinhole.pixel_directions(u, v)
     rays = np.concatenate([np.broadcast_to(map_SE3_cam.translation, d.shape), map_SE3_cam.rotate(d)], axis=1)
-    return hits_alone(agent_meshes(agents_map), rays.astype(np.float32), agents_map.instance_id[owner])
+    return scene.hits_alone(rays.astype(np.float32), instance_id)

@@ -126,6 +126,26 @@ def yaw_to_rotation(yaw_rad: npt.ArrayLike) -> FloatArray:
     return out
 
 
+def box_rotations(yaw_rad: npt.ArrayLike, pitch_rad: npt.ArrayLike) -> FloatArray:
+    """``(N, 3, 3)`` orientations of boxes: yaw about +z after pitch (nose-up positive) about
+    the box's own y axis."""
+    rz = yaw_to_rotation(yaw_rad)
+    pitch = np.atleast_1d(np.asarray(pitch_rad, dtype=np.float64))
+    cp, sp = np.cos(pitch), np.sin(pitch)
+    ry = np.zeros_like(rz)
+    ry[:, 0, 0], ry[:, 0, 2], ry[:, 1, 1], ry[:, 2, 0], ry[:, 2, 2] = cp, -sp, 1.0, sp, cp
+    return np.asarray(rz @ ry)
+
+
+def place_in_boxes(
+    unit_points: FloatArray, center_m: FloatArray, lwh_m: FloatArray, rotations: FloatArray
+) -> FloatArray:
+    """``(N, V, 3)``: points ``(V, 3)`` of the unit box ``[-1/2, 1/2]^3`` scaled to each box's
+    size ``lwh_m: (N, 3)``, turned by ``rotations: (N, 3, 3)`` and moved to ``center_m: (N, 3)``."""
+    local = unit_points[None, :, :] * lwh_m[:, None, :]
+    return np.asarray(np.einsum("nij,nkj->nki", rotations, local) + center_m[:, None, :])
+
+
 def rotation_from_quaternion_xyzw(x: float, y: float, z: float, w: float) -> FloatArray:
     """Rotation matrix of a (not necessarily normalised) quaternion."""
     n = math.sqrt(x * x + y * y + z * z + w * w)

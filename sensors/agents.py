@@ -1,4 +1,5 @@
-"""Agents as posed boxes (struct of arrays) and their low-poly meshes, one instance id each.
+"""The agents of a frame (struct of arrays), the ego, and their low-poly meshes, one instance
+id each.
 
 Each agent class has a template mesh (car: body, cabin and wheels; truck: cab, cargo box,
 chassis and wheels; bus; motorcycle and bicycle with a rider; pedestrian with legs, torso,
@@ -15,17 +16,21 @@ import numpy as np
 import numpy.typing as npt
 
 from networks.classes import SemanticClass
-from networks.geometry import yaw_to_rotation
+from networks.geometry import SE3, box_rotations, place_in_boxes
 from networks.mesh import BOX_TRIANGLES, ClassedMesh
+from networks.records import check_arrays
+from sensors.pinhole import UNIT_CORNERS
 
 
 @dataclass(frozen=True, slots=True)
-class AgentBoxes:
-    """Posed agents in the map frame.
+class Agents:
+    """Every agent of a frame but the ego, in the map frame: one row per agent.
 
-    ``instance_id: (N,) uint32`` (> 0), ``semantic_class: (N,) uint8``,
-    ``center_map_m: (N, 3) float64`` box centres, ``lwh_m: (N, 3) float64``,
-    ``yaw_map_rad: (N,) float64`` about +z, ``pitch_rad: (N,) float64`` nose-up positive.
+    ``instance_id: (N,) uint32`` (> 0; the track id, stable over a scene, 0 is the static
+    world), ``semantic_class: (N,) uint8`` (from the simulator), ``center_map_m: (N, 3)
+    float64`` box centres, ``lwh_m: (N, 3) float64``, ``yaw_map_rad: (N,) float64`` about +z,
+    ``pitch_rad: (N,) float64`` nose-up positive, ``velocity_map_mps: (N, 3) float64``,
+    ``parked: (N,) bool`` (standing in a parking space for the whole scene).
     """
 
     instance_id: npt.NDArray[np.uint32]
@@ -34,48 +39,89 @@ class AgentBoxes:
     lwh_m: npt.NDArray[np.float64]
     yaw_map_rad: npt.NDArray[np.float64]
     pitch_rad: npt.NDArray[np.float64]
+    velocity_map_mps: npt.NDArray[np.float64]
+    parked: npt.NDArray[np.bool_]
 
     def __post_init__(self) -> None:
-        n = np.asarray(self.instance_id).shape[0]
-        fields = {
-            "instance_id": (np.uint32, (n,)),
-            "semantic_class": (np.uint8, (n,)),
-            "center_map_m": (np.float64, (n, 3)),
-            "lwh_m": (np.float64, (n, 3)),
-            "yaw_map_rad": (np.float64, (n,)),
-            "pitch_rad": (np.float64, (n,)),
-        }
-        for name, (dtype, shape) in fields.items():
-            value = np.asarray(getattr(self, name), dtype=dtype).reshape(shape)
-            object.__setattr__(self, name, value)
-        if n and int(self.instance_id.min()) == 0:
-            raise ValueError("AgentBoxes: instance id 0 is reserved for the static world")
+        check_arrays(
+            self, instance_id=(np.uint32, ("N",)), semantic_class=(np.uint8, ("N",)),
+            center_map_m=(np.float64, ("N", 3)), lwh_m=(np.float64, ("N", 3)), yaw_map_rad=(np.float64, ("N",)),
+            pitch_rad=(np.float64, ("N",)), velocity_map_mps=(np.float64, ("N", 3)), parked=(np.bool_, ("N",)),
+        )  # fmt: skip
+        if len(self) and int(self.instance_id.min()) == 0:
+            raise ValueError("Agents.instance_id: 0 is reserved for the static world")
 
     def __len__(self) -> int:
         return int(self.instance_id.shape[0])
 
     @classmethod
-    def empty(cls) -> AgentBoxes:
-        z = np.zeros(0)
-        return cls(np.zeros(0, np.uint32), np.zeros(0, np.uint8), np.zeros((0, 3)), np.zeros((0, 3)), z, z)
+    def empty(cls) -> Agents:
+        z, z3 = np.zeros(0), np.zeros((0, 3))
+        return cls(np.zeros(0, np.uint32), np.zeros(0, np.uint8), z3, z3, z, z, z3, np.zeros(0, np.bool_))
 
-    def select(self, mask: npt.NDArray[np.bool_]) -> AgentBoxes:
-        return AgentBoxes(
-            self.instance_id[mask],
-            self.semantic_class[mask],
-            self.center_map_m[mask],
-            self.lwh_m[mask],
-            self.yaw_map_rad[mask],
-            self.pitch_rad[mask],
-        )
+    @classmethod
+    def standing(
+        cls, instance_id: npt.ArrayLike, semantic_class: npt.ArrayLike, center_map_m: npt.ArrayLike,
+        lwh_m: npt.ArrayLike, yaw_map_rad: npt.ArrayLike,
+    ) -> Agents:  # fmt: skip
+        """Agents that stand still, level, not parked (hand-built scenes)."""
+        n = np.asarray(instance_id).shape[0]
+        z = np.zeros(n)
+        return cls(np.asarray(instance_id), np.asarray(semantic_class), np.asarray(center_map_m, np.float64),
+                   np.asarray(lwh_m, np.float64), np.asarray(yaw_map_rad, np.float64), z, np.zeros((n, 3)),
+                   np.zeros(n, np.bool_))  # fmt: skip
+
+    def select(self, mask: npt.NDArray[np.bool_] | npt.NDArray[np.intp]) -> Agents:
+        return Agents(
+            self.instance_id[mask], self.semantic_class[mask], self.center_map_m[mask], self.lwh_m[mask],
+            self.yaw_map_rad[mask], self.pitch_rad[mask], self.velocity_map_mps[mask], self.parked[mask],
+        )  # fmt: skip
 
     def rotations(self) -> npt.NDArray[np.float64]:
         """``(N, 3, 3)`` map_R_box: yaw about +z after pitch about the box's y axis."""
-        rz = yaw_to_rotation(self.yaw_map_rad)
-        cp, sp = np.cos(self.pitch_rad), np.sin(self.pitch_rad)
-        ry = np.zeros_like(rz)
-        ry[:, 0, 0], ry[:, 0, 2], ry[:, 1, 1], ry[:, 2, 0], ry[:, 2, 2] = cp, -sp, 1.0, sp, cp
-        return rz @ ry
+        return box_rotations(self.yaw_map_rad, self.pitch_rad)
+
+    def velocities_of(self, instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.float64]:
+        """``(K, 3)`` map-frame velocity of each given id; zero for ids not here (the static world)."""
+        out = np.zeros((instance_id.shape[0], 3))
+        if len(self) == 0:
+            return out
+        order = np.argsort(self.instance_id, kind="stable")
+        ids = self.instance_id[order]
+        pos = np.minimum(np.searchsorted(ids, instance_id), ids.shape[0] - 1)
+        found = ids[pos] == instance_id
+        out[found] = self.velocity_map_mps[order[pos[found]]]
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class EgoState:
+    """The ego in the map frame: ``center_map_m: (3,) float64`` box centre, ``lwh_m: (3,)
+    float64``, ``yaw_map_rad`` and ``pitch_rad`` (nose-up positive), ``velocity_map_mps: (3,)
+    float64``."""
+
+    center_map_m: npt.NDArray[np.float64]
+    lwh_m: npt.NDArray[np.float64]
+    yaw_map_rad: float
+    pitch_rad: float
+    velocity_map_mps: npt.NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        check_arrays(self, center_map_m=(np.float64, (3,)), lwh_m=(np.float64, (3,)),
+                     velocity_map_mps=(np.float64, (3,)))  # fmt: skip
+
+    @classmethod
+    def at(cls, map_SE3_ego: SE3, lwh_m: tuple[float, float, float] = (4.5, 1.8, 1.5)) -> EgoState:
+        """An ego standing still, level, with its footprint centre at ``map_SE3_ego``'s origin
+        and its heading along that frame's x axis (hand-built scenes)."""
+        center = map_SE3_ego.translation + map_SE3_ego.rotation[:, 2] * lwh_m[2] / 2.0
+        return cls(center, np.asarray(lwh_m, np.float64), map_SE3_ego.yaw_rad(), 0.0, np.zeros(3))
+
+    def map_SE3_ego(self) -> SE3:
+        """Ego frame: origin at the footprint centre on the ground, x forward, z up."""
+        rotation = box_rotations(self.yaw_map_rad, self.pitch_rad)[0]
+        footprint = self.center_map_m - rotation[:, 2] * self.lwh_m[2] / 2.0
+        return SE3(rotation, footprint)
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,11 +136,8 @@ class AgentMeshes:
     triangle_class: npt.NDArray[np.uint8]
 
     def __post_init__(self) -> None:
-        m = self.triangles.shape[0]
-        if self.vertices_m.ndim != 2 or self.vertices_m.shape[1] != 3 or self.triangles.shape != (m, 3):
-            raise ValueError("AgentMeshes: need (V, 3) vertices and (M, 3) triangles")
-        if self.triangle_instance.shape != (m,) or self.triangle_class.shape != (m,):
-            raise ValueError("AgentMeshes: need one instance id and one class per triangle")
+        check_arrays(self, vertices_m=(np.float32, ("V", 3)), triangles=(np.int32, ("M", 3)),
+                     triangle_instance=(np.uint32, ("M",)), triangle_class=(np.uint8, ("M",)))  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -112,9 +155,7 @@ class MeshTemplate:
             raise ValueError("MeshTemplate: triangle index out of range")
 
 
-_UNIT_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64) / 2.0
-_BOX_TRIS = np.asarray(BOX_TRIANGLES, dtype=np.int32)
-BOX_TEMPLATE = MeshTemplate(_UNIT_CORNERS, _BOX_TRIS)
+BOX_TEMPLATE = MeshTemplate(UNIT_CORNERS, np.asarray(BOX_TRIANGLES, dtype=np.int32))
 
 Part = tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]
 
@@ -217,19 +258,7 @@ TEMPLATES: dict[int, MeshTemplate] = {
 """Template mesh per agent class; other classes are drawn as their box."""
 
 
-def box_corners_map(agents: AgentBoxes) -> npt.NDArray[np.float64]:
-    """``(N, 8, 3)`` corners of each agent's box in the map frame."""
-    local = _UNIT_CORNERS[None, :, :] * agents.lwh_m[:, None, :]
-    return np.einsum("nij,nkj->nki", agents.rotations(), local) + agents.center_map_m[:, None, :]
-
-
-def _posed(template: MeshTemplate, agents: AgentBoxes, rotations: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """``(n * V, 3)`` template vertices scaled to each agent's l/w/h and posed in the map frame."""
-    local = template.unit_vertices[None, :, :] * agents.lwh_m[:, None, :]
-    return (np.einsum("nij,nkj->nki", rotations, local) + agents.center_map_m[:, None, :]).reshape(-1, 3)
-
-
-def agent_meshes(agents: AgentBoxes, templates: dict[int, MeshTemplate] | None = None) -> AgentMeshes:
+def agent_meshes(agents: Agents, templates: dict[int, MeshTemplate] | None = None) -> AgentMeshes:
     """All agents' template meshes, scaled to their l/w/h and posed; one pass per class."""
     table = TEMPLATES if templates is None else templates
     rotations = agents.rotations()
@@ -239,7 +268,9 @@ def agent_meshes(agents: AgentBoxes, templates: dict[int, MeshTemplate] | None =
         mask = agents.semantic_class == c
         group, template = agents.select(mask), table.get(int(c), BOX_TEMPLATE)
         n, v, t = len(group), template.unit_vertices.shape[0], template.triangles.shape[0]
-        verts.append(_posed(template, group, rotations[mask]))
+        verts.append(
+            place_in_boxes(template.unit_vertices, group.center_map_m, group.lwh_m, rotations[mask]).reshape(-1, 3)
+        )
         tris.append(
             (template.triangles[None] + offset + v * np.arange(n, dtype=np.int32)[:, None, None]).reshape(-1, 3)
         )

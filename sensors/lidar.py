@@ -9,18 +9,19 @@ returns and adds near spurious ones; day and night change nothing.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
 from networks.geometry import SE3
+from networks.records import check_arrays
+from sensors.agents import EgoState
 from sensors.errors import SensorConfigError
 from sensors.materials import REFLECTIVITY_BY_CLASS
 from sensors.rays import sensor_rays
 from sensors.view import spheres_in_view
 from sensors.weather import (
-    DAY,
     Weather,
     add_spurious_returns,
     lidar_dropout,
@@ -88,17 +89,24 @@ class LidarScan:
     instance_id: npt.NDArray[np.uint32]
 
     def __post_init__(self) -> None:
-        n = self.xyz_lidar_m.shape[0]
-        if self.xyz_lidar_m.shape != (n, 3) or any(
-            a.shape != (n,) for a in (self.intensity, self.ring, self.semantic_class, self.instance_id)
-        ):
-            raise ValueError("LidarScan: field lengths differ")
+        check_arrays(
+            self, xyz_lidar_m=(np.float32, ("N", 3)), intensity=(np.float32, ("N",)), ring=(np.uint16, ("N",)),
+            semantic_class=(np.uint8, ("N",)), instance_id=(np.uint32, ("N",)),
+        )  # fmt: skip
 
     def __len__(self) -> int:
         return int(self.xyz_lidar_m.shape[0])
 
 
+@dataclass(frozen=True, slots=True)
+class LidarOutput:
+    spec: LidarSpec
+    scan: LidarScan
+
+
 class Lidar:
+    kind: ClassVar[str] = "lidar"
+
     def __init__(self, spec: LidarSpec) -> None:
         self.spec = spec
         self._dirs_lidar, self._ring = spec.directions()
@@ -118,13 +126,11 @@ class Lidar:
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         return sensor_rays(map_SE3_ego.compose(self.spec.ego_SE3_sensor), self._dirs32)
 
-    def scan(
-        self, scene: FrameScene, map_SE3_ego: SE3, rng: np.random.Generator, weather: Weather | None = None
-    ) -> LidarScan:
-        """One sweep; ``weather`` (default: day, which changes nothing) shortens the range,
-        drops and weakens returns and adds near spurious ones (class NONE, instance 0)."""
-        w = DAY if weather is None else weather
-        rays = self.rays(map_SE3_ego)
+    def sense(self, scene: FrameScene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> LidarOutput:
+        """One sweep; the ``weather`` (day changes nothing) shortens the range, drops and
+        weakens returns and adds near spurious ones (class NONE, instance 0)."""
+        w = weather
+        rays = self.rays(ego.map_SE3_ego())
         hits, spurious = add_spurious_returns(scene.cast(rays), rays, w, rng)
         keep = hits.range_m <= lidar_max_range_m(w, self.spec.range_m)
         dropout = lidar_dropout(w, self.spec.dropout) if w.lidar_dropout > 0 else self.spec.dropout
@@ -142,10 +148,6 @@ class Lidar:
         if w.lidar_spurious_rate > 0 or w.lidar_intensity_scale != 1.0 or w.lidar_extinction_per_m > 0:
             intensity = intensity * lidar_intensity_factor(w, rng_m)
             intensity = np.where(spurious[idx], w.lidar_spurious_intensity, intensity)
-        return LidarScan(
-            xyz.astype(np.float32, copy=False),
-            intensity.astype(np.float32, copy=False),
-            self._ring[idx],
-            cls,
-            hits.instance_id[idx],
-        )
+        scan = LidarScan(xyz.astype(np.float32, copy=False), intensity.astype(np.float32, copy=False),
+                         self._ring[idx], cls, hits.instance_id[idx])  # fmt: skip
+        return LidarOutput(self.spec, scan)

@@ -18,12 +18,13 @@ from shapely.geometry import Polygon, box
 from networks.classes import SemanticClass
 from networks.geometry import SE3
 from networks.mesh import ClassedMesh, flat_polygon, merge, prism
-from sensors.agents import AgentBoxes, agent_meshes
+from sensors.agents import Agents, EgoState
 from sensors.camera import Camera, CameraFrame, CameraSpec
 from sensors.errors import SensorError
 from sensors.materials import ALBEDO_BGR_BY_CLASS
 from sensors.scene import FrameScene
-from sensors.weather import Weather, weather_preset
+from sensors.shading import shade_frame
+from sensors.weather import DAY, Weather, weather_preset
 
 
 def colorize_instances(
@@ -49,7 +50,7 @@ def colorize_depth(depth_m: npt.NDArray[np.float32], near_m: float = 2.0) -> npt
 def save_preview(frame: CameraFrame, prefix: str | Path) -> list[Path]:
     """Write the shaded image, instance mask and depth of ``frame`` next to ``prefix``."""
     images = {
-        "image": frame.image_bgr,
+        "image": shade_frame(frame),
         "instance": colorize_instances(frame.instance_id, frame.semantic_class),
         "depth": colorize_depth(frame.depth_m),
     }
@@ -64,19 +65,19 @@ def save_preview(frame: CameraFrame, prefix: str | Path) -> list[Path]:
 
 def render_preview(
     static: ClassedMesh,
-    agents: AgentBoxes,
-    map_SE3_ego: SE3,
+    agents: Agents,
+    ego: EgoState,
     prefix: str | Path,
     spec: CameraSpec | None = None,
-    weather: Weather | None = None,
+    weather: Weather = DAY,
 ) -> list[Path]:
     """Render one camera frame of a scene and save its preview PNGs."""
     camera = Camera(CameraSpec() if spec is None else spec)
-    frame = camera.render(FrameScene(static, agent_meshes(agents)), map_SE3_ego, weather)
-    return save_preview(frame, prefix)
+    output = camera.sense(FrameScene(static, agents), ego, weather, np.random.default_rng(0))
+    return save_preview(output.frame, prefix)
 
 
-def demo_scene() -> tuple[ClassedMesh, AgentBoxes]:
+def demo_scene() -> tuple[ClassedMesh, Agents]:
     """A straight road with sidewalks, two buildings, a pole and one agent of each class."""
     road = flat_polygon(box(-20, -5, 200, 5), 0.0, SemanticClass.ROAD)
     walks = [prism(box(-20, s * 5, 200, s * 9), 0.0, 0.15, SemanticClass.SIDEWALK) for s in (-1, 1)]
@@ -98,17 +99,16 @@ def demo_scene() -> tuple[ClassedMesh, AgentBoxes]:
     a = np.array([r[1:] for r in rows], dtype=np.float64)
     ground = np.where(a[:, 1] ** 2 > 25.0, 0.15, 0.0)
     ids = np.arange(1, len(rows) + 1, dtype=np.uint32)
-    agents = AgentBoxes(ids, np.array([r[0] for r in rows], dtype=np.uint8),
-                        np.column_stack([a[:, 0], a[:, 1], ground + a[:, 4] / 2]), a[:, 2:5], a[:, 5],
-                        np.zeros(len(rows)))  # fmt: skip
+    agents = Agents.standing(ids, np.array([r[0] for r in rows], dtype=np.uint8),
+                             np.column_stack([a[:, 0], a[:, 1], ground + a[:, 4] / 2]), a[:, 2:5], a[:, 5])  # fmt: skip
     return static, agents
 
 
 def main(argv: list[str]) -> int:
     prefix = argv[0] if argv else "/tmp/preview"
-    weather = weather_preset(argv[1]) if len(argv) > 1 else None
+    weather = weather_preset(argv[1]) if len(argv) > 1 else DAY
     static, agents = demo_scene()
-    for path in render_preview(static, agents, SE3.identity(), prefix, weather=weather):
+    for path in render_preview(static, agents, EgoState.at(SE3.identity()), prefix, weather=weather):
         print(path)
     return 0
 

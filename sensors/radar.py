@@ -14,16 +14,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
 from networks.geometry import SE3
+from networks.records import check_arrays
+from sensors.agents import EgoState
 from sensors.errors import SensorConfigError
 from sensors.materials import RADAR_REFLECTIVITY_BY_CLASS
 from sensors.rays import sensor_rays
 from sensors.view import spheres_in_view
+from sensors.weather import Weather
 
 if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
     from sensors.scene import FrameScene
@@ -80,43 +83,6 @@ def _centres(fov_rad: float, steps: int) -> npt.NDArray[np.float64]:
 
 
 @dataclass(frozen=True, slots=True)
-class InstanceVelocities:
-    """Velocities of agents by instance id: ``instance_id: (K,) uint32`` strictly increasing,
-    ``velocity_map_mps: (K, 3) float64``. Ids not listed (the static world, 0) do not move."""
-
-    instance_id: npt.NDArray[np.uint32]
-    velocity_map_mps: npt.NDArray[np.float64]
-
-    def __post_init__(self) -> None:
-        ids = np.asarray(self.instance_id, dtype=np.uint32).reshape(-1)
-        vel = np.asarray(self.velocity_map_mps, dtype=np.float64).reshape(ids.shape[0], 3)
-        if ids.shape[0] > 1 and not np.all(np.diff(ids.astype(np.int64)) > 0):
-            raise ValueError("InstanceVelocities: instance ids must be strictly increasing")
-        object.__setattr__(self, "instance_id", ids)
-        object.__setattr__(self, "velocity_map_mps", vel)
-
-    @classmethod
-    def from_unsorted(cls, instance_id: npt.ArrayLike, velocity_map_mps: npt.ArrayLike) -> InstanceVelocities:
-        ids = np.asarray(instance_id, dtype=np.uint32).reshape(-1)
-        order = np.argsort(ids, kind="stable")
-        return cls(ids[order], np.asarray(velocity_map_mps, dtype=np.float64).reshape(-1, 3)[order])
-
-    @classmethod
-    def empty(cls) -> InstanceVelocities:
-        return cls(np.zeros(0, np.uint32), np.zeros((0, 3)))
-
-    def lookup(self, instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.float64]:
-        """``(N, 3)`` velocity of each id; zero for ids not listed."""
-        out = np.zeros((instance_id.shape[0], 3))
-        if self.instance_id.shape[0] == 0:
-            return out
-        pos = np.minimum(np.searchsorted(self.instance_id, instance_id), self.instance_id.shape[0] - 1)
-        found = self.instance_id[pos] == instance_id
-        out[found] = self.velocity_map_mps[pos[found]]
-        return out
-
-
-@dataclass(frozen=True, slots=True)
 class RadarScan:
     """Returns of one frame in the radar frame (x forward, y left, z up), all ``(N,)`` unless
     said: ``xyz_radar_m: (N, 3) float32``, ``range_m``, ``radial_velocity_mps`` (negative:
@@ -134,19 +100,21 @@ class RadarScan:
     semantic_class: npt.NDArray[np.uint8]
 
     def __post_init__(self) -> None:
-        n = self.range_m.shape[0]
-        vectors = (self.range_m, self.radial_velocity_mps, self.azimuth_rad, self.elevation_rad, self.strength_db)
-        if self.xyz_radar_m.shape != (n, 3) or self.xyz_radar_m.dtype != np.float32:
-            raise ValueError("RadarScan: xyz_radar_m must be (N, 3) float32")
-        if any(a.shape != (n,) or a.dtype != np.float32 for a in vectors):
-            raise ValueError("RadarScan: per-point fields must be (N,) float32")
-        if self.instance_id.shape != (n,) or self.instance_id.dtype != np.uint32:
-            raise ValueError("RadarScan: instance_id must be (N,) uint32")
-        if self.semantic_class.shape != (n,) or self.semantic_class.dtype != np.uint8:
-            raise ValueError("RadarScan: semantic_class must be (N,) uint8")
+        per_point = (np.float32, ("N",))
+        check_arrays(
+            self, xyz_radar_m=(np.float32, ("N", 3)), range_m=per_point, radial_velocity_mps=per_point,
+            azimuth_rad=per_point, elevation_rad=per_point, strength_db=per_point,
+            instance_id=(np.uint32, ("N",)), semantic_class=(np.uint8, ("N",)),
+        )  # fmt: skip
 
     def __len__(self) -> int:
         return int(self.range_m.shape[0])
+
+
+@dataclass(frozen=True, slots=True)
+class RadarOutput:
+    spec: RadarSpec
+    scan: RadarScan
 
 
 def strength_db(reflectivity: npt.NDArray[np.floating], cos_incidence: npt.NDArray[np.floating],
@@ -182,6 +150,8 @@ def thin_to_budget(
 
 
 class Radar:
+    kind: ClassVar[str] = "radar"
+
     def __init__(self, spec: RadarSpec) -> None:
         self.spec = spec
         self._dirs_radar = spec.directions()
@@ -203,16 +173,10 @@ class Radar:
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         return sensor_rays(map_SE3_ego.compose(self.spec.ego_SE3_sensor), self._dirs32)
 
-    def scan(
-        self,
-        scene: FrameScene,
-        map_SE3_ego: SE3,
-        velocity_of_instance: InstanceVelocities,
-        ego_velocity_map_mps: npt.ArrayLike,
-        rng: np.random.Generator,
-    ) -> RadarScan:
-        """One frame of returns; velocities are map-frame m/s."""
-        rays = self.rays(map_SE3_ego)
+    def sense(self, scene: FrameScene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> RadarOutput:
+        """One frame of returns (the weather does not change them); surfaces move with their
+        agent's velocity (:attr:`FrameScene.agents`), the radar with the ego's."""
+        rays = self.rays(ego.map_SE3_ego())
         hits = scene.cast(rays)
         cls_all = hits.semantic_class
         cos_inc = np.abs(np.einsum("ij,ij->i", rays[:, 3:6], hits.normal))
@@ -224,9 +188,10 @@ class Radar:
         dirs = self._dirs_radar[cand]
         az = np.arctan2(dirs[:, 1], dirs[:, 0])
         keep = cand[thin_to_budget(hits.range_m[cand], az, power[cand], rcs[cand], self.spec, rng)]
-        rel_v = velocity_of_instance.lookup(hits.instance_id[keep]) - np.asarray(ego_velocity_map_mps, np.float64)
+        rel_v = scene.agents.velocities_of(hits.instance_id[keep]) - ego.velocity_map_mps
         radial = np.einsum("ij,ij->i", rel_v, rays[keep, 3:6].astype(np.float64))
-        return self._scan(keep, hits.range_m[keep], radial, power[keep], hits.instance_id[keep], cls_all[keep], rng)
+        scan = self._scan(keep, hits.range_m[keep], radial, power[keep], hits.instance_id[keep], cls_all[keep], rng)
+        return RadarOutput(self.spec, scan)
 
     def _scan(
         self,

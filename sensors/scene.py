@@ -2,7 +2,9 @@
 
 Open3D scenes have no transforms or instancing, so a frame's scene is rebuilt from
 the static mesh near the ego (cropped once per few metres of travel) and one merged
-mesh of all agents. Every hit carries the class and instance id of its triangle.
+mesh of the agents. Every hit carries the class and instance id of its triangle. The
+scene keeps its agents and their meshes: the radar reads their velocities, the labels cast
+an object's unoccluded silhouette against its own mesh (:meth:`FrameScene.hits_alone`).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from networks.mesh import ClassedMesh
-from sensors.agents import AgentMeshes
+from sensors.agents import AgentMeshes, Agents, agent_meshes
 from sensors.hits import RayHits
 from sensors.o3d import INVALID_ID, RaycastingScene, o3c
 
@@ -44,20 +46,23 @@ class StaticCrop:
 
 
 class FrameScene:
-    """One frame's raycasting scene. Rays are ``(N, 6) float32``: origin, unit direction.
-    The scene's BVH is built here, not by the first cast."""
+    """One frame's raycasting scene of the ``static`` world and the ``agents`` (their meshes
+    are built here). Rays are ``(N, 6) float32``: origin, unit direction. The scene's BVH is
+    built here, not by the first cast."""
 
-    def __init__(self, static: ClassedMesh, agents: AgentMeshes, nthreads: int = 0) -> None:
+    def __init__(self, static: ClassedMesh, agents: Agents, nthreads: int = 0) -> None:
+        self.agents = agents
+        self.agent_meshes = meshes = agent_meshes(agents)
         self._scene = RaycastingScene()
         self._nthreads = nthreads
         self._static_id = self._add(static.vertices_m, static.triangles)
-        self._agent_id = self._add(agents.vertices_m, agents.triangles)
+        self._agent_id = self._add(meshes.vertices_m, meshes.triangles)
         # One row per triangle, static ones first, and a last row for rays that hit nothing.
         self._agent_row0 = np.uint32(static.triangle_class.shape[0])
-        self._nothing_row = np.uint32(static.triangle_class.shape[0] + agents.triangle_class.shape[0])
-        self._class_of_row = np.concatenate([static.triangle_class, agents.triangle_class, [0]]).astype(np.uint8)
+        self._nothing_row = np.uint32(static.triangle_class.shape[0] + meshes.triangle_class.shape[0])
+        self._class_of_row = np.concatenate([static.triangle_class, meshes.triangle_class, [0]]).astype(np.uint8)
         self._instance_of_row = np.concatenate(
-            [np.zeros(static.triangle_class.shape[0], np.uint32), agents.triangle_instance, [0]]
+            [np.zeros(static.triangle_class.shape[0], np.uint32), meshes.triangle_instance, [0]]
         ).astype(np.uint32)
         self.cast_open3d(np.zeros((1, 6), np.float32))  # builds the BVH
 
@@ -85,12 +90,16 @@ class FrameScene:
         normal = result["primitive_normals"].numpy()
         return RayHits(t_hit, self._class_of_row[row], self._instance_of_row[row], normal)
 
+    def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
+        """Whether ray ``i`` hits agent ``instance_id[i]`` with every other agent (and the
+        static world) taken away: the object's silhouette as if it were alone. One small scene
+        per agent, of its own triangles in this scene; ``False`` for agents not in the scene."""
+        return _hits_alone(self.agent_meshes, rays, instance_id)
 
-def hits_alone(
+
+def _hits_alone(
     agents: AgentMeshes, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]
 ) -> npt.NDArray[np.bool_]:
-    """Whether ray ``i`` hits agent ``instance_id[i]`` with every other agent (and the static
-    world) taken away: the object's silhouette as if it were alone. One small scene per agent."""
     hit = np.zeros(rays.shape[0], np.bool_)
     if rays.shape[0] == 0 or agents.triangles.shape[0] == 0:
         return hit

@@ -27,11 +27,13 @@ from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf.timestamp_pb2 import Timestamp
 
 from gtgen.colours import CLASS_RGB
-from gtgen.frame import CameraOutput, LidarOutput, RadarOutput
 from gtgen.labels import CameraLabels, FrameLabels
 from gtgen.sinks.images import FrameImages
 from networks.classes import SemanticClass
 from networks.geometry import SE3
+from sensors.camera import CameraOutput
+from sensors.lidar import LidarOutput
+from sensors.radar import RadarOutput
 
 _F = PackedElementField
 LIDAR_POINT_DTYPE = np.dtype(
@@ -138,13 +140,11 @@ def camera_messages(ns: int, camera: CameraOutput, images: FrameImages, index: i
 
 
 def calibration(ns: int, camera: CameraOutput) -> CameraCalibration:
-    spec = camera.spec
-    K = spec.K
-    P = np.hstack([K, np.zeros((3, 1))])
+    spec, pinhole = camera.spec, camera.spec.pinhole
     return CameraCalibration(
         timestamp=timestamp(ns), frame_id=spec.name, width=spec.width_px, height=spec.height_px,
-        distortion_model="plumb_bob", D=[0.0] * 5, K=K.ravel().tolist(), R=np.eye(3).ravel().tolist(),
-        P=P.ravel().tolist(),
+        distortion_model="plumb_bob", D=[0.0] * 5, K=pinhole.K.ravel().tolist(), R=np.eye(3).ravel().tolist(),
+        P=pinhole.P.ravel().tolist(),
     )  # fmt: skip
 
 

@@ -1,7 +1,8 @@
-"""The encoded camera images of one frame, each made once however many sinks use it.
+"""The camera images of one frame, each shaded and encoded once however many sinks use it.
 
 MCAP, KITTI and YOLO all write the first camera's image; one :class:`FrameImages` per
-frame is handed to every sink, so an encoding asked for twice is encoded once.
+frame is handed to every sink, so an image is shaded (:func:`sensors.shading.shade_frame`)
+once and an encoding asked for twice is encoded once.
 PNGs use zlib level 1 with the UP filter (lossless: the same pixels as any other level,
 a third of level 3's time).
 """
@@ -16,8 +17,8 @@ import numpy as np
 import numpy.typing as npt
 
 from gtgen.errors import SinkError
-from gtgen.frame import CameraOutput
-from sensors.camera import depth_to_uint16
+from sensors.camera import CameraOutput, depth_to_uint16
+from sensors.shading import shade_frame
 
 PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 1, cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_UP]
 
@@ -35,6 +36,14 @@ class FrameImages:
     def __init__(self, cameras: tuple[CameraOutput, ...]) -> None:
         self._cameras = cameras
         self._done: dict[tuple[object, ...], bytes] = {}
+        self._shaded: dict[int, npt.NDArray[np.uint8]] = {}
+
+    def image(self, camera: int) -> npt.NDArray[np.uint8]:
+        """The shaded ``(H, W, 3) uint8`` BGR image of camera ``camera``."""
+        image = self._shaded.get(camera)
+        if image is None:
+            image = self._shaded[camera] = shade_frame(self._cameras[camera].frame)
+        return image
 
     def _once(self, key: tuple[object, ...], make: Callable[[], bytes]) -> bytes:
         data = self._done.get(key)
@@ -45,12 +54,12 @@ class FrameImages:
 
     def jpeg(self, camera: int, quality: int) -> bytes:
         """The shaded image as a JPEG of ``quality`` (0..100)."""
-        image = self._cameras[camera].frame.image_bgr
+        image = self.image(camera)
         return self._once(("jpeg", camera, quality), lambda: encode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality]))
 
     def png(self, camera: int) -> bytes:
         """The shaded image as a lossless 8-bit BGR PNG."""
-        image = self._cameras[camera].frame.image_bgr
+        image = self.image(camera)
         return self._once(("png", camera), lambda: encode(".png", image, PNG_PARAMS))
 
     def depth_png(self, camera: int, units_per_m: float) -> bytes:

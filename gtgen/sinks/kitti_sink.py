@@ -86,15 +86,15 @@ class KittiSink:
         name = f"{record.frame_index:06d}"
         camera, lidar, cam_labels = record.cameras[0], record.lidars[0], record.labels.cameras[0]
         points = np.column_stack([lidar.scan.xyz_lidar_m, lidar.scan.intensity]).astype("<f4")
-        cam_SE3_ego = camera.spec.ego_SE3_cam.inverse()
+        cam_SE3_ego = camera.spec.ego_SE3_sensor.inverse()
         cam_SE3_lidar = cam_SE3_ego.compose(lidar.spec.ego_SE3_sensor)
         lidar_SE3_ego = lidar.spec.ego_SE3_sensor.inverse()
-        P = np.hstack([camera.spec.K, np.zeros((3, 1))])
+        P = camera.spec.pinhole.P
         lines = [_matrix_line(f"P{i}", P) for i in range(4)]
         sequence_calib = [*lines, _matrix_line("Tr", cam_SE3_lidar.as_matrix()[:3])]
         lines += [_matrix_line("R0_rect", np.eye(3)), _matrix_line("Tr_velo_to_cam", cam_SE3_lidar.as_matrix()[:3]),
                   _matrix_line("Tr_imu_to_velo", lidar_SE3_ego.as_matrix()[:3])]  # fmt: skip
-        map_SE3_cam = record.map_SE3_ego.compose(camera.spec.ego_SE3_cam)
+        map_SE3_cam = record.map_SE3_ego.compose(camera.spec.ego_SE3_sensor)
         if self._first_map_SE3_cam is None:
             self._first_map_SE3_cam = map_SE3_cam
             self._calib = "\n".join(sequence_calib) + "\n"

@@ -112,9 +112,8 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
     """Every message of one frame, in write order, as ``(topic, protobuf message or JSON dict)``."""
     ns = record.timestamp_ns
     transforms = [fx.frame_transform(ns, "map", "ego", record.map_SE3_ego)]
-    transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in record.lidars]
-    transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in record.radars]
-    transforms += [fx.frame_transform(ns, "ego", c.spec.name, c.spec.ego_SE3_cam) for c in record.cameras]
+    sensors = (*record.lidars, *record.radars, *record.cameras)
+    transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in sensors]
     out: list[tuple[str, Any]] = [("/tf", FrameTransforms(transforms=transforms))]
     out += [(f"/{lidar.spec.name}", fx.lidar_cloud(ns, lidar)) for lidar in record.lidars]
     out += [(f"/{radar.spec.name}", fx.radar_cloud(ns, radar)) for radar in record.radars]

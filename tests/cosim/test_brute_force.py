@@ -10,7 +10,6 @@ from cosim.rig import build_rig
 from cosim.scenario import load_scenario
 from cosim.traffic import Traffic
 from cosim.world_setup import prepare_network
-from sensors.agents import agent_meshes
 from sensors.scene import FrameScene, StaticCrop
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -27,7 +26,7 @@ def test_lidar_seen_flags_match_a_brute_force_cast_per_object():
     crop = StaticCrop(prepared.world.mesh, rig.reach_m)
     traffic = Traffic(prepared.net_path, prepared.net, scenario)
     rng = np.random.default_rng(0)
-    lidar = rig.lidars[0]
+    lidar = rig.of_kind("lidar")[0]
     checked = 0
     try:
         traffic.warm_up()
@@ -36,12 +35,12 @@ def test_lidar_seen_flags_match_a_brute_force_cast_per_object():
                 traffic.step()
             state = traffic.world_state().near(rig.reach_m + AGENT_MARGIN_M)
             record = sense_and_label(frame, state, crop, rig, rng)
-            static = crop.around(state.map_SE3_ego().translation)
-            rays = lidar.rays(state.map_SE3_ego())
-            nearest = FrameScene(static, agent_meshes(state.agents)).cast(rays).range_m
+            static = crop.around(state.ego.map_SE3_ego().translation)
+            rays = lidar.rays(state.ego.map_SE3_ego())
+            nearest = FrameScene(static, state.agents).cast(rays).range_m
             for i, track_id in enumerate(record.labels.objects.track_id):
                 alone = state.agents.select(state.agents.instance_id == track_id)
-                t_alone = FrameScene(static, agent_meshes(alone)).cast(rays)
+                t_alone = FrameScene(static, alone).cast(rays)
                 on_object = t_alone.instance_id == track_id
                 seen = np.any(on_object & (t_alone.range_m <= nearest + 1e-4) & (t_alone.range_m <= lidar.spec.range_m))
                 assert bool(seen) == bool(record.labels.lidar_points[i] > 0), f"object {track_id} in frame {frame}"

@@ -70,7 +70,7 @@ def test_parked_cars_stand_still_on_parking_lanes_and_are_labelled_parked():
         for _ in range(200):
             traffic.step()
         later = traffic.world_state()
-    parked = first.parked
+    parked = first.agents.parked
     assert parked.sum() == 25
     assert set(np.unique(first.agents.semantic_class[parked]).tolist()) == {SemanticClass.CAR}
     types = lane_types(prepared.net_path)
@@ -82,7 +82,9 @@ def test_parked_cars_stand_still_on_parking_lanes_and_are_labelled_parked():
         assert on_parking.contains(spot), (x, y)
         assert not driving.contains(spot) and not sidewalk.contains(spot), (x, y)
     before = _centres_by_track(first.agents.instance_id[parked], first.agents.center_map_m[parked])
-    after = _centres_by_track(later.agents.instance_id[later.parked], later.agents.center_map_m[later.parked])
+    after = _centres_by_track(
+        later.agents.instance_id[later.agents.parked], later.agents.center_map_m[later.agents.parked]
+    )
     assert before.keys() == after.keys()
     assert max(float(np.linalg.norm(after[k] - before[k])) for k in before) < 0.01
 
@@ -97,7 +99,7 @@ def test_ego_is_rerouted_when_its_route_ends_and_stays_in_the_scene():
             road = traffic.ego_road_id
             if road != visited[-1] and not road.startswith(":"):
                 visited.append(road)
-        assert traffic.world_state().ego.lwh_m.shape == (1, 3)
+        assert traffic.world_state().ego.lwh_m.shape == (3,)
     assert first_route[-1] in visited
     after_first = visited[visited.index(first_route[-1]) + 1 :]
     assert after_first, f"the ego stopped at the end of its first route {first_route}"
@@ -166,9 +168,9 @@ def test_agents_read_around_the_ego_equal_those_found_among_all_agents():
             a, b = np.argsort(near.agents.instance_id), np.argsort(every.agents.instance_id)
             assert near.agents.instance_id[a].tolist() == every.agents.instance_id[b].tolist()
             np.testing.assert_allclose(near.agents.center_map_m[a], every.agents.center_map_m[b])
-            np.testing.assert_allclose(near.velocity_map_mps[a], every.velocity_map_mps[b])
-            np.testing.assert_array_equal(near.parked[a], every.parked[b])
+            np.testing.assert_allclose(near.agents.velocity_map_mps[a], every.agents.velocity_map_mps[b])
+            np.testing.assert_array_equal(near.agents.parked[a], every.agents.parked[b])
             np.testing.assert_allclose(near.ego.center_map_m, every.ego.center_map_m)
-            kinds["parked"] += int(near.parked.sum())
+            kinds["parked"] += int(near.agents.parked.sum())
             kinds["pedestrian"] += int(np.sum(near.agents.semantic_class == SemanticClass.PEDESTRIAN))
     assert kinds["parked"] > 0 and kinds["pedestrian"] > 0, kinds

@@ -5,6 +5,7 @@ import numpy as np
 
 from gtgen.sinks.images import FrameImages
 from sensors.camera import depth_to_uint16
+from sensors.shading import shade_frame
 
 
 def decode(data: bytes) -> np.ndarray:
@@ -14,15 +15,16 @@ def decode(data: bytes) -> np.ndarray:
 def test_pngs_decode_to_the_frame_arrays(records):
     frame = records[0].cameras[0].frame
     images = FrameImages(records[0].cameras)
-    np.testing.assert_array_equal(decode(images.png(0)), frame.image_bgr)
+    np.testing.assert_array_equal(decode(images.png(0)), shade_frame(frame))
     np.testing.assert_array_equal(decode(images.depth_png(0, 256.0)), depth_to_uint16(frame.depth_m, 256.0))
     np.testing.assert_array_equal(decode(images.instance_png(0)), frame.instance_id.astype(np.uint16))
     np.testing.assert_array_equal(decode(images.class_png(0)), frame.semantic_class)
-    assert decode(images.jpeg(0, 90)).shape == frame.image_bgr.shape
+    assert decode(images.jpeg(0, 90)).shape == (90, 160, 3)
 
 
 def test_an_encoding_asked_for_twice_is_made_once(records):
     images = FrameImages(records[0].cameras)
     assert images.jpeg(0, 90) is images.jpeg(0, 90)
     assert images.png(0) is images.png(0)
+    assert images.image(0) is images.image(0)  # shaded once
     assert images.jpeg(0, 92) is not images.jpeg(0, 90)

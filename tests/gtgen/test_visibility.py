@@ -4,19 +4,19 @@ import numpy as np
 import pytest
 from shapely.geometry import box as rect
 
-from gtgen.labels import SensorHits, label_frame
-from gtgen.objects import ObjectBoxes
+from gtgen.labels import label_frame
 from gtgen.visibility import modal_boxes, occlusion_level, visibility_bin
 from networks.classes import SemanticClass
 from networks.geometry import SE3
 from networks.mesh import flat_polygon, merge, prism
-from sensors.agents import AgentBoxes, agent_meshes
+from sensors.agents import Agents, EgoState
 from sensors.camera import Camera, CameraSpec
 from sensors.lidar import Lidar, LidarSpec
-from sensors.radar import InstanceVelocities, Radar, RadarSpec
+from sensors.radar import Radar, RadarSpec
 from sensors.scene import FrameScene
+from sensors.weather import DAY
 
-EGO = SE3.identity()  # the ego stands at the map origin, facing +x
+EGO = EgoState.at(SE3.identity())  # the ego stands at the map origin, facing +x
 GROUND = flat_polygon(rect(-200, -200, 200, 200), 0.0, SemanticClass.ROAD)
 
 
@@ -24,26 +24,17 @@ def agents(rows):
     """rows: (id, class, x, y, l, w, h, yaw) with the box standing on the ground."""
     a = np.asarray(rows, dtype=np.float64).reshape(-1, 8)
     center = np.column_stack([a[:, 2], a[:, 3], a[:, 6] / 2])
-    return AgentBoxes(a[:, 0], a[:, 1], center, a[:, 4:7], a[:, 7], np.zeros(len(a)))
-
-
-def ego_objects(a: AgentBoxes) -> ObjectBoxes:
-    n = len(a)
-    return ObjectBoxes(
-        a.instance_id, a.semantic_class, a.center_map_m, a.lwh_m, a.yaw_map_rad, np.zeros((n, 3)), np.zeros(n, bool)
-    )
+    return Agents.standing(a[:, 0].astype(int), a[:, 1].astype(int), center, a[:, 4:7], a[:, 7])
 
 
 def label(static, a, camera_spec=None, lidar=True, radar=True):
-    camera_spec = camera_spec or CameraSpec()
-    scene = FrameScene(static, agent_meshes(a))
+    scene = FrameScene(static, a)
     rng = np.random.default_rng(0)
-    frame = Camera(camera_spec).render(scene, EGO)
-    scans = (Lidar(LidarSpec()).scan(scene, EGO, rng),) if lidar else ()
-    velocities = InstanceVelocities.from_unsorted(a.instance_id, np.zeros((len(a), 3)))
-    radars = (Radar(RadarSpec()).scan(scene, EGO, velocities, np.zeros(3), rng),) if radar else ()
-    hits = SensorHits(scans, radars, ((camera_spec, frame),))
-    return label_frame(0, 0, ego_objects(a), a, EGO, hits, 120.0), frame
+    sensors = [Camera(camera_spec or CameraSpec())]
+    sensors += [Lidar(LidarSpec())] if lidar else []
+    sensors += [Radar(RadarSpec())] if radar else []
+    outputs = tuple(sensor.sense(scene, EGO, DAY, rng) for sensor in sensors)
+    return label_frame(0, 0, a, EGO, outputs, scene, 120.0), outputs[0].frame
 
 
 def test_pedestrian_half_hidden_behind_a_wall_is_half_visible():

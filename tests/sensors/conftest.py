@@ -10,9 +10,12 @@ import numpy as np
 import pytest
 
 from networks.classes import SemanticClass
+from networks.geometry import SE3
 from networks.mesh import ClassedMesh, merge
-from sensors.agents import AgentBoxes, agent_meshes
+from sensors.agents import Agents, EgoState
 from sensors.scene import FrameScene
+
+EGO = EgoState.at(SE3.identity())  # the ego's footprint at the map origin, facing +x, standing still
 
 
 def quad(corners: Sequence[Sequence[float]], cls: SemanticClass) -> ClassedMesh:
@@ -31,24 +34,33 @@ def wall_at_x(x_m: float, half_m: float = 200.0, cls: SemanticClass = SemanticCl
     return quad([(x_m, -h, -h), (x_m, h, -h), (x_m, h, h), (x_m, -h, h)], cls)
 
 
-def agents(rows: Sequence[tuple[int, SemanticClass, float, float, float, float, float, float, float]]) -> AgentBoxes:
-    """Rows of (id, class, x, y, z_centre, l, w, h, yaw)."""
+def agents(
+    rows: Sequence[tuple[int, SemanticClass, float, float, float, float, float, float, float]],
+    velocity_map_mps: Sequence[Sequence[float]] | None = None,
+) -> Agents:
+    """Rows of (id, class, x, y, z_centre, l, w, h, yaw); level, not parked, standing still
+    unless ``velocity_map_mps`` gives each one's velocity."""
     if not rows:
-        return AgentBoxes.empty()
+        return Agents.empty()
     a = np.array([r[2:] for r in rows], dtype=np.float64)
-    return AgentBoxes(
-        np.array([r[0] for r in rows]), np.array([int(r[1]) for r in rows]), a[:, 0:3], a[:, 3:6], a[:, 6],
-        np.zeros(len(rows)),
-    )  # fmt: skip
+    n = len(rows)
+    velocity = np.zeros((n, 3)) if velocity_map_mps is None else np.asarray(velocity_map_mps, np.float64)
+    return Agents(np.array([r[0] for r in rows]), np.array([int(r[1]) for r in rows]), a[:, 0:3], a[:, 3:6], a[:, 6],
+                  np.zeros(n), velocity, np.zeros(n, bool))  # fmt: skip
 
 
-def scene(static: Sequence[ClassedMesh], boxes: AgentBoxes | None = None) -> FrameScene:
-    return FrameScene(merge(list(static)), agent_meshes(AgentBoxes.empty() if boxes is None else boxes))
+def scene(static: Sequence[ClassedMesh], boxes: Agents | None = None) -> FrameScene:
+    return FrameScene(merge(list(static)), Agents.empty() if boxes is None else boxes)
+
+
+def ego(velocity_map_mps: Sequence[float] = (0.0, 0.0, 0.0)) -> EgoState:
+    """The ego at the map origin, facing +x, driving at ``velocity_map_mps``."""
+    return EgoState(EGO.center_map_m, EGO.lwh_m, 0.0, 0.0, np.asarray(velocity_map_mps, np.float64))
 
 
 @pytest.fixture
 def synth() -> SimpleNamespace:
-    return SimpleNamespace(quad=quad, ground=ground, wall_at_x=wall_at_x, agents=agents, scene=scene)
+    return SimpleNamespace(quad=quad, ground=ground, wall_at_x=wall_at_x, agents=agents, scene=scene, ego=ego, EGO=EGO)
 
 
 @pytest.fixture

@@ -7,19 +7,25 @@ import pytest
 
 from networks.classes import AGENT_CLASSES, SemanticClass
 from networks.geometry import SE3
-from sensors.agents import TEMPLATES, AgentBoxes, agent_meshes, box_corners_map
+from sensors.agents import TEMPLATES, Agents, agent_meshes
 from sensors.lidar import Lidar, LidarSpec
+from sensors.pinhole import box_corners
+from sensors.weather import DAY
 
 
-def random_agents(n: int, seed: int = 3) -> AgentBoxes:
+def random_agents(n: int, seed: int = 3) -> Agents:
     r = np.random.default_rng(seed)
     cls = r.choice([int(c) for c in AGENT_CLASSES], n)
     lwh = r.uniform([0.3, 0.4, 1.0], [12.0, 2.6, 3.5], (n, 3))
-    return AgentBoxes(np.arange(1, n + 1), cls, r.uniform(-30, 30, (n, 3)), lwh, r.uniform(-np.pi, np.pi, n),
-                      r.uniform(-0.2, 0.2, n))  # fmt: skip
+    return Agents(np.arange(1, n + 1), cls, r.uniform(-30, 30, (n, 3)), lwh, r.uniform(-np.pi, np.pi, n),
+                  r.uniform(-0.2, 0.2, n), np.zeros((n, 3)), np.zeros(n, bool))  # fmt: skip
 
 
-def in_box_frame(agents_: AgentBoxes, index: int, xyz_map: np.ndarray) -> np.ndarray:
+def corners(agents_: Agents) -> np.ndarray:
+    return box_corners(agents_.center_map_m, agents_.lwh_m, agents_.rotations())
+
+
+def in_box_frame(agents_: Agents, index: int, xyz_map: np.ndarray) -> np.ndarray:
     map_SE3_box = SE3(agents_.rotations()[index], agents_.center_map_m[index])
     return map_SE3_box.inverse().transform_from(xyz_map)
 
@@ -61,21 +67,19 @@ def test_a_class_without_template_is_drawn_as_its_box(synth: SimpleNamespace) ->
     boxes = synth.agents([(5, SemanticClass.POLE, 1.0, 2.0, 1.0, 2.0, 1.0, 2.0, 0.3)])
     meshes = agent_meshes(boxes)
     assert meshes.triangles.shape == (12, 3)
-    np.testing.assert_allclose(
-        np.sort(meshes.vertices_m, axis=0), np.sort(box_corners_map(boxes)[0], axis=0), atol=1e-5
-    )
+    np.testing.assert_allclose(np.sort(meshes.vertices_m, axis=0), np.sort(corners(boxes)[0], axis=0), atol=1e-5)
 
 
 def test_no_agents_give_an_empty_mesh() -> None:
-    meshes = agent_meshes(AgentBoxes.empty())
+    meshes = agent_meshes(Agents.empty())
     assert meshes.vertices_m.shape == (0, 3) and meshes.triangles.shape == (0, 3)
 
 
 def test_box_corners_follow_yaw(synth: SimpleNamespace) -> None:
     boxes = synth.agents([(1, SemanticClass.CAR, 10.0, 0.0, 0.75, 4.0, 2.0, 1.5, np.pi / 2)])
-    corners = box_corners_map(boxes)[0]
-    np.testing.assert_allclose(corners.min(axis=0), [9.0, -2.0, 0.0], atol=1e-9)
-    np.testing.assert_allclose(corners.max(axis=0), [11.0, 2.0, 1.5], atol=1e-9)
+    box = corners(boxes)[0]
+    np.testing.assert_allclose(box.min(axis=0), [9.0, -2.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(box.max(axis=0), [11.0, 2.0, 1.5], atol=1e-9)
 
 
 def test_lidar_points_on_shaped_agents_lie_inside_their_boxes(synth: SimpleNamespace, rng: np.random.Generator) -> None:
@@ -87,7 +91,7 @@ def test_lidar_points_on_shaped_agents_lie_inside_their_boxes(synth: SimpleNames
             for i, ((cls, lng, wid, hgt), b) in enumerate(zip(sizes, bearing, strict=True))]  # fmt: skip
     boxes = synth.agents(rows)
     lidar = Lidar(LidarSpec(beams=32, azimuth_steps=1024))
-    scan = lidar.scan(synth.scene([synth.ground()], boxes), SE3.identity(), rng)
+    scan = lidar.sense(synth.scene([synth.ground()], boxes), synth.EGO, DAY, rng).scan
     xyz_map = lidar.spec.ego_SE3_sensor.transform_from(scan.xyz_lidar_m)
     for i, inst in enumerate(boxes.instance_id):
         on = scan.instance_id == inst

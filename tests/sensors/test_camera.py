@@ -9,13 +9,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import sensors.camera as camera_module
+import sensors.shading as shading_module
 from networks.classes import SemanticClass
 from networks.geometry import SE3
-from sensors.agents import box_corners_map
-from sensors.camera import Camera, CameraFrame, CameraSpec, depth_to_uint16, encode_depth_png, project_points
+from sensors.camera import Camera, CameraFrame, CameraSpec, depth_to_uint16, encode_depth_png
 from sensors.errors import SensorConfigError
-from sensors.weather import weather_preset
+from sensors.pinhole import box_corners, project_points
+from sensors.shading import shade_frame
+from sensors.weather import DAY, weather_preset
 
 SMALL = CameraSpec(width_px=160, height_px=90)
 
@@ -26,13 +27,13 @@ def pixel_grid(spec: CameraSpec) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_intrinsics_follow_fov_and_resolution() -> None:
-    K = CameraSpec().K
+    K = CameraSpec().pinhole.K
     f = 640.0 / math.tan(math.radians(42.5))
     np.testing.assert_allclose(K, [[f, 0, 639.5], [0, f, 359.5], [0, 0, 1]])
 
 
 def test_the_optical_frame_looks_along_ego_x_with_y_down() -> None:
-    cam_SE3_ego = CameraSpec().ego_SE3_cam.inverse()
+    cam_SE3_ego = CameraSpec().ego_SE3_sensor.inverse()
     ahead_left_up = np.array([[10.41, 0.0, 1.64], [10.41, 1.0, 1.64], [10.41, 0.0, 2.64]])
     np.testing.assert_allclose(cam_SE3_ego.transform_from(ahead_left_up), [[0, 0, 10], [-1, 0, 10], [0, -1, 10]],
                                atol=1e-12)  # fmt: skip
@@ -50,11 +51,11 @@ def test_depth_on_the_ground_plane_matches_the_analytic_depth(
     synth: SimpleNamespace, rpy_deg: tuple[float, float, float]
 ) -> None:
     spec = CameraSpec(width_px=160, height_px=90, mount_rpy_deg=rpy_deg)
-    frame = Camera(spec).render(synth.scene([synth.ground()]), SE3.identity())
+    frame = Camera(spec).sense(synth.scene([synth.ground()]), synth.EGO, DAY, np.random.default_rng(0)).frame
     u, v = pixel_grid(spec)
-    K = spec.K
+    K = spec.pinhole.K
     d_cam = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
-    down = (d_cam @ spec.ego_SE3_cam.rotation.T)[..., 2]
+    down = (d_cam @ spec.ego_SE3_sensor.rotation.T)[..., 2]
     t = -spec.mount_xyz_m[2] / np.where(down < 0, down, -1e-12)
     expected = np.where((down < 0) & (t * np.linalg.norm(d_cam, axis=-1) <= spec.range_m), t, 0.0)
     seen = expected > 0
@@ -66,19 +67,19 @@ def test_depth_on_the_ground_plane_matches_the_analytic_depth(
 
 
 def test_depth_on_a_wall_facing_the_camera_is_constant(synth: SimpleNamespace) -> None:
-    frame = Camera(SMALL).render(synth.scene([synth.wall_at_x(20.41)]), SE3.identity())
+    frame = Camera(SMALL).sense(synth.scene([synth.wall_at_x(20.41)]), synth.EGO, DAY, np.random.default_rng(0)).frame
     np.testing.assert_allclose(frame.depth_m, 20.0, rtol=1e-5)
 
 
 def test_depth_pixels_project_back_onto_their_own_pixel(synth: SimpleNamespace) -> None:
     spec = CameraSpec(width_px=160, height_px=90, mount_rpy_deg=(0.0, 8.0, 5.0))
-    frame = Camera(spec).render(synth.scene([synth.ground()]), SE3.identity())
+    frame = Camera(spec).sense(synth.scene([synth.ground()]), synth.EGO, DAY, np.random.default_rng(0)).frame
     u, v = pixel_grid(spec)
     hit = frame.hit
-    K_inv = np.linalg.inv(spec.K)
+    K_inv = np.linalg.inv(spec.pinhole.K)
     xyz_cam = (np.stack([u[hit], v[hit], np.ones(hit.sum())], axis=1) @ K_inv.T) * frame.depth_m[hit, None]
-    xyz_map = spec.ego_SE3_cam.transform_from(xyz_cam)
-    uv = project_points(spec.K, spec.ego_SE3_cam.inverse(), xyz_map)
+    xyz_map = spec.ego_SE3_sensor.transform_from(xyz_cam)
+    uv = project_points(spec.pinhole.K, spec.ego_SE3_sensor.inverse(), xyz_map)
     np.testing.assert_allclose(uv, np.stack([u[hit], v[hit]], axis=1), atol=1e-3)
 
 
@@ -97,29 +98,34 @@ def test_project_points_agrees_with_opencv(rvec: tuple[float, ...], xyz: tuple[f
     z = r.uniform(0.5, 80.0, 20)
     points_cam = np.column_stack([r.uniform(-1.2, 1.2, (20, 2)) * z[:, None], z])
     points_x = cam_SE3_x.inverse().transform_from(points_cam)
-    K = CameraSpec().K
+    K = CameraSpec().pinhole.K
     expected, _ = cv2.projectPoints(points_x, np.asarray(rvec), cam_SE3_x.translation, K, np.zeros(5))
     np.testing.assert_allclose(project_points(K, cam_SE3_x, points_x), expected.reshape(-1, 2), rtol=0, atol=1e-6)
 
 
 def test_points_behind_the_camera_project_to_nan() -> None:
-    uv = project_points(CameraSpec().K, SE3.identity(), [[0.0, 0.0, -5.0], [0.0, 0.0, 5.0]])
+    uv = project_points(CameraSpec().pinhole.K, SE3.identity(), [[0.0, 0.0, -5.0], [0.0, 0.0, 5.0]])
     assert np.all(np.isnan(uv[0])) and np.all(np.isfinite(uv[1]))
 
 
 def test_class_and_instance_per_pixel_on_a_synthetic_scene(synth: SimpleNamespace) -> None:
     boxes = synth.agents([(7, SemanticClass.CAR, 15.0, 0.0, 0.75, 4.5, 1.8, 1.5, 0.0),
                     (9, SemanticClass.PEDESTRIAN, 10.0, 3.0, 0.875, 0.3, 0.5, 1.75, 0.0)])  # fmt: skip
-    frame = Camera(SMALL).render(synth.scene([synth.ground(), synth.wall_at_x(40.0)], boxes), SE3.identity())
-    cam_SE3_map = SMALL.ego_SE3_cam.inverse()
+    frame = (
+        Camera(SMALL)
+        .sense(synth.scene([synth.ground(), synth.wall_at_x(40.0)], boxes), synth.EGO, DAY, np.random.default_rng(0))
+        .frame
+    )
+    cam_SE3_map = SMALL.ego_SE3_sensor.inverse()
+    corners = box_corners(boxes.center_map_m, boxes.lwh_m, boxes.rotations())
     for i, inst in enumerate(boxes.instance_id):
-        corners_uv = project_points(SMALL.K, cam_SE3_map, box_corners_map(boxes)[i])
+        corners_uv = project_points(SMALL.pinhole.K, cam_SE3_map, corners[i])
         lo, hi = np.floor(corners_uv.min(axis=0)), np.ceil(corners_uv.max(axis=0))
         vv, uu = np.nonzero(frame.instance_id == inst)
         assert vv.size > 10
         assert np.all((uu >= lo[0]) & (uu <= hi[0]) & (vv >= lo[1]) & (vv <= hi[1]))
         assert np.all(frame.semantic_class[vv, uu] == boxes.semantic_class[i])
-        centre = project_points(SMALL.K, cam_SE3_map, boxes.center_map_m[i : i + 1])[0]
+        centre = project_points(SMALL.pinhole.K, cam_SE3_map, boxes.center_map_m[i : i + 1])[0]
         assert frame.instance_id[round(centre[1]), round(centre[0])] == inst
     assert frame.semantic_class[0, 0] == SemanticClass.BUILDING and frame.instance_id[0, 0] == 0
     assert frame.semantic_class[-1, 80] == SemanticClass.ROAD
@@ -127,20 +133,25 @@ def test_class_and_instance_per_pixel_on_a_synthetic_scene(synth: SimpleNamespac
 
 def test_a_full_size_render_has_the_documented_shapes_and_types(synth: SimpleNamespace) -> None:
     boxes = synth.agents([(3, SemanticClass.BUS, 30.0, -3.0, 1.7, 12.0, 2.5, 3.4, 0.2)])
-    frame = Camera(CameraSpec()).render(synth.scene([synth.ground(), synth.wall_at_x(120.0)], boxes), SE3.identity())
+    frame = (
+        Camera(CameraSpec())
+        .sense(synth.scene([synth.ground(), synth.wall_at_x(120.0)], boxes), synth.EGO, DAY, np.random.default_rng(0))
+        .frame
+    )
     assert frame.depth_m.shape == (720, 1280) and frame.depth_m.dtype == np.float32
     assert frame.instance_id.dtype == np.uint32 and frame.semantic_class.dtype == np.uint8
-    assert frame.image_bgr.shape == (720, 1280, 3) and frame.image_bgr.dtype == np.uint8
+    image = shade_frame(frame)
+    assert image.shape == (720, 1280, 3) and image.dtype == np.uint8
     assert np.any(frame.instance_id == 3)
-    assert frame.image_bgr.std() > 5
+    assert image.std() > 5
 
 
-def test_camera_frame_rejects_mismatched_arrays() -> None:
-    with pytest.raises(ValueError):
-        CameraFrame(np.zeros((4, 5), np.float32), np.zeros((4, 5), np.uint32), np.zeros((4, 5), np.uint8),
-                    given_image_bgr=np.zeros((4, 6, 3), np.uint8))  # fmt: skip
-    with pytest.raises(ValueError):
-        CameraFrame(np.zeros((4, 5), np.float32), np.zeros((4, 5), np.uint32), np.zeros((4, 5), np.uint8))
+def test_camera_frame_rejects_mismatched_arrays_naming_the_field(synth: SimpleNamespace) -> None:
+    frame = Camera(SMALL).sense(synth.scene([synth.ground()]), synth.EGO, DAY, np.random.default_rng(0)).frame
+    with pytest.raises(ValueError, match=r"CameraFrame\.instance_id: expected shape \(H=90, W=160\), got \(90, 161\)"):
+        CameraFrame(frame.depth_m, np.zeros((90, 161), np.uint32), frame.semantic_class, frame.shading)
+    with pytest.raises(ValueError, match=r"CameraFrame\.instance_id: expected dtype uint32, got float32"):
+        CameraFrame(frame.depth_m, frame.depth_m, frame.semantic_class, frame.shading)
 
 
 @pytest.mark.parametrize("filter_up", [False, True])
@@ -160,10 +171,9 @@ def test_shading_in_stripes_gives_the_image_of_one_pass(
     boxes = synth.agents([(7, SemanticClass.CAR, 15.0, 0.0, 0.75, 4.5, 1.8, 1.5, 0.3)])
     scene = synth.scene([synth.ground(), synth.wall_at_x(150.0)], boxes)
     camera, w = Camera(CameraSpec(width_px=200, height_px=120)), weather_preset(weather)
-    monkeypatch.setattr(camera_module, "STRIPE_PX", 4000)  # 6 stripes, the last one short
-    striped = camera.render(scene, SE3.identity(), w, np.random.default_rng(1))
-    assert striped.image_bgr.any()  # shaded now, in stripes (the image is made on first use)
-    monkeypatch.setattr(camera_module, "STRIPE_PX", 10**9)
-    whole = camera.render(scene, SE3.identity(), w, np.random.default_rng(1))
-    for name in ("depth_m", "instance_id", "semantic_class", "image_bgr"):
-        np.testing.assert_array_equal(getattr(striped, name), getattr(whole, name), err_msg=name)
+    frame = camera.sense(scene, synth.EGO, w, np.random.default_rng(1)).frame
+    monkeypatch.setattr(shading_module, "STRIPE_PX", 4000)  # 6 stripes, the last one short
+    striped = shade_frame(frame)
+    assert striped.any()
+    monkeypatch.setattr(shading_module, "STRIPE_PX", 10**9)
+    np.testing.assert_array_equal(striped, shade_frame(frame))

@@ -5,9 +5,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from networks.classes import SemanticClass
-from networks.geometry import SE3
 from sensors.lidar import Lidar, LidarScan, LidarSpec
-from sensors.weather import weather_preset
+from sensors.weather import DAY, weather_preset
 
 
 def small_lidar(**kw: float) -> Lidar:
@@ -21,7 +20,7 @@ def same_scan(a: LidarScan, b: LidarScan) -> bool:
 
 def test_a_ray_at_a_wall_returns_the_walls_distance(synth: SimpleNamespace, rng: np.random.Generator) -> None:
     lidar = small_lidar()
-    scan = lidar.scan(synth.scene([synth.wall_at_x(10.0)]), SE3.identity(), rng)
+    scan = lidar.sense(synth.scene([synth.wall_at_x(10.0)]), synth.EGO, DAY, rng).scan
     ahead = scan.xyz_lidar_m[:, 0] > 0
     assert ahead.sum() > 100
     np.testing.assert_allclose(scan.xyz_lidar_m[ahead, 0], 10.0, atol=1e-3)
@@ -30,7 +29,7 @@ def test_a_ray_at_a_wall_returns_the_walls_distance(synth: SimpleNamespace, rng:
 
 
 def test_wall_returns_carry_the_walls_class_and_instance_zero(synth: SimpleNamespace, rng: np.random.Generator) -> None:
-    scan = small_lidar().scan(synth.scene([synth.wall_at_x(10.0)]), SE3.identity(), rng)
+    scan = small_lidar().sense(synth.scene([synth.wall_at_x(10.0)]), synth.EGO, DAY, rng).scan
     assert np.all(scan.semantic_class == SemanticClass.BUILDING)
     assert np.all(scan.instance_id == 0)
 
@@ -38,24 +37,24 @@ def test_wall_returns_carry_the_walls_class_and_instance_zero(synth: SimpleNames
 def test_day_and_night_do_not_change_the_lidar(synth: SimpleNamespace) -> None:
     world = synth.scene([synth.ground(), synth.wall_at_x(30.0)])
     lidar = small_lidar(dropout=0.1, range_noise_m=0.02)
-    plain = lidar.scan(world, SE3.identity(), np.random.default_rng(1))
-    day = lidar.scan(world, SE3.identity(), np.random.default_rng(1), weather_preset("day"))
-    night = lidar.scan(world, SE3.identity(), np.random.default_rng(1), weather_preset("night"))
+    plain = lidar.sense(world, synth.EGO, DAY, np.random.default_rng(1)).scan
+    day = lidar.sense(world, synth.EGO, weather_preset("day"), np.random.default_rng(1)).scan
+    night = lidar.sense(world, synth.EGO, weather_preset("night"), np.random.default_rng(1)).scan
     assert same_scan(plain, day) and same_scan(plain, night)
 
 
 def test_fog_hides_a_wall_beyond_its_shortened_range(synth: SimpleNamespace, rng: np.random.Generator) -> None:
     world = synth.scene([synth.wall_at_x(60.0)])
-    assert len(small_lidar().scan(world, SE3.identity(), rng)) > 100
-    fog = small_lidar().scan(world, SE3.identity(), rng, weather_preset("fog"))
+    assert len(small_lidar().sense(world, synth.EGO, DAY, rng).scan) > 100
+    fog = small_lidar().sense(world, synth.EGO, weather_preset("fog"), rng).scan
     assert np.all(fog.semantic_class == SemanticClass.NONE)
 
 
 def test_rain_drops_and_weakens_returns_and_adds_near_spurious_ones(synth: SimpleNamespace) -> None:
     world = synth.scene([synth.wall_at_x(20.0)])
     lidar = Lidar(LidarSpec(beams=32, azimuth_steps=1024))
-    day = lidar.scan(world, SE3.identity(), np.random.default_rng(2))
-    rain = lidar.scan(world, SE3.identity(), np.random.default_rng(2), weather_preset("rain"))
+    day = lidar.sense(world, synth.EGO, DAY, np.random.default_rng(2)).scan
+    rain = lidar.sense(world, synth.EGO, weather_preset("rain"), np.random.default_rng(2)).scan
     on_wall = rain.semantic_class == SemanticClass.BUILDING
     assert on_wall.sum() < 0.95 * len(day)
     assert rain.intensity[on_wall].mean() < 0.9 * day.intensity.mean()

@@ -7,19 +7,19 @@ import numpy as np
 from networks.classes import SemanticClass
 from networks.geometry import SE3
 from networks.mesh import ClassedMesh
-from sensors.agents import AgentBoxes, agent_meshes
+from sensors.agents import Agents, agent_meshes
 from sensors.camera import Camera, CameraSpec
 from sensors.o3d import INVALID_ID, RaycastingScene, o3c
-from sensors.scene import FrameScene, hits_alone
+from sensors.scene import FrameScene
 
 
-def cars_in_a_row(n: int) -> AgentBoxes:
+def cars_in_a_row(n: int) -> Agents:
     """Cars one behind the other along +x (each hides part of the next), some turned."""
     x = 8.0 + 6.0 * np.arange(n)
     center = np.column_stack([x, 0.6 * np.sin(x), np.full(n, 0.75)])
     size = np.tile([4.5, 1.8, 1.5], (n, 1))
     yaw = np.linspace(0.0, math.pi / 3, n)
-    return AgentBoxes(np.arange(10, 10 + n), np.full(n, int(SemanticClass.CAR)), center, size, yaw, np.zeros(n))
+    return Agents.standing(np.arange(10, 10 + n), np.full(n, int(SemanticClass.CAR)), center, size, yaw)
 
 
 def all_hits_reference(meshes, rays: np.ndarray) -> set[tuple[int, int]]:
@@ -40,11 +40,12 @@ def test_a_ray_hits_an_agent_alone_exactly_when_it_passes_through_it_among_all()
     pixels = camera.rays(SE3.identity())
     rays = np.tile(pixels, (len(agents), 1))  # ask each pixel's ray about every car
     owner = np.repeat(agents.instance_id, pixels.shape[0])
-    alone = hits_alone(meshes, rays, owner)
+    scene = FrameScene(ClassedMesh.empty(), agents)
+    alone = scene.hits_alone(rays, owner)
     reference = all_hits_reference(meshes, rays)
     expected = np.array([(i, int(o)) in reference for i, o in enumerate(owner)])
     np.testing.assert_array_equal(alone, expected)
-    first = FrameScene(ClassedMesh.empty(), meshes).cast(rays).instance_id
+    first = scene.cast(rays).instance_id
     assert expected.sum() > 200 and (expected & (first != owner)).sum() > 20  # hidden parts count too
 
 
@@ -52,7 +53,7 @@ def test_cast_tells_class_and_instance_of_static_agent_and_missed_rays():
     h = 50.0
     ground = ClassedMesh(np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]]),
                          np.array([[0, 1, 2], [0, 2, 3]]), np.full(2, int(SemanticClass.SIDEWALK)))  # fmt: skip
-    scene = FrameScene(ground, agent_meshes(cars_in_a_row(1)))
+    scene = FrameScene(ground, cars_in_a_row(1))
     rays = np.array([[0, 0, 5, 0, 0, -1], [8, 0, 5, 0, 0, -1], [0, 0, 5, 0, 0, 1]], np.float32)
     hits = scene.cast(rays)
     assert hits.semantic_class.tolist() == [int(SemanticClass.SIDEWALK), int(SemanticClass.CAR), 0]

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from networks.classes import SemanticClass
-from networks.geometry import SE3
 from sensors.camera import Camera, CameraSpec
 from sensors.errors import SensorConfigError
-from sensors.weather import PRESETS, Weather, haze_fraction, weather_preset
+from sensors.shading import shade_frame
+from sensors.weather import DAY, PRESETS, Weather, haze_fraction, weather_preset
 
 SMALL = CameraSpec(width_px=160, height_px=90)
 
@@ -33,22 +33,22 @@ def test_out_of_range_weather_is_rejected() -> None:
 
 def test_night_and_rain_darken_the_image_and_add_noise(synth: SimpleNamespace) -> None:
     camera, world = Camera(SMALL), street(synth)
-    day = camera.render(world, SE3.identity(), weather_preset("day"), np.random.default_rng(0))
-    night = camera.render(world, SE3.identity(), weather_preset("night"), np.random.default_rng(0))
-    rain = camera.render(world, SE3.identity(), weather_preset("rain"), np.random.default_rng(0))
-    assert night.image_bgr.mean() < 0.4 * day.image_bgr.mean()
-    assert rain.image_bgr.mean() < day.image_bgr.mean()
-    night_again = camera.render(world, SE3.identity(), weather_preset("night"), np.random.default_rng(1))
-    day_again = camera.render(world, SE3.identity(), weather_preset("day"), np.random.default_rng(1))
-    assert np.abs(night.image_bgr.astype(int) - night_again.image_bgr).mean() > 2.0
-    np.testing.assert_array_equal(day.image_bgr, day_again.image_bgr)
+    day = camera.sense(world, synth.EGO, weather_preset("day"), np.random.default_rng(0)).frame
+    night = camera.sense(world, synth.EGO, weather_preset("night"), np.random.default_rng(0)).frame
+    rain = camera.sense(world, synth.EGO, weather_preset("rain"), np.random.default_rng(0)).frame
+    assert shade_frame(night).mean() < 0.4 * shade_frame(day).mean()
+    assert shade_frame(rain).mean() < shade_frame(day).mean()
+    night_again = camera.sense(world, synth.EGO, weather_preset("night"), np.random.default_rng(1)).frame
+    day_again = camera.sense(world, synth.EGO, weather_preset("day"), np.random.default_rng(1)).frame
+    assert np.abs(shade_frame(night).astype(int) - shade_frame(night_again)).mean() > 2.0
+    np.testing.assert_array_equal(shade_frame(day), shade_frame(day_again))
 
 
 def test_weather_changes_the_image_but_not_the_masks_or_depth(synth: SimpleNamespace) -> None:
     camera, world = Camera(SMALL), street(synth)
-    day = camera.render(world, SE3.identity())
+    day = camera.sense(world, synth.EGO, DAY, np.random.default_rng(0)).frame
     for name in ("night", "rain", "fog"):
-        other = camera.render(world, SE3.identity(), weather_preset(name))
+        other = camera.sense(world, synth.EGO, weather_preset(name), np.random.default_rng(0)).frame
         np.testing.assert_array_equal(other.depth_m, day.depth_m)
         np.testing.assert_array_equal(other.instance_id, day.instance_id)
 

@@ -1,0 +1,66 @@
+"""What every sensor model is: one protocol, so a rig is a list of sensors of any kind.
+
+A sensor has a ``spec`` (its name, range, rate and mount ``ego_SE3_sensor``), says which
+agents its rays may reach (to cull the frame's scene), makes its rays in the map frame, and
+``sense``s one frame of the scene: ``sense(scene, ego, weather, rng) -> output``. Outputs
+pair the spec with the data (:class:`~sensors.lidar.LidarOutput`,
+:class:`~sensors.camera.CameraOutput`, :class:`~sensors.radar.RadarOutput`).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from networks.geometry import SE3
+from sensors.agents import EgoState
+from sensors.camera import CameraOutput
+from sensors.lidar import LidarOutput
+from sensors.radar import RadarOutput
+from sensors.weather import Weather
+
+if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
+    from sensors.scene import FrameScene
+
+F64 = npt.NDArray[np.float64]
+SensorOutput = LidarOutput | CameraOutput | RadarOutput
+
+
+class SensorSpec(Protocol):
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def range_m(self) -> float: ...
+
+    @property
+    def rate_hz(self) -> float: ...
+
+    @property
+    def ego_SE3_sensor(self) -> SE3:
+        """The sensor's frame (a camera's: optical) in the ego frame."""
+        ...
+
+
+class Sensor(Protocol):
+    @property
+    def kind(self) -> str:
+        """``lidar``, ``camera`` or ``radar``: the stage its frames are timed under."""
+        ...
+
+    @property
+    def spec(self) -> SensorSpec: ...
+
+    def reaches(self, center_map_m: F64, radius_m: F64, map_SE3_ego: SE3) -> npt.NDArray[np.bool_]:
+        """Which spheres (map frame) this sensor's rays may meet within its range."""
+        ...
+
+    def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
+        """``(N, 6) float32`` rays (origin, unit direction) in the map frame."""
+        ...
+
+    def sense(self, scene: FrameScene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> SensorOutput:
+        """One frame of this sensor in ``scene``, mounted on the ``ego``."""
+        ...

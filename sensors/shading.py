@@ -1,0 +1,128 @@
+"""Shading: the camera's colour image, made from what its rays hit.
+
+Albedo per class (vehicles painted by instance id) times Lambert lighting from a fixed sun
+plus ambient (plus headlights at night), blended into haze with distance; misses show a sky
+gradient. No shadows, no textures.
+
+Shading is a step of its own: a :class:`~sensors.camera.CameraFrame` carries the
+:class:`Shading` it is made from (normals per pixel, the camera's orientation, the weather,
+the seed of its noise), and :func:`shade_frame` makes the image where it is needed, in the
+writer process, while the next frame's rays are cast.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from networks.records import check_arrays
+from sensors.hits import RayHits
+from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAINT_BGR
+from sensors.pinhole import Pinhole
+from sensors.weather import Weather, haze_fraction, image_noise, sky_bgr
+
+if TYPE_CHECKING:
+    from sensors.camera import CameraFrame
+
+
+@dataclass(frozen=True, slots=True)
+class Shading:
+    """What a frame's image is made from: ``normal: (H * W, 3) float32`` the surface normal
+    per pixel (map frame, row-major), ``map_R_cam: (3, 3) float32`` the camera's orientation,
+    the camera model, its range, the weather and the seed of the image noise (None: no noise)."""
+
+    pinhole: Pinhole
+    range_m: float
+    map_R_cam: npt.NDArray[np.float32]
+    normal: npt.NDArray[np.float32]
+    weather: Weather
+    noise_seed: int | None
+
+    def __post_init__(self) -> None:
+        pixels = self.pinhole.width_px * self.pinhole.height_px
+        check_arrays(self, map_R_cam=(np.float32, (3, 3)), normal=(np.float32, (pixels, 3)))
+
+
+def shade_frame(frame: CameraFrame) -> npt.NDArray[np.uint8]:
+    """The shaded ``(H, W, 3) uint8`` image of a rendered frame (see :class:`Shading`)."""
+    sh = frame.shading
+    dirs_cam = sh.pinhole.image_directions()
+    depth = frame.depth_m.ravel()
+    hit = depth > 0
+    range_m = depth / dirs_cam[:, 2]
+    dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
+    classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
+    noise = None if sh.noise_seed is None else image_noise(sh.weather, np.random.default_rng(sh.noise_seed), len(depth))
+    image = np.empty((len(depth), 3), np.uint8)
+    for start in range(0, len(depth), STRIPE_PX):
+        part = slice(start, start + STRIPE_PX)
+        stripe = RayHits(range_m[part], classes[part], instances[part], sh.normal[part])
+        shaded = shade(stripe, dirs_map[part], hit[part], dirs_cam[part, 2], sh.weather, sh.range_m)
+        if noise is not None:
+            shaded += noise[part, None]
+        image[part] = to_uint8(shaded)
+    return image.reshape(*frame.depth_m.shape, 3)
+
+
+STRIPE_PX = 1 << 15
+"""Pixels shaded at a time: a stripe's arrays stay in the CPU cache through every step."""
+
+
+def to_uint8(image: npt.NDArray[np.float32]) -> npt.NDArray[np.uint8]:
+    return np.clip(image + np.float32(0.5), 0.0, 255.0).astype(np.uint8)
+
+
+_ALBEDO_AND_PAINT = np.concatenate([ALBEDO_BGR_BY_CLASS, VEHICLE_PAINT_BGR])
+
+
+def surface_albedo(
+    semantic_class: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32]
+) -> npt.NDArray[np.float32]:
+    """``(N, 3)`` BGR albedo in 0..1: by class, vehicles painted by instance id."""
+    key = semantic_class.astype(np.intp)
+    painted = PAINTED_CLASSES[semantic_class]
+    key[painted] = 256 + instance_id[painted] % VEHICLE_PAINT_BGR.shape[0]
+    return np.take(_ALBEDO_AND_PAINT, key, axis=0)
+
+
+def lighting(
+    normal: npt.NDArray[np.float32],
+    dirs: npt.NDArray[np.float32],
+    range_m: npt.NDArray[np.float32],
+    forward: npt.NDArray[np.float32],
+    weather: Weather,
+) -> npt.NDArray[np.float32]:
+    """``(N,)`` light on surfaces with ``normal`` (either winding) seen along unit ``dirs`` at
+    ``range_m``; ``forward`` is each ray's cosine to the optical axis (the headlight cone)."""
+    facing = np.einsum("ij,ij->i", normal, dirs)
+    sun = np.asarray(weather.sun_dir_map, np.float32)
+    sun_cos = (normal @ (sun / np.linalg.norm(sun))) * np.where(facing > 0, np.float32(-1.0), np.float32(1.0))
+    light = np.float32(weather.ambient) + np.float32(weather.sun_gain) * np.maximum(sun_cos, np.float32(0.0))
+    if weather.headlight_gain > 0:
+        falloff = 1.0 / (1.0 + (range_m / np.float32(weather.headlight_range_m)) ** 2)
+        diffuse = np.float32(0.4) + np.float32(0.6) * np.abs(facing)
+        light += np.float32(weather.headlight_gain) * diffuse * falloff * forward**8
+    return light.astype(np.float32)
+
+
+def shade(
+    hits: RayHits,
+    dirs_map: npt.NDArray[np.float32],
+    hit: npt.NDArray[np.bool_],
+    forward: npt.NDArray[np.float32],
+    weather: Weather,
+    range_m: float,
+) -> npt.NDArray[np.float32]:
+    """``(N, 3) float32`` BGR in 0..255: lit albedo hazed with distance where ``hit``, sky elsewhere."""
+    light = lighting(hits.normal, dirs_map, hits.range_m, forward, weather)
+    image = surface_albedo(hits.semantic_class, hits.instance_id)
+    image *= (np.float32(255.0 * weather.exposure) * light)[:, None]
+    f = haze_fraction(weather, hits.range_m, range_m)[:, None]
+    image += (np.asarray(weather.haze_bgr, np.float32) * np.float32(weather.exposure) - image) * f
+    miss = np.flatnonzero(~hit)
+    image[miss] = sky_bgr(weather, dirs_map[miss, 2]) * np.float32(weather.exposure)
+    return image
