@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import shutil
 import sys
 from collections import Counter
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -34,13 +36,15 @@ AGENT_MARGIN_M = 10.0
 
 
 class FrameSink(Protocol):
-    """Where the loop hands its frames: a SinkGroup, or BackgroundSinks in a writer process."""
+    """Where the loop hands its frames: a SinkGroup, or BackgroundSinks in a writer process.
+    Used as a context manager: closed (files move into place) when the ``with`` block ends,
+    aborted (nothing left that looks complete) when it raises."""
+
+    def __enter__(self) -> FrameSink: ...
+
+    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None: ...
 
     def write(self, record: FrameRecord) -> None: ...
-
-    def close(self) -> None: ...
-
-    def abort(self) -> None: ...
 
 
 class FrameProbe(StageClock, Protocol):
@@ -148,16 +152,16 @@ def run(
     if prepared.notice:
         print(prepared.notice, file=sys.stderr)
     rig = build_rig(scenario)
-    reach = rig.reach_m
-    crop = StaticCrop(prepared.world.mesh, reach)
+    crop = StaticCrop(prepared.world.mesh, rig.reach_m)
     rng = np.random.default_rng(scenario.seed)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "manifest.json").unlink(missing_ok=True)
-    sinks = open_sinks(scenario, out_dir, one_process, probe, prepared.world.path)
     summary = RunSummary()
-    traffic: TrafficFeed | None = None
-    try:
-        traffic = open_traffic(prepared.net_path, scenario, reach + AGENT_MARGIN_M, one_process, probe)
+    with (
+        partials_removed_on_error(out_dir),
+        open_sinks(scenario, out_dir, one_process, probe, prepared.world.path) as sinks,
+        open_traffic(prepared.net_path, scenario, rig.reach_m + AGENT_MARGIN_M, one_process, probe) as traffic,
+    ):
         for notice in traffic.warm_up():
             print(notice, file=sys.stderr)
         bar = tqdm(range(scenario.frames), desc=scenario.name, unit="frame", disable=not progress, file=sys.stderr)
@@ -169,18 +173,19 @@ def run(
             probe.frame_done(frame_index)
             if frame_index == disk_check_frame(scenario.frames):
                 check_disk_space(out_dir, frame_index + 1, scenario.frames)
-        traffic.close()
-        traffic = None
-        sinks.close()
-        probe.frame_done(scenario.frames)
-    except BaseException:
-        if traffic is not None:
-            traffic.abort()
-        sinks.abort()
-        remove_partials(out_dir)
-        raise
+    probe.frame_done(scenario.frames)
     write_manifest(scenario, out_dir, summary, prepared.xodr_path)
     return summary
+
+
+@contextlib.contextmanager
+def partials_removed_on_error(out_dir: Path) -> Iterator[None]:
+    """Remove what the ``with`` block wrote under ``*.partial`` names if it raises."""
+    try:
+        yield
+    except BaseException:
+        remove_partials(out_dir)
+        raise
 
 
 DISK_CHECK_FRAMES = 30  # the frames written before the output size is extrapolated

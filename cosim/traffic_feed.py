@@ -11,15 +11,16 @@ would, so the traffic is the same. An error there comes back as one line
 
 from __future__ import annotations
 
-import contextlib
+from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Protocol
 
 from cosim.errors import CosimError, TrafficError
 from cosim.scenario import Scenario
 from cosim.state import WorldState
-from gtgen.child import ChildGoneError, ChildProcess
+from gtgen.channel import Abort, Close, Closed, Go, Link, Ready, Result, Start
+from gtgen.channel import serve as serve_child
 from gtgen.timing import NO_CLOCK, StageClock, StageTimes, is_timing
 from networks.errors import NetworkError
 
@@ -27,6 +28,13 @@ STOP_WAIT_S = 30.0
 
 
 class TrafficFeed(Protocol):
+    """A source of world states, used as a context manager: closed when the ``with`` block
+    ends, aborted when it raises."""
+
+    def __enter__(self) -> TrafficFeed: ...
+
+    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None: ...
+
     def warm_up(self) -> list[str]:
         """Fill the town and pick the ego; returns notices for the user."""
         ...
@@ -70,90 +78,93 @@ class TrafficInline:
     def abort(self) -> None:
         self.close()
 
+    def __enter__(self) -> TrafficInline:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
+
+
+@dataclass(frozen=True, slots=True)
+class TrafficJob:
+    """What the traffic process runs: the network, the scenario, the radius of the agents
+    sent back around the ego."""
+
+    net_path: Path
+    scenario: Scenario
+    radius_m: float
+
 
 class TrafficProcess:
     """SUMO in a traffic process that computes each frame's world state one frame ahead.
     With a ``clock``: "sumo wait" here, the process's own stage times on ``close``."""
 
     def __init__(self, net_path: Path, scenario: Scenario, radius_m: float, clock: StageClock = NO_CLOCK) -> None:
-        self._child = ChildProcess("cosim.traffic_feed:serve")
+        self._link = Link("cosim.traffic_feed:serve", "traffic process", TrafficError)
         self._clock = clock
         self._left = scenario.frames
-        self._send(("start", net_path, scenario, radius_m, is_timing(clock)))
+        self._link.send(Start(TrafficJob(net_path, scenario, radius_m), is_timing(clock)))
 
     def warm_up(self) -> list[str]:
-        notices: list[str] = self._receive("ready")
+        notices = list(self._link.expect(Ready).notices)
         if self._left > 0:
-            self._send(("go",))  # frame 0 is stepped ahead
+            self._link.send(Go())  # frame 0 is stepped ahead
         return notices
 
     def next(self) -> WorldState:
         with self._clock.stage("sumo wait"):
-            state: WorldState = self._receive("state")
+            result = self._link.expect(Result)
         self._left -= 1
         if self._left > 0:
-            self._send(("go",))  # the next frame is stepped while this one is sensed
-        return state
+            self._link.send(Go())  # the next frame is stepped while this one is sensed
+        if not isinstance(result.value, WorldState):
+            raise TrafficError(f"traffic process: expected a world state, got {type(result.value).__name__}")
+        return result.value
 
     def close(self) -> None:
-        self._send(("stop",))
-        times: StageTimes = self._receive("closed")
-        self._child.join(STOP_WAIT_S)
-        self._child.close()
+        self._link.send(Close())
+        times = self._link.expect(Closed).times
+        self._link.join(STOP_WAIT_S)
+        self._link.close()
         for name, seconds in times.seconds.items():
             self._clock.add(name, seconds, times.calls[name])
 
     def abort(self) -> None:
-        with contextlib.suppress(ChildGoneError):
-            self._child.send(("stop",))
-        self._child.join(STOP_WAIT_S)
-        self._child.close()
+        self._link.stop(Abort(), STOP_WAIT_S)
 
-    def _send(self, message: tuple[Any, ...]) -> None:
-        try:
-            self._child.send(message)
-        except ChildGoneError as gone:
-            while self._child.poll():  # the process's own error, if it said one
-                self._receive("")
-            raise _stopped(gone) from None
+    def __enter__(self) -> TrafficProcess:
+        return self
 
-    def _receive(self, kind: str) -> Any:
-        try:
-            message = self._child.receive()
-        except ChildGoneError as gone:
-            raise _stopped(gone) from None
-        if message[0] == "error":
-            raise TrafficError(message[1])
-        if message[0] != kind:
-            raise TrafficError(f"traffic process: expected {kind!r}, got {message[0]!r}")
-        return message[1]
-
-
-def _stopped(gone: ChildGoneError) -> TrafficError:
-    return TrafficError(f"traffic process stopped unexpectedly ({gone})")
-
-
-def error_line(err: BaseException) -> str:
-    text = " ".join(str(err).split())
-    if isinstance(err, CosimError | NetworkError) and text:
-        return text
-    return f"traffic process: {type(err).__name__}: {text}"
+    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
 
 
 def serve(inbox: Connection, outbox: Connection) -> None:  # runs in the traffic process
-    """Start SUMO, warm up, then one world state per "go" until "stop"; errors as one line."""
+    """Start SUMO, warm up, then one world state per :class:`Go` until :class:`Close` (answered
+    with :class:`Closed`) or :class:`Abort`; errors as one :class:`Failed` line."""
     feed: TrafficInline | None = None
-    times = StageTimes()
+
+    def work() -> None:
+        nonlocal feed
+        start: Start[TrafficJob] = inbox.recv()
+        job, times = start.job, StageTimes()
+        feed = TrafficInline(job.net_path, job.scenario, job.radius_m, times if start.timed else NO_CLOCK)
+        outbox.send(Ready(tuple(feed.warm_up())))
+        message = inbox.recv()
+        while isinstance(message, Go):
+            outbox.send(Result(feed.next()))
+            message = inbox.recv()
+        if isinstance(message, Close):
+            outbox.send(Closed(times))
+
     try:
-        _, net_path, scenario, radius_m, timed = inbox.recv()
-        feed = TrafficInline(net_path, scenario, radius_m, times if timed else NO_CLOCK)
-        outbox.send(("ready", feed.warm_up()))
-        while inbox.recv()[0] == "go":
-            outbox.send(("state", feed.next()))
-        outbox.send(("closed", times))
-    except BaseException as err:
-        with contextlib.suppress(OSError):
-            outbox.send(("error", error_line(err)))
+        serve_child(outbox, work, (CosimError, NetworkError), "traffic process")
     finally:
         if feed is not None:
             feed.close()

@@ -11,6 +11,7 @@ line, raised as :class:`~gtgen.errors.SinkError` from the parent's next ``write`
 ``close``. The child is a new interpreter (:mod:`gtgen.child`: never a fork of a process
 running Open3D's threads) in its own session, so Ctrl-C reaches only the parent, which then
 aborts it. If the parent dies, the child sees its pipe close and discards its partial files.
+The messages are those of :mod:`gtgen.channel`.
 """
 
 from __future__ import annotations
@@ -23,9 +24,10 @@ from collections.abc import Callable
 from multiprocessing import resource_tracker
 from multiprocessing.connection import Connection
 from multiprocessing.shared_memory import SharedMemory
-from typing import Any
 
-from gtgen.child import ChildGoneError, ChildProcess
+from gtgen.channel import Abort, Close, Closed, Frame, Free, Inband, Link, Notice, Slots, Start
+from gtgen.channel import serve as serve_child
+from gtgen.child import ABORT_WAIT_S
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.sinks.group import SinkChoice, SinkGroup
@@ -34,35 +36,38 @@ from gtgen.timing import NO_CLOCK, StageClock, StageTimes, is_timing
 ALIGN = 64
 SLOT_HEADROOM = 1.5  # slots are sized from the first frame; a larger frame goes through the pipe
 POLL_S = 0.5
-
-
-def error_line(err: BaseException) -> str:
-    """One line naming the failure: the message of the project's errors, else type and message."""
-    text = " ".join(str(err).split())
-    if isinstance(err, SinkError) and text:
-        return text
-    return f"{type(err).__name__}: {text}" if text else type(err).__name__
+PROCESS = "writer process"
 
 
 class BackgroundSinks:
     """The sinks of ``choice`` in a writer process fed through a bounded queue of ``depth`` frames.
-    With a ``clock``, the child's stage times are added to it on ``close`` ("writer ...")."""
+    With a ``clock``, the child's stage times are added to it on ``close`` ("writer ...").
+    As a context manager: closed when the ``with`` block ends, aborted when it raises."""
 
     def __init__(self, choice: SinkChoice, depth: int = 2, clock: StageClock = NO_CLOCK) -> None:
         if depth < 1:
             raise ValueError(f"BackgroundSinks: depth must be >= 1, got {depth}")
-        self._child = ChildProcess("gtgen.sinks.background:serve")
+        self._link = Link("gtgen.sinks.background:serve", PROCESS, SinkError, "; no dataset was completed")
         self._choice = choice
         self._depth = depth
         self._clock = clock
         self._slots: list[SharedMemory] = []
         self._free: list[int] = []
         self._child_times: StageTimes | None = None
-        self._send(("open", choice, is_timing(clock)))
+        self._send(Start(choice, is_timing(clock)))
+
+    def __enter__(self) -> BackgroundSinks:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
 
     @property
     def pid(self) -> int:
-        return self._child.pid
+        return self._link.pid
 
     def write(self, record: FrameRecord) -> None:
         with self._clock.stage("handoff"):
@@ -76,16 +81,16 @@ class BackgroundSinks:
             slot = self._free.pop()
             layout = _copy_into(self._slots[slot], views)
             if layout is None:
-                self._send(("inband", slot, pickle.dumps(record, protocol=5)))
+                self._send(Inband(slot, pickle.dumps(record, protocol=5)))
             else:
-                self._send(("frame", slot, meta, layout))
+                self._send(Frame(slot, meta, layout))
 
     def close(self) -> None:
         """Write out what is queued, close the sinks (files move into place) and stop the child."""
         with self._clock.stage("close"):
-            self._send(("close",))
+            self._send(Close())
             self._wait(lambda: self._child_times is not None)
-            self._child.join()
+            self._link.join(ABORT_WAIT_S)
             self._release()
         if self._child_times is not None:
             for name, seconds in self._child_times.seconds.items():
@@ -94,10 +99,8 @@ class BackgroundSinks:
     def abort(self) -> None:
         """Stop the child, which discards its partial files; kill it if it does not stop, and
         remove what a killed child left."""
-        if self._child.alive():
-            with contextlib.suppress(ChildGoneError):
-                self._child.send(("abort",))
-            self._child.join()
+        if self._link.alive():
+            self._link.stop(Abort(), ABORT_WAIT_S)
         self._release()
         for path in self._choice.partial_paths():
             if path.is_dir():
@@ -110,56 +113,38 @@ class BackgroundSinks:
         size = max(int(frame_bytes * SLOT_HEADROOM) + ALIGN * 64, 1 << 20)
         self._slots = [SharedMemory(create=True, size=size) for _ in range(self._depth)]
         self._free = list(range(self._depth))
-        self._send(("slots", [s.name for s in self._slots]))
+        self._send(Slots(tuple(s.name for s in self._slots)))
 
-    def _send(self, message: tuple[Any, ...]) -> None:
-        try:
-            self._child.send(message)
-        except ChildGoneError as gone:
-            self._drain()  # the child's own error, if it said one
-            raise _stopped(gone) from None
+    def _send(self, message: object) -> None:
+        self._link.send(message)
 
     def _wait(self, done: Callable[[], bool]) -> None:
         """Handle the child's messages until ``done()``; raise if it reports an error or dies."""
         while not done():
-            if self._child.poll(POLL_S):
-                self._handle(self._receive())
-            elif not self._child.alive() and not self._child.poll():
-                raise _stopped(ChildGoneError(self._child.last_words()))
+            if self._link.poll(POLL_S):
+                self._handle(self._link.receive())
+            elif not self._link.alive() and not self._link.poll():
+                raise self._link.gone()
 
     def _drain(self) -> None:
         """Handle what the child has said so far (an error is raised now, not frames later)."""
-        while self._child.poll():
-            self._handle(self._receive())
+        while self._link.poll():
+            self._handle(self._link.receive())
 
-    def _receive(self) -> tuple[Any, ...]:
-        try:
-            message: tuple[Any, ...] = self._child.receive()
-        except ChildGoneError as gone:
-            raise _stopped(gone) from None
-        return message
-
-    def _handle(self, message: tuple[Any, ...]) -> None:
-        kind = message[0]
-        if kind == "free":
-            self._free.append(message[1])
-        elif kind == "notice":
-            print(message[1], file=sys.stderr)
-        elif kind == "closed":
-            self._child_times = message[1]
-        elif kind == "error":
-            raise SinkError(f"writer process: {message[1]}")
+    def _handle(self, message: object) -> None:
+        if isinstance(message, Free):
+            self._free.append(message.slot)
+        elif isinstance(message, Notice):
+            print(message.line, file=sys.stderr)
+        elif isinstance(message, Closed):
+            self._child_times = message.times
 
     def _release(self) -> None:
-        self._child.close()
+        self._link.close()
         for shm in self._slots:
             shm.close()
             shm.unlink()
         self._slots = []
-
-
-def _stopped(gone: ChildGoneError) -> SinkError:
-    return SinkError(f"writer process stopped unexpectedly ({gone}); no dataset was completed")
 
 
 def _copy_into(shm: SharedMemory, views: list[memoryview]) -> tuple[tuple[int, int], ...] | None:
@@ -180,36 +165,41 @@ def _copy_into(shm: SharedMemory, views: list[memoryview]) -> tuple[tuple[int, i
 
 # --- child side ---------------------------------------------------------------------------
 def serve(frames_rx: Connection, acks_tx: Connection) -> None:  # runs in the writer process
-    """Open the sinks, write frames until told to close or abort; any error (the parent's
-    pipe closing too) aborts the sinks and is reported as one line."""
-    times = StageTimes()
+    """Open the sinks, write frames until :class:`Close` or :class:`Abort`; any error (the
+    parent's pipe closing too) aborts the sinks and is reported as one line."""
     slots: list[SharedMemory] = []
-    group: SinkGroup | None = None
-    try:
-        _, choice, timed = frames_rx.recv()
-        group = SinkGroup.open(choice, times if timed else NO_CLOCK, announce=False)
+
+    def work(group: SinkGroup, times: StageTimes) -> None:
+        nonlocal slots
         for line in group.notices:
-            acks_tx.send(("notice", line))
+            acks_tx.send(Notice(line))
         while True:
             message = frames_rx.recv()
-            kind = message[0]
-            if kind == "slots":
-                slots = [_attach(name) for name in message[1]]
-            elif kind == "close":
+            if isinstance(message, Slots):
+                slots = [_attach(name) for name in message.names]
+            elif isinstance(message, Close):
                 group.close()
-                acks_tx.send(("closed", times))
+                acks_tx.send(Closed(times))
                 return
-            elif kind == "abort":
+            elif isinstance(message, Abort):
                 group.abort()
                 return
             else:
                 group.write(_unpack(message, slots))
-                acks_tx.send(("free", message[1]))
-    except BaseException as err:
-        if group is not None:
+                acks_tx.send(Free(message.slot))
+
+    def open_and_work() -> None:
+        start: Start[SinkChoice] = frames_rx.recv()
+        times = StageTimes()
+        group = SinkGroup.open(start.job, times if start.timed else NO_CLOCK, announce=False)
+        try:
+            work(group, times)
+        except BaseException:
             group.abort()
-        with contextlib.suppress(OSError):
-            acks_tx.send(("error", error_line(err)))
+            raise
+
+    try:
+        serve_child(acks_tx, open_and_work, (SinkError,), PROCESS)
     finally:
         _detach(slots)
 
@@ -225,15 +215,14 @@ def _attach(name: str) -> SharedMemory:
         resource_tracker.register = register  # type: ignore[assignment]
 
 
-def _unpack(message: tuple[Any, ...], slots: list[SharedMemory]) -> FrameRecord:
-    if message[0] == "inband":
-        record: FrameRecord = pickle.loads(message[2])
+def _unpack(message: Frame | Inband, slots: list[SharedMemory]) -> FrameRecord:
+    if isinstance(message, Inband):
+        record: FrameRecord = pickle.loads(message.data)
         return record
-    _, slot, meta, layout = message
-    buf = slots[slot].buf
+    buf = slots[message.slot].buf
     if buf is None:
         raise SinkError("writer process: a shared-memory slot was closed")
-    record = pickle.loads(meta, buffers=[buf[o : o + n] for o, n in layout])
+    record = pickle.loads(message.meta, buffers=[buf[o : o + n] for o, n in message.layout])
     return record
 
 

@@ -50,11 +50,21 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
 
 
 class SinkGroup:
-    """Every chosen sink; a frame is encoded by all of them first, then written."""
+    """Every chosen sink; a frame is encoded by all of them first, then written. As a context
+    manager: closed when the ``with`` block ends, aborted when it raises."""
 
     def __init__(self, sinks: list[Sink], clock: StageClock = NO_CLOCK) -> None:
         self._sinks = sinks
         self._clock = clock
+
+    def __enter__(self) -> SinkGroup:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
 
     @property
     def notices(self) -> list[str]:
