@@ -75,4 +75,4 @@ def points_in_boxes(
     d = np.asarray(xyz_ego_m, dtype=np.float64) - boxes.center_ego_m[index]
     c, s = np.cos(boxes.yaw_ego_rad[index]), np.sin(boxes.yaw_ego_rad[index])
     local = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], d[:, 2]], axis=1)
-    return np.all(np.abs(local) <= boxes.lwh_m[index] / 2.0 + tolerance_m, axis=1)
+    return np.asarray(np.all(np.abs(local) <= boxes.lwh_m[index] / 2.0 + tolerance_m, axis=1))

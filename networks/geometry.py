@@ -85,7 +85,7 @@ def rotation_from_rpy(roll: float, pitch: float, yaw: float) -> FloatArray:
     rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
     ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
     rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
-    return rz @ ry @ rx
+    return np.asarray(rz @ ry @ rx)
 
 
 def quaternion_xyzw_from_rotation(rotation: FloatArray) -> tuple[float, float, float, float]:

@@ -122,7 +122,7 @@ def strength_db(reflectivity: npt.NDArray[np.floating], cos_incidence: npt.NDArr
     """RCS-like strength: ``10 log10(reflectivity * |cos(incidence)|) - 40 log10(range / 1 m)``
     (the radar equation's 1/R^4), floored at -200 dB."""
     rcs = np.maximum(np.asarray(reflectivity, np.float64) * np.abs(cos_incidence), 1e-20)
-    return np.maximum(10.0 * np.log10(rcs) - 40.0 * np.log10(np.maximum(range_m, 1.0)), -200.0)
+    return np.asarray(np.maximum(10.0 * np.log10(rcs) - 40.0 * np.log10(np.maximum(range_m, 1.0)), -200.0))
 
 
 def thin_to_budget(

@@ -73,7 +73,7 @@ STRIPE_PX = 1 << 15
 
 
 def to_uint8(image: npt.NDArray[np.float32]) -> npt.NDArray[np.uint8]:
-    return np.clip(image + np.float32(0.5), 0.0, 255.0).astype(np.uint8)
+    return np.asarray(np.clip(image + np.float32(0.5), 0.0, 255.0).astype(np.uint8))
 
 
 _ALBEDO_AND_PAINT = np.concatenate([ALBEDO_BGR_BY_CLASS, VEHICLE_PAINT_BGR])

@@ -156,7 +156,7 @@ def sky_bgr(weather: Weather, dir_z_map: npt.NDArray[np.float32]) -> npt.NDArray
     t = np.sqrt(np.clip(np.asarray(dir_z_map, dtype=np.float32), 0.0, 1.0))
     horizon = np.asarray(weather.sky_horizon_bgr, np.float32)
     zenith = np.asarray(weather.sky_zenith_bgr, np.float32)
-    return horizon + t[:, None] * (zenith - horizon)
+    return np.asarray(horizon + t[:, None] * (zenith - horizon))
 
 
 def image_noise(weather: Weather, rng: np.random.Generator, pixels: int) -> npt.NDArray[np.float32] | None:

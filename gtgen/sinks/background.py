@@ -208,11 +208,11 @@ def _attach(name: str) -> SharedMemory:
     """Map the parent's segment. The parent owns and unlinks it: this process must not
     register it with a resource tracker of its own, which would unlink it at exit."""
     register = resource_tracker.register
-    resource_tracker.register = lambda *args, **kwargs: None  # type: ignore[assignment]
+    resource_tracker.register = lambda *args, **kwargs: None
     try:
         return SharedMemory(name=name)
     finally:
-        resource_tracker.register = register  # type: ignore[assignment]
+        resource_tracker.register = register
 
 
 def _unpack(message: Frame | Inband, slots: list[SharedMemory]) -> FrameRecord:

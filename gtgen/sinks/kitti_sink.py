@@ -20,6 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
@@ -63,9 +64,11 @@ for _cls, _id in SEMANTIC_KITTI_IDS.items():
     SEMANTIC_KITTI_LUT[int(_cls)] = _id
 
 
-def semantic_kitti_labels(semantic_class: np.ndarray, instance_id: np.ndarray) -> np.ndarray:
+def semantic_kitti_labels(
+    semantic_class: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32]
+) -> npt.NDArray[np.uint32]:
     """``(N,) uint32`` SemanticKITTI point labels: label id | (instance & 0xFFFF) << 16."""
-    return SEMANTIC_KITTI_LUT[semantic_class] | ((instance_id.astype(np.uint32) & 0xFFFF) << 16)
+    return np.asarray(SEMANTIC_KITTI_LUT[semantic_class] | ((instance_id.astype(np.uint32) & 0xFFFF) << 16))
 
 
 def _matrix_line(name: str, m: np.ndarray) -> str:

@@ -34,6 +34,7 @@ from gtgen.sinks.layout import layout_for
 from gtgen.static_map import static_map_update
 from gtgen.table import COLUMNS, label_table
 from networks.world import read_world
+from sensors.sensor import SensorOutput
 
 MAP_TOPIC = "/map"
 LAYOUT_FILE = "foxglove_layout.json"
@@ -112,7 +113,7 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
     """Every message of one frame, in write order, as ``(topic, protobuf message or JSON dict)``."""
     ns = record.timestamp_ns
     transforms = [fx.frame_transform(ns, "map", "ego", record.map_SE3_ego)]
-    sensors = (*record.lidars, *record.radars, *record.cameras)
+    sensors: tuple[SensorOutput, ...] = (*record.lidars, *record.radars, *record.cameras)
     transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in sensors]
     out: list[tuple[str, Any]] = [("/tf", FrameTransforms(transforms=transforms))]
     out += [(f"/{lidar.spec.name}", fx.lidar_cloud(ns, lidar)) for lidar in record.lidars]

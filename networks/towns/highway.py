@@ -137,7 +137,7 @@ def _ramp(b: TownBuilder, a: str, c: str, travel: npt.NDArray[np.float64], ramp_
     p0, p3 = np.array(b.point(a)), np.array(b.point(c))
     t = np.array([travel[0], travel[1], 0.0])
     p1, p2 = p0 + t * ramp_m * 0.45, p3 - t * ramp_m * 0.4
-    via = bezier(tuple(p0), tuple(p1), tuple(p2), tuple(p3), 24)  # type: ignore[arg-type]
+    via = bezier(tuple(p0), tuple(p1), tuple(p2), tuple(p3), 24)
     # Level where the ramp still runs beside the carriageway (it must not rise over its lanes).
     t0, t1 = (RAMP_LEVEL_SHARE, 1.0) if p0[2] <= p3[2] else (0.0, 1.0 - RAMP_LEVEL_SHARE)
     b.carriageway(a, c, 1, 19.0, smooth_z(via, float(p0[2]), float(p3[2]), t0, t1))
