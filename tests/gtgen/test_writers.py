@@ -1,0 +1,178 @@
+"""Every writer on small hand-made frame records (no SUMO): write, read back with the format's
+own reader or a plain parser, compare with the records."""
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from gtgen.load import iter_messages, lidar_points, radar_points
+from gtgen.sinks.group import SinkChoice, SinkGroup
+from gtgen.sinks.kitti_sink import KITTI_TYPES, SEMANTIC_KITTI_LUT
+from gtgen.sinks.yolo_sink import YOLO_CLASSES
+from gtgen.table import label_table, table_columns
+from networks.classes import SemanticClass
+from networks.geometry import rotation_from_quaternion_xyzw
+from sensors.shading import shade_frame
+
+
+@pytest.fixture(scope="module")
+def written(records, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("written")
+    with SinkGroup.open(SinkChoice(out)) as sinks:
+        for record in records:
+            sinks.write(record)
+    return out
+
+
+def test_labels_csv_reads_back_as_the_label_table_of_every_frame(records, written):
+    csv = pd.read_csv(written / "labels.csv")
+    assert list(csv.columns) == table_columns(records[0].labels)
+    expected = pd.concat([pd.DataFrame(label_table(r.labels)) for r in records], ignore_index=True)
+    assert len(csv) == len(expected) == sum(len(r.labels) for r in records)
+    for name in expected.columns:
+        if expected[name].dtype.kind == "f":
+            decimals = 3 if name == "timestamp" else 4
+            np.testing.assert_allclose(csv[name], expected[name], atol=0.51 * 10**-decimals, err_msg=name)
+        else:
+            assert csv[name].astype(str).tolist() == expected[name].astype(str).tolist(), name
+
+
+def kitti_rows(path: Path) -> list[list[str]]:
+    return [line.split() for line in path.read_text().splitlines()]
+
+
+def kitti_calib(path: Path) -> dict[str, np.ndarray]:
+    return {k: np.array(v.split(), float) for k, v in (line.split(": ", 1) for line in path.read_text().splitlines())}
+
+
+def kitti_box_pixels(row: list[str], P2: np.ndarray) -> np.ndarray:
+    """The 3D box of a KITTI label row projected with P2, as KITTI's devkit draws it: corners
+    around the bottom centre ``location``, turned by ``rotation_y`` about the camera's y axis."""
+    h, w, length = (float(v) for v in row[8:11])
+    x, y, z, ry = (float(v) for v in row[11:15])
+    cx = np.array([1, 1, -1, -1, 1, 1, -1, -1]) * length / 2
+    cy = np.array([0, 0, 0, 0, -1, -1, -1, -1]) * h
+    cz = np.array([1, -1, -1, 1, 1, -1, -1, 1]) * w / 2
+    c, s = np.cos(ry), np.sin(ry)
+    corners = np.stack([c * cx + s * cz + x, cy + y, -s * cx + c * cz + z, np.ones(8)])
+    uvw = P2 @ corners
+    return uvw[:2] / uvw[2]
+
+
+def test_kitti_labels_read_back_as_the_seen_objects_and_their_boxes_project_onto_the_image(records, written):
+    kitti = written / "kitti"
+    for record in records:
+        name = f"{record.frame_index:06d}"
+        rows = kitti_rows(kitti / "label_2" / f"{name}.txt")
+        calib = kitti_calib(kitti / "calib" / f"{name}.txt")
+        camera = record.cameras[0]
+        np.testing.assert_allclose(calib["P2"].reshape(3, 4), camera.spec.pinhole.P, rtol=1e-11)
+        objects, cam = record.labels.objects, record.labels.cameras[0]
+        in_image = record.labels.seen & np.isfinite(cam.boxes.clipped_px[:, 0])
+        assert len(rows) == int(in_image.sum()) > 0
+        for row, i in zip(rows, np.flatnonzero(in_image), strict=True):
+            assert row[0] == KITTI_TYPES[SemanticClass(int(objects.semantic_class[i]))]
+            assert int(row[2]) == cam.visibility.occluded[i]
+            np.testing.assert_allclose([float(v) for v in row[4:8]], cam.boxes.clipped_px[i], atol=0.006)
+            np.testing.assert_allclose([float(v) for v in row[8:11]], objects.lwh_m[i, [2, 1, 0]], atol=0.006)
+            uv = kitti_box_pixels(row, calib["P2"].reshape(3, 4))
+            if float(row[1]) == 0.0:  # not truncated: the projected box is the 2D box
+                np.testing.assert_allclose([uv[0].min(), uv[1].min(), uv[0].max(), uv[1].max()],
+                                           [float(v) for v in row[4:8]], atol=0.2)  # fmt: skip
+
+
+def test_kitti_velodyne_and_semantic_kitti_labels_hold_every_lidar_point(records, written):
+    kitti = written / "kitti"
+    for record in records:
+        name, scan = f"{record.frame_index:06d}", record.lidars[0].scan
+        velo = np.fromfile(kitti / "velodyne" / f"{name}.bin", dtype="<f4").reshape(-1, 4)
+        np.testing.assert_array_equal(velo[:, :3], scan.xyz_lidar_m)
+        np.testing.assert_array_equal(velo[:, 3], scan.intensity)
+        labels = np.fromfile(kitti / "labels" / f"{name}.label", dtype="<u4")
+        np.testing.assert_array_equal(labels & 0xFFFF, SEMANTIC_KITTI_LUT[scan.semantic_class])
+        np.testing.assert_array_equal(labels >> 16, scan.instance_id)
+        image = cv2.imread(str(kitti / "image_2" / f"{name}.png"))
+        np.testing.assert_array_equal(image, shade_frame(record.cameras[0].frame))
+
+
+def test_kitti_calibration_maps_lidar_points_into_the_camera_and_poses_follow_the_ego(records, written):
+    kitti = written / "kitti"
+    calib = kitti_calib(kitti / "calib" / "000000.txt")
+    record = records[0]
+    lidar, camera = record.lidars[0], record.cameras[0]
+    xyz_lidar = lidar.scan.xyz_lidar_m.astype(np.float64)
+    expected = camera.spec.ego_SE3_sensor.inverse().compose(lidar.spec.ego_SE3_sensor).transform_from(xyz_lidar)
+    Tr = calib["Tr_velo_to_cam"].reshape(3, 4)
+    np.testing.assert_allclose(xyz_lidar @ Tr[:, :3].T + Tr[:, 3], expected, atol=1e-9)
+    sequence = kitti_calib(kitti / "calib.txt")
+    np.testing.assert_array_equal(sequence["Tr"], calib["Tr_velo_to_cam"])
+    poses = np.loadtxt(kitti / "poses.txt").reshape(-1, 3, 4)
+    assert poses.shape == (len(records), 3, 4)
+    np.testing.assert_allclose(poses[0], np.eye(4)[:3], atol=1e-12)
+    # the ego drives 1 m along its x axis per record: along the camera's z (optical axis)
+    np.testing.assert_allclose(poses[2][:, 3], [0.0, 0.0, 2.0], atol=1e-9)
+
+
+def test_yolo_labels_are_the_tight_boxes_of_the_visible_objects(records, written):
+    yolo = written / "yolo"
+    names = yaml.safe_load((yolo / "data.yaml").read_text())["names"]
+    assert [names[i] for i in range(len(names))] == [c.label for c in YOLO_CLASSES]
+    for record in records:
+        name = f"{record.frame_index:06d}"
+        rows = np.loadtxt(yolo / "labels" / f"{name}.txt", ndmin=2)
+        cam, objects = record.labels.cameras[0], record.labels.objects
+        visible = np.flatnonzero(cam.visibility.visible_px >= 25)
+        assert rows.shape == (len(visible), 5) and len(visible) > 0
+        w, h = record.cameras[0].spec.width_px, record.cameras[0].spec.height_px
+        for row, i in zip(rows, visible, strict=True):
+            assert YOLO_CLASSES[int(row[0])] == objects.semantic_class[i]
+            left, top = (row[1] - row[3] / 2) * w, (row[2] - row[4] / 2) * h
+            right, bottom = (row[1] + row[3] / 2) * w, (row[2] + row[4] / 2) * h
+            # tight boxes hold pixel centres (OpenCV: pixel u spans u - 0.5 .. u + 0.5); YOLO, like
+            # COCO, puts pixel edges at whole numbers (pixel u spans u .. u + 1, the image 0 .. W)
+            modal = cam.visibility.modal_px[i]
+            np.testing.assert_allclose([left, top, right, bottom], modal + np.array([0.0, 0.0, 1.0, 1.0]), atol=1e-3)
+        image = cv2.imread(str(yolo / "images" / f"{name}.jpg"))
+        assert image.shape == (h, w, 3)
+
+
+def test_mcap_messages_read_back_as_the_records(records, written):
+    by_time: dict[int, dict[str, object]] = {}
+    for topic, log_time, message in iter_messages(written / "run.mcap"):
+        by_time.setdefault(log_time, {})[topic] = message
+    assert sorted(by_time) == [r.timestamp_ns for r in records]
+    for record in records:
+        messages = by_time[record.timestamp_ns]
+        cloud = lidar_points(messages["/lidar"])
+        scan = record.lidars[0].scan
+        np.testing.assert_array_equal(np.column_stack([cloud["x"], cloud["y"], cloud["z"]]), scan.xyz_lidar_m)
+        np.testing.assert_array_equal(cloud["instance"], scan.instance_id)
+        np.testing.assert_array_equal(radar_points(messages["/radar"])["radial_velocity"],
+                                      record.radars[0].scan.radial_velocity_mps)  # fmt: skip
+        ego = messages["/tf"].transforms[0]
+        q, t = ego.rotation, ego.translation
+        np.testing.assert_allclose(rotation_from_quaternion_xyzw(q.x, q.y, q.z, q.w), record.map_SE3_ego.rotation,
+                                   atol=1e-12)  # fmt: skip
+        np.testing.assert_allclose([t.x, t.y, t.z], record.map_SE3_ego.translation)
+        labels = messages["/gt/labels"]
+        assert [o["id"] for o in labels["objects"]] == record.labels.objects.track_id.tolist()
+        np.testing.assert_allclose([o["x"] for o in labels["objects"]], record.labels.objects.center_ego_m[:, 0],
+                                   atol=6e-6)  # fmt: skip
+        boxes = messages["/gt/boxes"]
+        assert [e.id for e in boxes.entities] == [str(i) for i in record.labels.objects.track_id]
+        calibration = messages["/camera/calibration"]
+        np.testing.assert_allclose(np.reshape(calibration.K, (3, 3)), record.cameras[0].spec.pinhole.K)
+        jpeg = cv2.imdecode(np.frombuffer(messages["/camera/image"].data, np.uint8), cv2.IMREAD_COLOR)
+        assert np.abs(jpeg.astype(int) - shade_frame(record.cameras[0].frame)).mean() < 4.0
+    assert (written / "foxglove_layout.json").exists()
+
+
+def test_sinks_leave_nothing_when_the_with_block_raises(records, tmp_path):
+    with pytest.raises(RuntimeError, match="stop"), SinkGroup.open(SinkChoice(tmp_path)) as sinks:
+        sinks.write(records[0])
+        raise RuntimeError("stop")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
