@@ -21,6 +21,7 @@ from cosim.scenario import Scenario
 from cosim.state import WorldState
 from gtgen.channel import Abort, Close, Closed, Go, Link, Ready, Result, Start
 from gtgen.channel import serve as serve_child
+from gtgen.lifetime import ClosedOnExit
 from gtgen.timing import NO_CLOCK, StageClock, StageTimes, is_timing
 from networks.errors import NetworkError
 
@@ -48,7 +49,7 @@ class TrafficFeed(Protocol):
     def abort(self) -> None: ...
 
 
-class TrafficInline:
+class TrafficInline(ClosedOnExit):
     """SUMO in this process, stepped in line with the frames."""
 
     def __init__(self, net_path: Path, scenario: Scenario, radius_m: float, clock: StageClock = NO_CLOCK) -> None:
@@ -78,15 +79,6 @@ class TrafficInline:
     def abort(self) -> None:
         self.close()
 
-    def __enter__(self) -> TrafficInline:
-        return self
-
-    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
-        if kind is None:
-            self.close()
-        else:
-            self.abort()
-
 
 @dataclass(frozen=True, slots=True)
 class TrafficJob:
@@ -98,7 +90,7 @@ class TrafficJob:
     radius_m: float
 
 
-class TrafficProcess:
+class TrafficProcess(ClosedOnExit):
     """SUMO in a traffic process that computes each frame's world state one frame ahead.
     With a ``clock``: "sumo wait" here, the process's own stage times on ``close``."""
 
@@ -134,15 +126,6 @@ class TrafficProcess:
 
     def abort(self) -> None:
         self._link.stop(Abort(), STOP_WAIT_S)
-
-    def __enter__(self) -> TrafficProcess:
-        return self
-
-    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
-        if kind is None:
-            self.close()
-        else:
-            self.abort()
 
 
 def serve(inbox: Connection, outbox: Connection) -> None:  # runs in the traffic process

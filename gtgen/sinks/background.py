@@ -30,6 +30,7 @@ from gtgen.channel import serve as serve_child
 from gtgen.child import ABORT_WAIT_S
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
+from gtgen.lifetime import ClosedOnExit
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.timing import NO_CLOCK, StageClock, StageTimes, is_timing
 
@@ -39,7 +40,7 @@ POLL_S = 0.5
 PROCESS = "writer process"
 
 
-class BackgroundSinks:
+class BackgroundSinks(ClosedOnExit):
     """The sinks of ``choice`` in a writer process fed through a bounded queue of ``depth`` frames.
     With a ``clock``, the child's stage times are added to it on ``close`` ("writer ...").
     As a context manager: closed when the ``with`` block ends, aborted when it raises."""
@@ -55,15 +56,6 @@ class BackgroundSinks:
         self._free: list[int] = []
         self._child_times: StageTimes | None = None
         self._send(Start(choice, is_timing(clock)))
-
-    def __enter__(self) -> BackgroundSinks:
-        return self
-
-    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
-        if kind is None:
-            self.close()
-        else:
-            self.abort()
 
     @property
     def pid(self) -> int:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gtgen.frame import FrameRecord
+from gtgen.lifetime import ClosedOnExit
 from gtgen.sinks import Sink
 from gtgen.sinks.csv_sink import CsvSink
 from gtgen.sinks.images import FrameImages
@@ -49,22 +50,13 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
     return YoloSink(choice.out_dir / "yolo", choice.yolo_min_visible_px)
 
 
-class SinkGroup:
+class SinkGroup(ClosedOnExit):
     """Every chosen sink; a frame is encoded by all of them first, then written. As a context
     manager: closed when the ``with`` block ends, aborted when it raises."""
 
     def __init__(self, sinks: list[Sink], clock: StageClock = NO_CLOCK) -> None:
         self._sinks = sinks
         self._clock = clock
-
-    def __enter__(self) -> SinkGroup:
-        return self
-
-    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
-        if kind is None:
-            self.close()
-        else:
-            self.abort()
 
     @property
     def notices(self) -> list[str]:
