@@ -10,6 +10,7 @@ from pathlib import Path
 
 from cosim.errors import CosimError
 from cosim.sweep import SweepResult
+from gtgen.crash import internal_error_line
 from gtgen.errors import GtgenError
 from networks.errors import NetworkError
 from sensors.errors import SensorError
@@ -113,3 +114,16 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted; no dataset was completed", file=sys.stderr)
         return 130
+    except OSError as err:
+        if err.filename is None or not err.strerror:
+            return _internal_error(err, args.command)
+        print(f"error: {err.filename}: {err.strerror}", file=sys.stderr)
+        return 2
+    except Exception as err:
+        return _internal_error(err, args.command)
+
+
+def _internal_error(err: BaseException, command: str) -> int:
+    """An unforeseen failure: one line, the traceback in a crash report, exit code 3."""
+    print(f"error: {internal_error_line(err, f'cosim {command}')}", file=sys.stderr)
+    return 3

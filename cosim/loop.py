@@ -75,8 +75,11 @@ class RunSummary:
     objects: int = 0
     seen: int = 0
     per_class: Counter[str] = field(default_factory=Counter)
+    scene_cuts: list[int] = field(default_factory=list)  # frames that start a new scene
 
-    def add(self, labels: FrameLabels) -> None:
+    def add(self, labels: FrameLabels, scene_cut: bool = False) -> None:
+        if scene_cut:
+            self.scene_cuts.append(labels.frame_index)
         self.frames += 1
         self.objects += len(labels)
         self.seen += int(labels.seen.sum())
@@ -87,6 +90,9 @@ class RunSummary:
         out = [f"frames: {self.frames}", f"objects in range per frame: {self.objects / n:.1f}",
                f"objects seen per frame: {self.seen / n:.1f}"]  # fmt: skip
         out += [f"  {cls}: {count / n:.1f}" for cls, count in sorted(self.per_class.items())]
+        if self.scene_cuts:
+            frames = ", ".join(str(f) for f in self.scene_cuts)
+            out.append(f"scene cuts (the ego ran out of road and started again) at frames: {frames}")
         return out
 
 
@@ -107,7 +113,7 @@ def sense_and_label(
     with probe.stage("labels"):
         timestamp_ns = round(state.time_s * 1e9)
         labels = label_frame(frame_index, timestamp_ns, state.agents, state.ego, outputs, scene, rig.label_range_m)
-    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels)
+    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut)
 
 
 def sink_choice(scenario: Scenario, out_dir: Path, map_world: Path | None = None) -> SinkChoice:
@@ -148,13 +154,13 @@ def run(
     SUMO and the writers run in processes of their own, beside the sensors and labels, unless
     ``one_process``: the outputs are the same. ``probe`` sees each stage of each frame (see
     :mod:`cosim.bench`)."""
+    make_output_folder(out_dir)
     prepared = prepare_network(scenario)
     if prepared.notice:
         print(prepared.notice, file=sys.stderr)
     rig = build_rig(scenario)
     crop = StaticCrop(prepared.world.mesh, rig.reach_m)
     rng = np.random.default_rng(scenario.seed)
-    out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "manifest.json").unlink(missing_ok=True)
     summary = RunSummary()
     with (
@@ -169,13 +175,21 @@ def run(
         for frame_index in bar:
             record = sense_and_label(frame_index, traffic.next(), crop, rig, rng, probe)
             sinks.write(record)
-            summary.add(record.labels)
+            summary.add(record.labels, record.scene_cut)
             probe.frame_done(frame_index)
             if frame_index == disk_check_frame(scenario.frames):
                 check_disk_space(out_dir, frame_index + 1, scenario.frames)
     probe.frame_done(scenario.frames)
     write_manifest(scenario, out_dir, summary, prepared.xodr_path)
     return summary
+
+
+def make_output_folder(out_dir: Path) -> None:
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        reason = err.strerror or "not a folder that can be made"
+        raise CosimError(f"{out_dir}: cannot create the output folder ({err.filename}: {reason})") from err
 
 
 @contextlib.contextmanager
@@ -256,6 +270,7 @@ def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr:
         "network_file": str(xodr),
         "frames": summary.frames,
         "objects_per_frame": summary.objects / max(summary.frames, 1),
+        "scene_cuts": summary.scene_cuts,
         "versions": versions,
         "files_sha256": files,
     }

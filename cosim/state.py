@@ -11,13 +11,16 @@ from sensors.agents import Agents, EgoState
 
 @dataclass(frozen=True, slots=True)
 class WorldState:
-    """``agents``: every agent but the ego (instance id = track id, stable over the scene)."""
+    """``agents``: every agent but the ego (instance id = track id, stable over the scene);
+    ``scene_cut``: the ego is a new one, put at the start of a route when the last one ran out
+    of road (what came before is another scene)."""
 
     time_s: float
     agents: Agents
     ego: EgoState
+    scene_cut: bool = False
 
     def near(self, radius_m: float) -> WorldState:
         """Only the agents whose centre lies within ``radius_m`` of the ego (in the plane)."""
         d = np.linalg.norm(self.agents.center_map_m[:, :2] - self.ego.center_map_m[:2], axis=1)
-        return WorldState(self.time_s, self.agents.select(d <= radius_m), self.ego)
+        return WorldState(self.time_s, self.agents.select(d <= radius_m), self.ego, self.scene_cut)

@@ -24,6 +24,7 @@ from cosim.demand import (
 )
 from cosim.errors import TrafficError
 from cosim.kinematics import front_bumper_to_center, heading_vectors, sumo_angle_to_yaw
+from cosim.net_index import index_net
 from cosim.parking import ParkingArea, additional_xml, find_parking_areas, lane_types
 from cosim.scenario import Scenario
 from cosim.state import WorldState
@@ -79,82 +80,6 @@ class TrafficCounts:
         return len(self.teleported_ids) / max(self.inserted - self.parked, 1)
 
 
-@dataclass(frozen=True, slots=True)
-class NetIndex:
-    """Edges usable for routes, per SUMO vehicle class, with their shapes and lengths.
-
-    ``edge_weights`` (per vehicle class, in the order of ``edges_by_vclass``) are each
-    edge's share of the lane length open to that class: trips start and end on an edge
-    with that probability, so traffic spreads over the town as the density does (a
-    motorway is not starved of trips because it has few, long edges).
-    """
-
-    edges_by_vclass: dict[str, list[str]]
-    edge_weights: dict[str, npt.NDArray[np.float64]]
-    walk_edges: list[str]
-    walk_weights: npt.NDArray[np.float64]
-    edge_shape_xy: dict[str, npt.NDArray[np.float64]]  # (K, 2) map frame
-    edge_length_m: dict[str, float]
-    vehicle_lane_km: float
-    on_ramps: list[str]
-
-    def distance_m(self, edge_id: str, xy: tuple[float, float]) -> float:
-        """Distance in the plane from ``xy`` to the edge's centre line."""
-        shape = self.edge_shape_xy[edge_id]
-        a, b = shape[:-1], shape[1:]
-        ab = b - a
-        t = np.clip(np.sum((np.asarray(xy) - a) * ab, axis=1) / np.maximum(np.sum(ab * ab, axis=1), 1e-9), 0.0, 1.0)
-        return float(np.min(np.linalg.norm(a + ab * t[:, None] - np.asarray(xy), axis=1)))
-
-
-def _on_ramps(net: sumolib.net.Net) -> list[str]:
-    """Edges that merge into a faster road: the node joins two edges into one (>= 80 km/h),
-    and this edge is the one with fewer lanes."""
-    ramps = []
-    for node in net.getNodes():
-        incoming = [e for e in node.getIncoming() if not e.getFunction() and e.allows("passenger")]
-        outgoing = [e for e in node.getOutgoing() if not e.getFunction() and e.allows("passenger")]
-        if len(incoming) != 2 or len(outgoing) != 1 or outgoing[0].getSpeed() < 22.0:
-            continue
-        a, b = sorted(incoming, key=lambda e: (e.getLaneNumber(), e.getSpeed(), e.getID()))
-        if (a.getLaneNumber(), a.getSpeed()) < (b.getLaneNumber(), b.getSpeed()):
-            ramps.append(a.getID())
-    return sorted(ramps)
-
-
-def _normalised(weights: list[float]) -> npt.NDArray[np.float64]:
-    w = np.asarray(weights, dtype=np.float64)
-    return w / w.sum() if w.size and w.sum() > 0 else w
-
-
-def index_net(net: sumolib.net.Net) -> NetIndex:
-    by_class: dict[str, list[str]] = {}
-    weights: dict[str, list[float]] = {}
-    walk: list[str] = []
-    walk_weights: list[float] = []
-    shapes: dict[str, npt.NDArray[np.float64]] = {}
-    lengths: dict[str, float] = {}
-    lane_km = 0.0
-    for edge in sorted(net.getEdges(withInternal=False), key=lambda e: e.getID()):
-        if edge.getFunction():
-            continue
-        shapes[edge.getID()] = np.asarray(edge.getShape(), dtype=np.float64)[:, :2]
-        lengths[edge.getID()] = edge.getLength()
-        for vclass in sorted({k.sumo_vclass for k in KINDS.values()}):
-            if edge.allows(vclass) and edge.getLength() > 5.0:
-                by_class.setdefault(vclass, []).append(edge.getID())
-                lanes = sum(1 for lane in edge.getLanes() if lane.allows(vclass))
-                weights.setdefault(vclass, []).append(lanes * edge.getLength())
-        if edge.allows("pedestrian"):
-            walk.append(edge.getID())
-            walk_weights.append(edge.getLength())
-        lane_km += sum(lane.getLength() for lane in edge.getLanes() if lane.allows("passenger")) / 1000.0
-    return NetIndex(
-        by_class, {k: _normalised(w) for k, w in weights.items()}, walk, _normalised(walk_weights), shapes, lengths,
-        lane_km, _on_ramps(net),
-    )  # fmt: skip
-
-
 class Traffic:
     """A running SUMO simulation stepped in lock-step with the frame loop."""
 
@@ -182,16 +107,25 @@ class Traffic:
         self._variants = self._define_types()
         traffic = scenario.traffic
         total = target_vehicle_count(traffic.vehicles_per_lane_km, self._index.vehicle_lane_km, traffic.vehicles)
-        self._targets = {
-            k: n
-            for k, n in split_by_mix(total, traffic.mix).items()
-            if KINDS[k].sumo_vclass in self._index.edges_by_vclass
-        }
+        self.notices: list[str] = []
+        self._targets = self._open_targets(split_by_mix(total, traffic.mix))
+        self._pedestrians = traffic.pedestrians if self._index.walk_edges else 0
+        if traffic.pedestrians and not self._index.walk_edges:
+            self.notices.append("note: the network has no sidewalks or footpaths; the scene has no pedestrians")
         self._ego_xy: tuple[float, float] | None = None
         self._ego = ""
-        self._watching = False
-        self.notices: list[str] = []
+        self._egos = 0  # egos inserted so far (a new one after each scene cut)
+        self._scene_cut = False
+        self._watch_radius_m: float | None = None
+        self._long_route: list[str] = []
         self.counts = TrafficCounts()
+
+    def _open_targets(self, targets: dict[str, int]) -> dict[str, int]:
+        """The vehicle counts of the kinds some lane of the network is open to; a notice for each other."""
+        kept = {k: n for k, n in targets.items() if KINDS[k].sumo_vclass in self._index.edges_by_vclass}
+        for kind in sorted(k for k, n in targets.items() if n > 0 and k not in kept):
+            self.notices.append(f"note: no lane of the network is open to {kind}s; the scene has none")
+        return kept
 
     # --- set-up --------------------------------------------------------------------------
     def _define_types(self) -> dict[str, list[TypeVariant]]:
@@ -230,18 +164,38 @@ class Traffic:
                 return list(route.edges)
         return []
 
+    def _entry_route(self, vclass: str, type_id: str) -> list[str]:
+        """A trip through the network: from an edge where traffic enters it to one where it
+        leaves (a small network, where trips between two distant edges cannot be found)."""
+        entries, exits = self._index.entries_by_vclass.get(vclass, []), self._index.exits_by_vclass.get(vclass, [])
+        if not entries or not exits:
+            return []
+        for _ in range(10):
+            a, b = entries[int(self._rng.integers(0, len(entries)))], exits[int(self._rng.integers(0, len(exits)))]
+            if a == b:
+                return [a]
+            route = libsumo.simulation.findRoute(a, b, vType=type_id, routingMode=ROUTING_AGGREGATED)
+            if route.edges:
+                return list(route.edges)
+        return []
+
     def _add_vehicle(self, kind: str) -> None:
         variant = self._variants[kind][int(self._rng.integers(0, len(self._variants[kind])))]
-        edges = self._random_route(KINDS[kind].sumo_vclass, variant.type_id)
+        vclass = KINDS[kind].sumo_vclass
+        edges, depart_pos = self._random_route(vclass, variant.type_id), "random_free"
+        if not edges:
+            edges, depart_pos = self._entry_route(vclass, variant.type_id), "base"
         if not edges:
             return
         self._serial += 1
         vid, rid = f"{kind}_{self._serial}", f"r_{self._serial}"
         libsumo.route.add(rid, edges)
         libsumo.vehicle.add(vid, rid, typeID=variant.type_id, depart="now", departLane="best",
-                            departPos="random_free", departSpeed="max")  # fmt: skip
+                            departPos=depart_pos, departSpeed="max")  # fmt: skip
 
-    def _add_person(self) -> None:
+    def _walk(self) -> list[str]:
+        """Footpath edges of a walk between two distinct footpaths, starting out of the ego's
+        sight; else (a small network: one street, no crossing) a walk along one footpath."""
         walk = self._index.walk_edges
         for _ in range(10):
             a, b = (walk[i] for i in self._rng.choice(len(walk), size=2, p=self._index.walk_weights))
@@ -249,15 +203,18 @@ class Traffic:
                 continue
             stages = libsumo.simulation.findIntermodalRoute(a, b, modes="")
             edges = [e for s in stages for e in s.edges]
-            if not edges:
-                continue
-            variant = self._variants["pedestrian"][int(self._rng.integers(0, len(self._variants["pedestrian"])))]
-            self._serial += 1
-            pid = f"ped_{self._serial}"
-            libsumo.person.add(pid, a, 0.0, depart=-3, typeID=variant.type_id)  # -3: depart now
-            arrival_m = float(self._rng.uniform(0.0, self._index.edge_length_m.get(edges[-1], 0.0)))
-            libsumo.person.appendWalkingStage(pid, edges, arrivalPos=arrival_m)
-            return
+            if edges:
+                return edges
+        return [walk[int(self._rng.choice(len(walk), p=self._index.walk_weights))]]
+
+    def _add_person(self) -> None:
+        edges = self._walk()
+        variant = self._variants["pedestrian"][int(self._rng.integers(0, len(self._variants["pedestrian"])))]
+        self._serial += 1
+        pid = f"ped_{self._serial}"
+        libsumo.person.add(pid, edges[0], 0.0, depart=-3, typeID=variant.type_id)  # -3: depart now
+        arrival_m = float(self._rng.uniform(0.0, self._index.edge_length_m.get(edges[-1], 0.0)))
+        libsumo.person.appendWalkingStage(pid, edges, arrivalPos=arrival_m)
 
     def _top_up(self, max_new: int = 10) -> None:
         """Bring every kind back to its target count (vehicles that arrived are replaced;
@@ -269,7 +226,7 @@ class Traffic:
             for _ in range(min(self._targets[kind] - counts[kind], max_new - added)):
                 self._add_vehicle(kind)
                 added += 1
-        for _ in range(min(self._scenario.traffic.pedestrians - libsumo.person.getIDCount(), 5)):
+        for _ in range(min(self._pedestrians - libsumo.person.getIDCount(), 5)):
             self._add_person()
 
     def _add_parked(self) -> None:
@@ -331,18 +288,49 @@ class Traffic:
         self._keep_ego_going()
 
     def _insert_ego(self, route: list[str], what: str) -> None:
+        """Insert a new ego at the start of ``route`` and step until it has entered."""
+        self._egos += 1
+        suffix = "" if self._egos == 1 else f"_{self._egos}"
+        ego_id, route_id = EGO_ID + suffix, "ego_route" + suffix
         try:
-            libsumo.route.add("ego_route", route)
-            libsumo.vehicle.add(EGO_ID, "ego_route", typeID="ego_car", depart="now", departSpeed="max")
+            libsumo.route.add(route_id, route)
+            libsumo.vehicle.add(ego_id, route_id, typeID="ego_car", depart="now", departSpeed="max")
         except libsumo.TraCIException as err:
             raise TrafficError(f"{what}: SUMO refused the ego's route {route}: {err}") from err
-        self._ego = EGO_ID
+        self._ego = ego_id
         self._keep_ego_going()
         for _ in range(400):
             self._advance()
-            if EGO_ID in libsumo.vehicle.getIDList():
+            if ego_id in libsumo.vehicle.getIDList():
                 return
         raise TrafficError(f"{what}: the ego could not enter the network within 20 s")
+
+    def _longest_route(self) -> list[str]:
+        """The longest route a car can drive between the network's entries and exits (its
+        edges when it has none), among up to 40 x 40 of them: where a new ego starts."""
+        if self._long_route:
+            return self._long_route
+        edges = self._index.edges_by_vclass.get("passenger", [])
+        if not edges:
+            raise TrafficError("no lane of the network is open to cars: the ego needs one (check the map's lane types)")
+        starts = _spread(self._index.entries_by_vclass.get("passenger") or edges, 40)
+        ends = _spread(self._index.exits_by_vclass.get("passenger") or edges, 40)
+        best: tuple[float, list[str]] = (-1.0, [])
+        for a in starts:
+            for b in ends:
+                route = libsumo.simulation.findRoute(a, b, vType="ego_car")
+                if route.edges and route.length > best[0]:
+                    best = (route.length, list(route.edges))
+        self._long_route = best[1] or [max(edges, key=lambda e: self._index.edge_length_m[e])]
+        return self._long_route
+
+    def _respawn_ego(self) -> None:
+        """The ego ran out of road: a new ego starts at the longest route's start (a scene cut)."""
+        self._insert_ego(self._longest_route(), "scene cut")
+        libsumo.vehicle.setColor(self._ego, (255, 0, 0, 255))
+        if self._watch_radius_m is not None:
+            self._subscribe_near_ego(self._watch_radius_m)
+        self._scene_cut = True
 
     def _pick_ego(self, start: str) -> None:
         cars = sorted(v for v in libsumo.vehicle.getIDList() if v.startswith("car_"))
@@ -357,8 +345,10 @@ class Traffic:
                 self.notices.append(f"note: no car is on a {start} road after the warm-up; the ego is a random car")
             cars = matching or cars
         if not cars:
-            msg = "no passenger car is driving after the warm-up to serve as the ego (raise the density or warmup_s)"
-            raise TrafficError(msg)
+            self.notices.append("note: no car is driving after the warm-up; the ego enters at the start of the "
+                                "network's longest route")  # fmt: skip
+            self._insert_ego(self._longest_route(), "the network's longest route")
+            return
         cars = [cars[i] for i in busiest(_positions(cars), _positions(), EGO_BUSY_RADIUS_M, EGO_BUSY_SHARE)]
         self._ego = cars[int(self._rng.integers(0, len(cars)))]
 
@@ -385,16 +375,18 @@ class Traffic:
         self.counts.teleported_ids.update(teleported)
 
     def step(self) -> None:
+        """One step; when the ego has left the network (the end of a road), a new ego enters at
+        the longest route's start and :attr:`scene_cut` says so until the next step."""
+        self._scene_cut = False
         self._advance()
         try:  # raises for a vehicle no longer in the simulation (cheaper than the list of all ids)
             x, y = libsumo.vehicle.getPosition(self._ego)
         except libsumo.TraCIException:
-            raise TrafficError(
-                f"the ego vehicle {self._ego} left the simulation at t={libsumo.simulation.getTime():.2f} s"
-            ) from None
+            self._respawn_ego()
+            x, y = libsumo.vehicle.getPosition(self._ego)
         self._ego_xy = (x, y)
         self._keep_ego_going()
-        if self._watching:
+        if self._watch_radius_m is not None:
             libsumo.poi.setPosition(PERSON_ANCHOR, x, y)
         if round(libsumo.simulation.getTime() / self._scenario.step_s) % 20 == 0:
             self._top_up()
@@ -410,20 +402,28 @@ class Traffic:
             self._track_ids[sumo_id] = tid
         return tid
 
+    @property
+    def scene_cut(self) -> bool:
+        """Whether the last step put a new ego into the network (the scene starts again)."""
+        return self._scene_cut
+
     def watch_near_ego(self, radius_m: float) -> None:
         """From now on, world states hold the agents within ``radius_m`` of the ego (and
         some beyond), read from context subscriptions instead of every agent's getters."""
-        reach = radius_m + CONTEXT_MARGIN_M
-        vehicles, persons = libsumo.constants.CMD_GET_VEHICLE_VARIABLE, libsumo.constants.CMD_GET_PERSON_VARIABLE
-        libsumo.vehicle.subscribeContext(self._ego, vehicles, reach, STATE_VARIABLES)
+        self._subscribe_near_ego(radius_m)
         x, y = libsumo.vehicle.getPosition(self._ego)
         libsumo.poi.add(PERSON_ANCHOR, x, y, (0, 0, 0, 0), layer=-100)
-        libsumo.poi.subscribeContext(PERSON_ANCHOR, persons, reach, STATE_VARIABLES)
-        self._watching = True
+        persons = libsumo.constants.CMD_GET_PERSON_VARIABLE
+        libsumo.poi.subscribeContext(PERSON_ANCHOR, persons, radius_m + CONTEXT_MARGIN_M, STATE_VARIABLES)
+        self._watch_radius_m = radius_m
+
+    def _subscribe_near_ego(self, radius_m: float) -> None:
+        vehicles = libsumo.constants.CMD_GET_VEHICLE_VARIABLE
+        libsumo.vehicle.subscribeContext(self._ego, vehicles, radius_m + CONTEXT_MARGIN_M, STATE_VARIABLES)
 
     def _agent_variables(self, everyone: bool) -> tuple[list[str], list[str], list[tuple[Any, ...]]]:
         """Vehicle ids, person ids and, per id, (front position, angle, slope, speed)."""
-        if self._watching and not everyone:
+        if self._watch_radius_m is not None and not everyone:
             near_vehicles = libsumo.vehicle.getContextSubscriptionResults(self._ego)
             near_persons = libsumo.poi.getContextSubscriptionResults(PERSON_ANCHOR)
             rows = [tuple(v[k] for k in STATE_VARIABLES) for v in (*near_vehicles.values(), *near_persons.values())]
@@ -463,7 +463,7 @@ class Traffic:
             raise TrafficError(f"the ego vehicle {self._ego!r} is not among the agents read at t={self._time():.2f} s")
         e = int(np.flatnonzero(is_ego)[0])
         ego = EgoState(center[e], lwh[e], float(yaw[e]), float(pitch[e]), velocity[e])
-        return WorldState(self._time(), agents.select(~is_ego), ego)
+        return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut)
 
     @staticmethod
     def _time() -> float:
@@ -504,6 +504,13 @@ def _positions(vehicles: list[str] | None = None) -> npt.NDArray[np.float64]:
         return np.array([libsumo.vehicle.getPosition(v) for v in vehicles], dtype=np.float64).reshape(-1, 2)
     people = [libsumo.person.getPosition(p) for p in libsumo.person.getIDList()]
     return np.concatenate([_positions(list(libsumo.vehicle.getIDList())), np.array(people).reshape(-1, 2)])
+
+
+def _spread(items: list[str], count: int) -> list[str]:
+    """Up to ``count`` of ``items``, evenly spaced through the list."""
+    if len(items) <= count:
+        return items
+    return [items[int(i)] for i in np.linspace(0, len(items) - 1, count)]
 
 
 def _write_parking(net_path: Path, areas: list[ParkingArea]) -> Path:

@@ -22,6 +22,7 @@ from multiprocessing.connection import Connection
 from typing import Generic, TypeVar
 
 from gtgen.child import ChildGoneError, ChildProcess
+from gtgen.crash import internal_error_line
 from gtgen.timing import StageTimes
 
 T = TypeVar("T")
@@ -122,11 +123,14 @@ class Failed:
 
 def error_line(err: BaseException, own: tuple[type[BaseException], ...], process: str) -> str:
     """One line naming a failure: the message of the project's own errors (``own``: written
-    for users), else the process, the exception's type and message."""
+    for users); a file the system refused, with the system's reason; else an internal error
+    of the process, with its details in a crash report."""
     text = " ".join(str(err).split())
     if isinstance(err, own) and text:
         return text
-    return f"{process}: {type(err).__name__}: {text}" if text else f"{process}: {type(err).__name__}"
+    if isinstance(err, OSError) and err.filename is not None and err.strerror:
+        return f"{process}: {err.filename}: {err.strerror}"
+    return internal_error_line(err, f"the {process}")
 
 
 def serve(outbox: Connection, work: Callable[[], None], own: tuple[type[BaseException], ...], process: str) -> None:
@@ -134,6 +138,8 @@ def serve(outbox: Connection, work: Callable[[], None], own: tuple[type[BaseExce
     parent as one :class:`Failed` line."""
     try:
         work()
+    except (EOFError, BrokenPipeError):
+        return  # the parent has gone: nobody is left to tell
     except BaseException as err:
         with contextlib.suppress(OSError):
             outbox.send(Failed(error_line(err, own, process)))

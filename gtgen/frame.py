@@ -15,13 +15,16 @@ from sensors.sensor import SensorOutput
 @dataclass(frozen=True, slots=True)
 class FrameRecord:
     """One frame: the ego's pose, every sensor's output in rig order, and the labels (one
-    :class:`~gtgen.labels.CameraLabels` per camera, in the order of :attr:`cameras`)."""
+    :class:`~gtgen.labels.CameraLabels` per camera, in the order of :attr:`cameras`).
+    ``scene_cut``: the ego was put back at the start of a route before this frame (it ran
+    out of road): this frame starts a new scene."""
 
     frame_index: int
     timestamp_ns: int
     map_SE3_ego: SE3
     sensors: tuple[SensorOutput, ...]
     labels: FrameLabels
+    scene_cut: bool = False
 
     @property
     def lidars(self) -> tuple[LidarOutput, ...]:

@@ -44,6 +44,7 @@ LABELS_SCHEMA = {
     "properties": {
         "frame": {"type": "integer"},
         "timestamp_ns": {"type": "integer"},
+        "scene_cut": {"type": "boolean"},
         "objects": {"type": "array", "items": {"type": "object", "properties": {c: {} for c in COLUMNS}}},
     },
 }
@@ -132,7 +133,8 @@ def labels_json(record: FrameRecord) -> dict[str, Any]:
     table = label_table(record.labels)
     columns = [json_column(values) for values in table.values()]
     objects = [dict(zip(table, row, strict=True)) for row in zip(*columns, strict=True)]
-    return {"frame": record.frame_index, "timestamp_ns": record.timestamp_ns, "objects": objects}
+    return {"frame": record.frame_index, "timestamp_ns": record.timestamp_ns, "scene_cut": record.scene_cut,
+            "objects": objects}  # fmt: skip
 
 
 class McapSink:

@@ -11,10 +11,11 @@ import sumolib
 from shapely.geometry import Point
 
 from cosim.demand import busiest
+from cosim.net_index import index_net
 from cosim.parking import lane_types
 from cosim.scenario import load_scenario
 from cosim.soak import soak
-from cosim.traffic import Traffic, index_net
+from cosim.traffic import Traffic
 from cosim.world_setup import PreparedNetwork, prepare_network
 from networks.classes import SemanticClass
 from networks.world import lane_footprint
