@@ -5,10 +5,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 
-from cosim.errors import CosimError
+from cosim.errors import CosimError, RunStoppedError, Terminated
 from cosim.sweep import SweepResult
 from gtgen.crash import internal_error_line
 from gtgen.errors import GtgenError
@@ -29,6 +31,11 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--out", type=Path, help="output folder (default: out/<scenario>)")
     run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                      help="override any scenario key, e.g. --set traffic.pedestrians=50 (repeatable)")  # fmt: skip
+    run.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the interrupted run in --out from the last frame it kept (the same scenario)",
+    )
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.add_argument("--no-summary", action="store_true", help="skip the summary/ statistics and pictures")
     run.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT",
@@ -58,6 +65,7 @@ def _cmd_list() -> int:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from cosim.loop import run
+    from cosim.resume import AlreadyCompleteError
     from cosim.scenario import load_scenario
     from gtgen.summary import write_summary
 
@@ -70,7 +78,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
         overrides.append(f"outputs.live={json.dumps(args.live)}")  # a YAML string, whatever it holds
     scenario = load_scenario(args.scenario, overrides)
     out_dir = args.out if args.out is not None else Path("out") / scenario.name
-    summary = run(scenario, out_dir, progress=not args.no_progress)
+    try:
+        summary = run(scenario, out_dir, progress=not args.no_progress, resume=args.resume)
+    except AlreadyCompleteError as done:
+        print(f"nothing to do: {done}")
+        return 0
+    except RunStoppedError:
+        if not args.no_summary:
+            write_summary(out_dir)  # of the frames kept
+        raise
     if not args.no_summary:
         write_summary(out_dir)
     print(f"wrote {out_dir}/")
@@ -103,17 +119,29 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)  # a run stopped this way keeps its frames, as with Ctrl-C
     try:
         commands = {"list": lambda: _cmd_list(), "run": lambda: _cmd_run(args), "sweep": lambda: _cmd_sweep(args)}
         return commands[args.command]()
+    except RunStoppedError as stopped:
+        print(f"error: {stopped}" if stopped.exit_code == 2 else str(stopped), file=sys.stderr)
+        return stopped.exit_code
     except USER_ERRORS as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted; no dataset was completed", file=sys.stderr)
         return 130
+    except Terminated:
+        print("stopped (SIGTERM); no dataset was completed", file=sys.stderr)
+        return 143
     except OSError as err:
         if err.filename is None or not err.strerror:
             return _internal_error(err, args.command)

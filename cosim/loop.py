@@ -9,15 +9,16 @@ import shutil
 import sys
 from collections import Counter
 from collections.abc import Iterator
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from importlib import metadata
 from pathlib import Path
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from tqdm import tqdm
 
-from cosim.errors import CosimError
+from cosim.errors import CosimError, RunStoppedError, Terminated, TrafficError
+from cosim.resume import ResumePoint, begin, finish, resume_point
 from cosim.rig import Rig, build_rig
 from cosim.scenario import Scenario
 from cosim.state import WorldState
@@ -27,6 +28,7 @@ from gtgen.frame import FrameRecord
 from gtgen.labels import FrameLabels, label_frame
 from gtgen.sinks.background import BackgroundSinks
 from gtgen.sinks.group import SinkChoice, SinkGroup
+from gtgen.sinks.resume_sink import RESUME_DIR
 from gtgen.timing import NO_CLOCK, NoClock, StageClock
 from networks.classes import SemanticClass
 from networks.geometry import SE3
@@ -85,6 +87,15 @@ class RunSummary:
         self.seen += int(labels.seen.sum())
         self.per_class.update(SemanticClass(int(c)).label for c in labels.objects.semantic_class[labels.seen])
 
+    def to_dict(self) -> dict[str, Any]:
+        return {"frames": self.frames, "objects": self.objects, "seen": self.seen,
+                "per_class": dict(sorted(self.per_class.items())), "scene_cuts": list(self.scene_cuts)}  # fmt: skip
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> RunSummary:
+        return cls(int(data["frames"]), int(data["objects"]), int(data["seen"]), Counter(data["per_class"]),
+                   [int(f) for f in data["scene_cuts"]])  # fmt: skip
+
     def lines(self) -> list[str]:
         n = max(self.frames, 1)
         out = [f"frames: {self.frames}", f"objects in range per frame: {self.objects / n:.1f}",
@@ -116,30 +127,30 @@ def sense_and_label(
     return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut)
 
 
-def sink_choice(scenario: Scenario, out_dir: Path, map_world: Path | None = None) -> SinkChoice:
+def sink_choice(
+    scenario: Scenario, out_dir: Path, map_world: Path | None = None, point: ResumePoint | None = None
+) -> SinkChoice:
+    """The run's outputs; with ``point``, those of a run that continues an earlier one."""
     o = scenario.outputs
-    return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address)
+    keep, first = (0, None) if point is None else (point.frames, point.first_map_SE3_ego)
+    return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address,
+                      resume=True, keep_frames=keep, first_map_SE3_ego=first)  # fmt: skip
 
 
-def open_sinks(
-    scenario: Scenario,
-    out_dir: Path,
-    one_process: bool = False,
-    clock: StageClock = NO_CLOCK,
-    map_world: Path | None = None,
-) -> FrameSink:
+def open_sinks(choice: SinkChoice, one_process: bool = False, clock: StageClock = NO_CLOCK) -> FrameSink:
     """The run's sinks: in a writer process, or in this one."""
-    choice = sink_choice(scenario, out_dir, map_world)
     return SinkGroup.open(choice, clock) if one_process else BackgroundSinks(choice, clock=clock)
 
 
 def open_traffic(
-    net_path: Path, scenario: Scenario, radius_m: float, one_process: bool = False, clock: StageClock = NO_CLOCK
-) -> TrafficFeed:
-    """SUMO in a traffic process one frame ahead of the loop, or in this one."""
+    net_path: Path, scenario: Scenario, radius_m: float, one_process: bool = False, clock: StageClock = NO_CLOCK,
+    skip_frames: int = 0,
+) -> TrafficFeed:  # fmt: skip
+    """SUMO in a traffic process one frame ahead of the loop, or in this one; its first
+    ``skip_frames`` frames are simulated and not handed out (a run that continues)."""
     if one_process:
-        return TrafficInline(net_path, scenario, radius_m, clock)
-    return TrafficProcess(net_path, scenario, radius_m, clock)
+        return TrafficInline(net_path, scenario, radius_m, clock, skip_frames)
+    return TrafficProcess(net_path, scenario, radius_m, clock, skip_frames)
 
 
 def run(
@@ -149,11 +160,17 @@ def run(
     *,
     one_process: bool = False,
     probe: FrameProbe = NO_PROBE,
+    resume: bool = False,
 ) -> RunSummary:
-    """Produce the dataset of ``scenario`` under ``out_dir``; files appear only when complete.
-    SUMO and the writers run in processes of their own, beside the sensors and labels, unless
-    ``one_process``: the outputs are the same. ``probe`` sees each stage of each frame (see
-    :mod:`cosim.bench`)."""
+    """Produce the dataset of ``scenario`` under ``out_dir``. SUMO and the writers run in
+    processes of their own, beside the sensors and labels, unless ``one_process``: the outputs
+    are the same. ``probe`` sees each stage of each frame (see :mod:`cosim.bench`).
+
+    Interrupted (Ctrl-C, SIGTERM) or stopped by the traffic, a run closes every output with
+    the frames written so far, writes ``manifest.json`` with ``"complete": false`` and raises
+    :class:`RunStoppedError`; ``resume`` continues such a run from the last frame every output
+    holds, and ends with the same data as a run that was never stopped."""
+    point = resume_point(out_dir, scenario) if resume else None
     make_output_folder(out_dir)
     prepared = prepare_network(scenario)
     if prepared.notice:
@@ -161,27 +178,81 @@ def run(
     rig = build_rig(scenario)
     crop = StaticCrop(prepared.world.mesh, rig.reach_m)
     rng = np.random.default_rng(scenario.seed)
-    (out_dir / "manifest.json").unlink(missing_ok=True)
-    summary = RunSummary()
-    with (
-        partials_removed_on_error(out_dir),
-        open_sinks(scenario, out_dir, one_process, probe, prepared.world.path) as sinks,
-        open_traffic(prepared.net_path, scenario, rig.reach_m + AGENT_MARGIN_M, one_process, probe) as traffic,
-    ):
-        for notice in traffic.warm_up():
-            print(notice, file=sys.stderr)
-        bar = tqdm(range(scenario.frames), desc=scenario.name, unit="frame", disable=not progress, file=sys.stderr)
-        probe.frame_done(-1)
-        for frame_index in bar:
-            record = sense_and_label(frame_index, traffic.next(), crop, rig, rng, probe)
-            sinks.write(record)
-            summary.add(record.labels, record.scene_cut)
-            probe.frame_done(frame_index)
-            if frame_index == disk_check_frame(scenario.frames):
-                check_disk_space(out_dir, frame_index + 1, scenario.frames)
+    summary, start = RunSummary(), 0
+    if point is not None:
+        rng.bit_generator.state = point.checkpoint["rng"]
+        crop.restore(point.checkpoint["crop_center_xy_m"])
+        summary, start = RunSummary.from_dict(point.checkpoint["summary"]), point.frames
+    choice = sink_choice(scenario, out_dir, prepared.world.path, point)
+    loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, summary, out_dir, progress, one_process, probe)
+    stopped: BaseException | None = None
+    with partials_removed_on_error(out_dir), open_sinks(choice, one_process, probe) as sinks:
+        (out_dir / "manifest.json").unlink(missing_ok=True)  # only once every output has opened
+        if point is None:
+            begin(out_dir, scenario)
+        try:
+            loop.frames(start, sinks)
+        except (KeyboardInterrupt, Terminated, TrafficError) as err:
+            if summary.frames == 0:
+                raise
+            stopped = err  # every output is closed with the frames written so far
     probe.frame_done(scenario.frames)
-    write_manifest(scenario, out_dir, summary, prepared.xodr_path)
+    write_manifest(scenario, out_dir, summary, prepared.xodr_path, complete=stopped is None)
+    if stopped is not None:
+        raise run_stopped(stopped, out_dir, summary.frames) from stopped
+    finish(out_dir)
     return summary
+
+
+@dataclass(slots=True)
+class FrameLoop:
+    """What the frames of a run are made with."""
+
+    scenario: Scenario
+    net_path: Path
+    rig: Rig
+    crop: StaticCrop
+    rng: np.random.Generator
+    summary: RunSummary
+    out_dir: Path
+    progress: bool
+    one_process: bool
+    probe: FrameProbe
+
+    def frames(self, start: int, sinks: FrameSink) -> None:
+        """Frames ``start`` .. the last: the traffic (simulated up to ``start`` first), sensed,
+        labelled, counted and handed to ``sinks`` with the loop's checkpoint."""
+        scenario, probe = self.scenario, self.probe
+        radius_m = self.rig.reach_m + AGENT_MARGIN_M
+        with open_traffic(self.net_path, scenario, radius_m, self.one_process, probe, start) as traffic:
+            for notice in traffic.warm_up():
+                print(notice, file=sys.stderr)
+            bar = tqdm(range(start, scenario.frames), desc=scenario.name, unit="frame", disable=not self.progress,
+                       file=sys.stderr, initial=start, total=scenario.frames)  # fmt: skip
+            probe.frame_done(-1)
+            for frame_index in bar:
+                record = sense_and_label(frame_index, traffic.next(), self.crop, self.rig, self.rng, probe)
+                self.summary.add(record.labels, record.scene_cut)
+                sinks.write(replace(record, checkpoint=self.checkpoint()))
+                probe.frame_done(frame_index)
+                if frame_index == disk_check_frame(scenario.frames):
+                    check_disk_space(self.out_dir, frame_index + 1, scenario.frames)
+
+    def checkpoint(self) -> dict[str, Any]:
+        """What the loop needs to continue after the frame just made (plain JSON data)."""
+        return {"rng": self.rng.bit_generator.state, "crop_center_xy_m": self.crop.center_xy_m,
+                "summary": self.summary.to_dict()}  # fmt: skip
+
+
+def run_stopped(cause: BaseException, out_dir: Path, kept: int) -> RunStoppedError:
+    """The line for a run that stopped and kept its first ``kept`` frames, and its exit code."""
+    where = f'{out_dir} keeps frames 0 to {kept - 1} (manifest.json: "complete": false)'
+    again = "run the same command with --resume to continue"
+    if isinstance(cause, KeyboardInterrupt):
+        return RunStoppedError(f"interrupted at frame {kept}; {where}; {again}", kept, 130)
+    if isinstance(cause, Terminated):
+        return RunStoppedError(f"stopped (SIGTERM) at frame {kept}; {where}; {again}", kept, 143)
+    return RunStoppedError(f"{cause} (at frame {kept}); {where}", kept, 2)
 
 
 def make_output_folder(out_dir: Path) -> None:
@@ -236,7 +307,8 @@ def _files(path: Path) -> list[Path]:
 
 
 def remove_partials(out_dir: Path) -> None:
-    """Remove what an interrupted run left: ``*.partial`` files and folders."""
+    """Remove what a failed run left: ``*.partial`` files and folders, and its resume state."""
+    shutil.rmtree(out_dir / RESUME_DIR, ignore_errors=True)
     for partial in out_dir.glob("*.partial"):
         if partial.is_dir():
             shutil.rmtree(partial, ignore_errors=True)
@@ -252,7 +324,9 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr: Path) -> None:
+def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr: Path, complete: bool = True) -> None:
+    """``manifest.json``: the run's scenario, versions, counts and file hashes; ``complete``:
+    whether the run wrote all its frames (false: it stopped early and kept ``frames``)."""
     versions = {}
     for dist in ("eclipse-sumo", "libsumo", "open3d-cpu", "numpy", "mcap", "sumo-dataset-factory"):
         try:
@@ -262,12 +336,16 @@ def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr:
     files = {
         str(p.relative_to(out_dir)): _sha256(p)
         for p in sorted(out_dir.rglob("*"))
-        if p.is_file() and p.name != "manifest.json" and p.parent.name not in ("image_2", "velodyne", "images")
+        if p.is_file()
+        and p.name != "manifest.json"
+        and p.parent.name not in ("image_2", "velodyne", "images")
+        and RESUME_DIR not in p.relative_to(out_dir).parts
     }
     manifest = {
         "scenario": asdict(scenario),
         "seed": scenario.seed,
         "network_file": str(xodr),
+        "complete": complete,
         "frames": summary.frames,
         "objects_per_frame": summary.objects / max(summary.frames, 1),
         "scene_cuts": summary.scene_cuts,

@@ -52,17 +52,25 @@ class TrafficFeed(Protocol):
 class TrafficInline(ClosedOnExit):
     """SUMO in this process, stepped in line with the frames."""
 
-    def __init__(self, net_path: Path, scenario: Scenario, radius_m: float, clock: StageClock = NO_CLOCK) -> None:
+    def __init__(
+        self, net_path: Path, scenario: Scenario, radius_m: float, clock: StageClock = NO_CLOCK, skip_frames: int = 0
+    ) -> None:
         from cosim.traffic import Traffic
         from networks.world import load_net
 
         self._traffic = Traffic(net_path, load_net(net_path), scenario)
-        self._radius_m, self._clock = radius_m, clock
+        self._radius_m, self._clock, self._skip = radius_m, clock, skip_frames
         self._closed = False
 
     def warm_up(self) -> list[str]:
+        """The warm-up, then the frames to skip: simulated as for the frames handed out
+        (world states read, track ids given), so the next frame is the one a run without
+        skipping would make."""
         self._traffic.warm_up()
         self._traffic.watch_near_ego(self._radius_m)
+        for _ in range(self._skip):
+            self._traffic.step()
+            self._traffic.world_state().near(self._radius_m)
         return list(self._traffic.notices)
 
     def next(self) -> WorldState:
@@ -88,17 +96,20 @@ class TrafficJob:
     net_path: Path
     scenario: Scenario
     radius_m: float
+    skip_frames: int = 0
 
 
 class TrafficProcess(ClosedOnExit):
     """SUMO in a traffic process that computes each frame's world state one frame ahead.
     With a ``clock``: "sumo wait" here, the process's own stage times on ``close``."""
 
-    def __init__(self, net_path: Path, scenario: Scenario, radius_m: float, clock: StageClock = NO_CLOCK) -> None:
+    def __init__(
+        self, net_path: Path, scenario: Scenario, radius_m: float, clock: StageClock = NO_CLOCK, skip_frames: int = 0
+    ) -> None:
         self._link = Link("cosim.traffic_feed:serve", "traffic process", TrafficError)
         self._clock = clock
-        self._left = scenario.frames
-        self._link.send(Start(TrafficJob(net_path, scenario, radius_m), is_timing(clock)))
+        self._left = scenario.frames - skip_frames
+        self._link.send(Start(TrafficJob(net_path, scenario, radius_m, skip_frames), is_timing(clock)))
 
     def warm_up(self) -> list[str]:
         notices = list(self._link.expect(Ready).notices)
@@ -137,7 +148,9 @@ def serve(inbox: Connection, outbox: Connection) -> None:  # runs in the traffic
         nonlocal feed
         start: Start[TrafficJob] = inbox.recv()
         job, times = start.job, StageTimes()
-        feed = TrafficInline(job.net_path, job.scenario, job.radius_m, times if start.timed else NO_CLOCK)
+        feed = TrafficInline(
+            job.net_path, job.scenario, job.radius_m, times if start.timed else NO_CLOCK, job.skip_frames
+        )
         outbox.send(Ready(tuple(feed.warm_up())))
         message = inbox.recv()
         while isinstance(message, Go):

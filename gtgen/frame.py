@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 from gtgen.labels import FrameLabels
 from networks.geometry import SE3
@@ -17,7 +18,8 @@ class FrameRecord:
     """One frame: the ego's pose, every sensor's output in rig order, and the labels (one
     :class:`~gtgen.labels.CameraLabels` per camera, in the order of :attr:`cameras`).
     ``scene_cut``: the ego was put back at the start of a route before this frame (it ran
-    out of road): this frame starts a new scene."""
+    out of road): this frame starts a new scene. ``checkpoint``: what the frame loop needs to
+    continue after this frame (plain JSON data, kept by the run's resume file)."""
 
     frame_index: int
     timestamp_ns: int
@@ -25,6 +27,7 @@ class FrameRecord:
     sensors: tuple[SensorOutput, ...]
     labels: FrameLabels
     scene_cut: bool = False
+    checkpoint: Mapping[str, object] = field(default_factory=dict)
 
     @property
     def lidars(self) -> tuple[LidarOutput, ...]:

@@ -7,6 +7,7 @@ the label boxes) and ``camera_<frame>.png`` (the image with tight and projected 
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -136,7 +137,8 @@ def write_summary(out_dir: Path, picture_frames: int = 3) -> pd.DataFrame:
     """Write ``out_dir/summary`` from ``labels.csv`` and ``run.mcap``; return the class table."""
     labels = load_labels(out_dir / "labels.csv")
     folder = out_dir / "summary"
-    folder.mkdir(exist_ok=True)
+    shutil.rmtree(folder, ignore_errors=True)  # an earlier summary (of an interrupted run) goes
+    folder.mkdir()
     stats = class_stats(labels)
     stats.to_csv(folder / "stats.csv", index=False, float_format="%.3f")
     plot_summary(labels, folder)

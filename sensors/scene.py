@@ -38,11 +38,24 @@ class StaticCrop:
         c = np.asarray(center_xy_m, dtype=np.float64)[:2]
         if self._center is not None and np.linalg.norm(c - self._center) <= self._slack:
             return self._crop
+        self.restore(c)
+        return self._crop
+
+    @property
+    def center_xy_m(self) -> tuple[float, float] | None:
+        """The centre of the current crop (None before the first)."""
+        return None if self._center is None else (float(self._center[0]), float(self._center[1]))
+
+    def restore(self, center_xy_m: npt.ArrayLike | None) -> None:
+        """Crop around ``center_xy_m`` (a crop's centre kept from an earlier run; None: no crop yet)."""
+        if center_xy_m is None:
+            self._center, self._crop = None, self._mesh
+            return
+        c = np.asarray(center_xy_m, dtype=np.float64)[:2]
         reach = self._radius + self._slack + self._tri_radius
         keep = np.linalg.norm(self._centroid_xy - c, axis=1) <= reach
         self._center = c
         self._crop = ClassedMesh(self._mesh.vertices_m, self._mesh.triangles[keep], self._mesh.triangle_class[keep])
-        return self._crop
 
 
 class FrameScene:

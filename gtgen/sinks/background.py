@@ -10,7 +10,8 @@ hands a slot back once its frame is written. The child runs a
 line, raised as :class:`~gtgen.errors.SinkError` from the parent's next ``write`` or
 ``close``. The child is a new interpreter (:mod:`gtgen.child`: never a fork of a process
 running Open3D's threads) in its own session, so Ctrl-C reaches only the parent, which then
-aborts it. If the parent dies, the child sees its pipe close and discards its partial files.
+aborts it. If the parent dies (killed), the child sees its pipe close and closes the sinks with
+the frames written so far (a run that continues takes them back).
 The messages are those of :mod:`gtgen.channel`.
 """
 
@@ -186,6 +187,9 @@ def serve(frames_rx: Connection, acks_tx: Connection) -> None:  # runs in the wr
         group = SinkGroup.open(start.job, times if start.timed else NO_CLOCK, announce=False)
         try:
             work(group, times)
+        except EOFError:  # the parent died (killed): keep every frame written, in readable files
+            group.close()
+            raise
         except BaseException:
             group.abort()
             raise

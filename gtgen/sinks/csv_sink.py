@@ -1,20 +1,44 @@
-"""``labels.csv``: one row per labelled object and frame (columns in :mod:`gtgen.table`)."""
+"""``labels.csv``: one row per labelled object and frame (columns in :mod:`gtgen.table`).
+
+Each frame's rows reach the file when the frame is written (the file is flushed), so an
+interrupted run's rows are on disk. A run that continues an earlier one keeps the header
+and the rows of the frames it keeps.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.sinks.images import FrameImages
 from gtgen.table import COLUMNS, format_rows, label_table, table_columns
 
 
+def rows_of_frames(text: str, keep_frames: int) -> tuple[str, bool]:
+    """The header and the rows of frames ``0 .. keep_frames - 1`` of a labels.csv text (the
+    frame is the first column; a last line without its newline is dropped); whether it had a header."""
+    lines = [line for line in text.splitlines(keepends=True) if line.endswith("\n")]
+    if not lines:
+        return "", False
+    rows = [line for line in lines[1:] if int(line.split(",", 1)[0]) < keep_frames]
+    return lines[0] + "".join(rows), True
+
+
 class CsvSink:
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, keep_frames: int = 0) -> None:
         self._path = path
         self._partial = path.with_name(path.name + ".partial")
-        self._file = self._partial.open("w", encoding="utf-8", newline="\n")
-        self._header_written = False
+        kept, self._header_written = "", False
+        if keep_frames > 0:
+            source = self._partial if self._partial.exists() else path
+            if source.exists():
+                kept, self._header_written = rows_of_frames(source.read_text(encoding="utf-8"), keep_frames)
+        try:
+            self._file = self._partial.open("w", encoding="utf-8", newline="\n")
+            self._file.write(kept)
+        except OSError as err:
+            raise SinkError(f"{self._partial}: cannot write: {err.strerror}") from err
 
     def encode(self, record: FrameRecord, images: FrameImages) -> str:
         rows = format_rows(label_table(record.labels))
@@ -25,7 +49,11 @@ class CsvSink:
         return text
 
     def write(self, encoded: str) -> None:
-        self._file.write(encoded)
+        try:
+            self._file.write(encoded)
+            self._file.flush()
+        except OSError as err:
+            raise SinkError(f"{self._partial}: cannot write: {err.strerror}") from err
 
     def close(self) -> None:
         if not self._header_written:

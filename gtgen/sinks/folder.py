@@ -1,4 +1,9 @@
-"""A dataset sub-folder written under ``<name>.partial`` and moved into place when complete."""
+"""A dataset sub-folder written under ``<name>.partial`` and moved into place when complete.
+
+A run that continues an earlier one (``keep_frames`` > 0) takes the folder back, from its
+partial or its final name, and removes every per-frame file (named by frame index,
+``000123.png``) of the frames it does not keep.
+"""
 
 from __future__ import annotations
 
@@ -8,14 +13,29 @@ from pathlib import Path
 from gtgen.errors import SinkError
 
 
+def frame_of(path: Path) -> int | None:
+    """The frame index a per-frame file is named by (``000123.txt`` -> 123), else None."""
+    return int(path.stem) if path.stem.isdigit() else None
+
+
 class PartialFolder:
-    def __init__(self, final: Path, subfolders: tuple[str, ...]) -> None:
+    def __init__(self, final: Path, subfolders: tuple[str, ...], keep_frames: int = 0) -> None:
         self.final = final
         self.partial = final.with_name(final.name + ".partial")
-        if self.partial.exists():
+        if keep_frames > 0:
+            self._take_back(keep_frames)
+        elif self.partial.exists():
             shutil.rmtree(self.partial)
         for sub in subfolders:
             (self.partial / sub).mkdir(parents=True, exist_ok=True)
+
+    def _take_back(self, keep_frames: int) -> None:
+        if not self.partial.exists() and self.final.exists():
+            self.final.replace(self.partial)
+        for path in self.partial.glob("*/*"):
+            frame = frame_of(path)
+            if frame is not None and frame >= keep_frames:
+                path.unlink()
 
     def write_files(self, files: dict[str, bytes]) -> None:
         """Write ``files`` (contents by path relative to the folder) under the partial folder."""
@@ -26,6 +46,14 @@ class PartialFolder:
             except OSError as err:
                 raise SinkError(f"{path}: cannot write: {err.strerror}") from err
 
+    def append_file(self, relative: str, data: bytes) -> None:
+        path = self.partial / relative
+        try:
+            with path.open("ab") as f:
+                f.write(data)
+        except OSError as err:
+            raise SinkError(f"{path}: cannot write: {err.strerror}") from err
+
     def commit(self) -> None:
         if self.final.exists():
             shutil.rmtree(self.final)
@@ -33,3 +61,11 @@ class PartialFolder:
 
     def discard(self) -> None:
         shutil.rmtree(self.partial, ignore_errors=True)
+
+
+def kept_lines(path: Path, count: int) -> str:
+    """The first ``count`` whole lines of a text file (none if it does not exist)."""
+    if not path.exists():
+        return ""
+    lines = path.read_text().splitlines(keepends=True)
+    return "".join(line for line in lines[:count] if line.endswith("\n"))

@@ -14,8 +14,10 @@ from gtgen.sinks.images import FrameImages
 from gtgen.sinks.kitti_sink import KittiSink
 from gtgen.sinks.live import LiveAddress, LiveSink
 from gtgen.sinks.mcap_sink import McapSink
+from gtgen.sinks.resume_sink import ResumeSink
 from gtgen.sinks.yolo_sink import YoloSink
 from gtgen.timing import NO_CLOCK, StageClock
+from networks.geometry import SE3
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,6 +32,9 @@ class SinkChoice:
     yolo_min_visible_px: int = 25
     map_world: Path | None = None  # a static world file (networks.world.read_world) for the MCAP's /map
     live: LiveAddress | None = None  # serve the MCAP's messages to Foxglove over a WebSocket
+    resume: bool = False  # keep .resume/states.jsonl, so that an interrupted run can continue
+    keep_frames: int = 0  # continue an earlier run: keep its first frames
+    first_map_SE3_ego: SE3 | None = None  # the earlier run's ego pose at frame 0 (for KITTI's poses)
 
     def partial_paths(self) -> list[Path]:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
@@ -38,16 +43,20 @@ class SinkChoice:
 
 
 def _open_one(choice: SinkChoice, kind: str) -> Sink:
+    out, keep = choice.out_dir, choice.keep_frames
     if kind == "mcap":
-        return McapSink(choice.out_dir / "run.mcap", choice.map_world)
+        return McapSink(out / "run.mcap", choice.map_world, keep)
     if kind == "live":
-        assert choice.live is not None
+        if choice.live is None:
+            raise ValueError("SinkChoice: no live address")
         return LiveSink(choice.live, choice.map_world)
     if kind == "csv":
-        return CsvSink(choice.out_dir / "labels.csv")
+        return CsvSink(out / "labels.csv", keep)
     if kind == "kitti":
-        return KittiSink(choice.out_dir / "kitti")
-    return YoloSink(choice.out_dir / "yolo", choice.yolo_min_visible_px)
+        return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego)
+    if kind == "resume":
+        return ResumeSink(out, keep)
+    return YoloSink(out / "yolo", choice.yolo_min_visible_px, keep)
 
 
 class SinkGroup(ClosedOnExit):
@@ -68,7 +77,7 @@ class SinkGroup(ClosedOnExit):
     def open(cls, choice: SinkChoice, clock: StageClock = NO_CLOCK, announce: bool = True) -> SinkGroup:
         """Open the chosen sinks; if one cannot be opened, those already open are aborted.
         With ``announce``, their notices go to stderr."""
-        kinds = [k for k in ("mcap", "csv", "kitti", "yolo", "live") if getattr(choice, k)]
+        kinds = [k for k in ("mcap", "csv", "kitti", "yolo", "live", "resume") if getattr(choice, k)]
         group = cls([], clock)
         try:
             for kind in kinds:

@@ -12,7 +12,9 @@ the 3D box in the camera frame.
 id of SemanticKITTI's label set in the low 16 bits, the track id (0 for the static world)
 in the high 16 bits. ``poses.txt`` has one line per frame, the camera's pose in the first
 frame's camera frame (3x4, row-major), and ``calib.txt`` the rig's P0..P3 and Tr (LiDAR to
-camera), so that ``kitti/`` reads as a SemanticKITTI sequence folder.
+camera), so that ``kitti/`` reads as a SemanticKITTI sequence folder. Both are written as the
+frames come, so an interrupted run's are complete; a run that continues an earlier one
+(``keep_frames``) keeps their first lines and needs the ego's pose at the first frame.
 """
 
 from __future__ import annotations
@@ -24,10 +26,12 @@ import numpy.typing as npt
 
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
-from gtgen.sinks.folder import PartialFolder
+from gtgen.sinks.folder import PartialFolder, kept_lines
 from gtgen.sinks.images import FrameImages
 from networks.classes import SemanticClass
 from networks.geometry import SE3
+
+POSE_LINE = "poses.txt+"  # an encoded frame's line of poses.txt (appended, not a file of its own)
 
 KITTI_TYPES = {
     SemanticClass.CAR: "Car",
@@ -76,11 +80,15 @@ def _matrix_line(name: str, m: np.ndarray) -> str:
 
 
 class KittiSink:
-    def __init__(self, folder: Path) -> None:
-        self._folder = PartialFolder(folder, ("image_2", "velodyne", "label_2", "calib", "labels"))
+    def __init__(self, folder: Path, keep_frames: int = 0, first_map_SE3_ego: SE3 | None = None) -> None:
+        if keep_frames > 0 and first_map_SE3_ego is None:
+            raise SinkError("kitti: continuing a run needs the ego's pose at its first frame")
+        self._folder = PartialFolder(folder, ("image_2", "velodyne", "label_2", "calib", "labels"), keep_frames)
+        self._first_map_SE3_ego = first_map_SE3_ego
         self._first_map_SE3_cam: SE3 | None = None
-        self._calib = ""
-        self._poses: list[str] = []
+        poses = kept_lines(self._folder.partial / "poses.txt", keep_frames)
+        self._folder.write_files({"poses.txt": poses.encode()})
+        self._calib_written = keep_frames > 0 and (self._folder.partial / "calib.txt").exists()
 
     def encode(self, record: FrameRecord, images: FrameImages) -> dict[str, bytes]:
         """The frame's files, by path relative to the ``kitti`` folder."""
@@ -99,21 +107,28 @@ class KittiSink:
                   _matrix_line("Tr_imu_to_velo", lidar_SE3_ego.as_matrix()[:3])]  # fmt: skip
         map_SE3_cam = record.map_SE3_ego.compose(camera.spec.ego_SE3_sensor)
         if self._first_map_SE3_cam is None:
-            self._first_map_SE3_cam = map_SE3_cam
-            self._calib = "\n".join(sequence_calib) + "\n"
+            first = record.map_SE3_ego if self._first_map_SE3_ego is None else self._first_map_SE3_ego
+            self._first_map_SE3_cam = first.compose(camera.spec.ego_SE3_sensor)
         pose = self._first_map_SE3_cam.inverse().compose(map_SE3_cam).as_matrix()[:3]
-        self._poses.append(" ".join(f"{v:.12e}" for v in pose.ravel()) + "\n")
         point_labels = semantic_kitti_labels(lidar.scan.semantic_class, lidar.scan.instance_id).astype("<u4")
-        return {
+        files = {
             f"image_2/{name}.png": images.png(0),
             f"velodyne/{name}.bin": points.tobytes(),
             f"labels/{name}.label": point_labels.tobytes(),
             f"label_2/{name}.txt": self._labels(record, cam_SE3_ego, cam_labels).encode(),
             f"calib/{name}.txt": ("\n".join(lines) + "\n").encode(),
+            POSE_LINE: (" ".join(f"{v:.12e}" for v in pose.ravel()) + "\n").encode(),
         }
+        if not self._calib_written:
+            self._calib_written = True
+            files["calib.txt"] = ("\n".join(sequence_calib) + "\n").encode()
+        return files
 
     def write(self, encoded: dict[str, bytes]) -> None:
-        self._folder.write_files(encoded)
+        files = dict(encoded)
+        pose = files.pop(POSE_LINE)
+        self._folder.write_files(files)
+        self._folder.append_file("poses.txt", pose)
 
     @staticmethod
     def _labels(record: FrameRecord, cam_SE3_ego, cam_labels) -> str:  # type: ignore[no-untyped-def]
@@ -138,7 +153,8 @@ class KittiSink:
         return "".join(r + "\n" for r in rows)
 
     def close(self) -> None:
-        self._folder.write_files({"poses.txt": "".join(self._poses).encode(), "calib.txt": self._calib.encode()})
+        if not self._calib_written:
+            self._folder.write_files({"calib.txt": b""})
         self._folder.commit()
 
     def abort(self) -> None:

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import json
 import math
+import struct
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,10 +25,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+from mcap.exceptions import McapError
+from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 from mcap_protobuf.schema import build_file_descriptor_set
 
+from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.sinks import foxglove as fx
 from gtgen.sinks.images import FrameImages
@@ -37,6 +43,7 @@ from networks.world import read_world
 from sensors.sensor import SensorOutput
 
 MAP_TOPIC = "/map"
+LABELS_TOPIC = "/gt/labels"
 LAYOUT_FILE = "foxglove_layout.json"
 
 LABELS_SCHEMA = {
@@ -125,7 +132,7 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
         out.append((f"{base}/calibration", fx.calibration(ns, camera)))
         out.append((f"{base}/annotations", fx.image_annotations(ns, record.labels, cam_labels)))
     out.append(("/gt/boxes", fx.box_update(ns, record.labels)))
-    out.append(("/gt/labels", labels_json(record)))
+    out.append((LABELS_TOPIC, labels_json(record)))
     return out
 
 
@@ -137,19 +144,78 @@ def labels_json(record: FrameRecord) -> dict[str, Any]:
             "objects": objects}  # fmt: skip
 
 
+def readable_records(path: Path) -> Iterator[Schema | Channel | Message]:
+    """The schemas, channels and messages of an MCAP file in file order, as far as it can be
+    read: a file cut short (a killed run) gives those of its complete chunks."""
+    with path.open("rb") as stream:
+        try:
+            for record in StreamReader(stream, skip_magic=False).records:
+                if isinstance(record, Schema | Channel | Message):
+                    yield record
+        except (McapError, struct.error, ValueError, RuntimeError):  # a record cut short (lz4 says RuntimeError)
+            return
+
+
+def complete_frames(path: Path) -> int:
+    """How many frames an MCAP file written by :class:`McapSink` holds whole (a frame's label
+    table is its last message)."""
+    topics: dict[int, str] = {}
+    frames = 0
+    for record in readable_records(path):
+        if isinstance(record, Channel):
+            topics[record.id] = record.topic
+        elif isinstance(record, Message) and topics.get(record.channel_id) == LABELS_TOPIC:
+            frames += 1
+    return frames
+
+
 class McapSink:
     """``run.mcap``; with ``map_world`` (a static world file), the static map goes on
-    ``/map`` once, at the first frame's time."""
+    ``/map`` once, at the first frame's time. A run that continues an earlier one
+    (``keep_frames``) copies the messages of the frames it keeps from the earlier file."""
 
-    def __init__(self, path: Path, map_world: Path | None = None) -> None:
+    def __init__(self, path: Path, map_world: Path | None = None, keep_frames: int = 0) -> None:
         self._path = path
-        self._map_world = map_world
+        self._map_world = map_world if keep_frames == 0 else None
         self._layout = ""  # foxglove_layout.json beside the MCAP, written on close
         self._partial = path.with_name(path.name + ".partial")
+        source = self._earlier_file() if keep_frames > 0 else None
         self._stream = self._partial.open("wb")
         self._writer = McapWriter(self._stream, compression=CompressionType.LZ4)
         self._writer.start(profile="", library="sumo-dataset-factory")
         self._channels: dict[str, int] = {}
+        if source is not None:
+            self._copy(source, keep_frames)
+            source.unlink()
+
+    def _earlier_file(self) -> Path | None:
+        """The earlier run's file, moved aside to be copied from."""
+        earlier = self._partial if self._partial.exists() else self._path
+        if not earlier.exists():
+            return None
+        aside = self._path.with_name(self._path.name + ".earlier")
+        earlier.replace(aside)
+        return aside
+
+    def _copy(self, source: Path, keep_frames: int) -> None:
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        times: list[int] = []
+        for record in readable_records(source):
+            if isinstance(record, Schema):
+                schemas[record.id] = self._writer.register_schema(record.name, record.encoding, record.data)
+            elif isinstance(record, Channel):
+                channel = self._writer.register_channel(record.topic, record.message_encoding,
+                                                        schemas.get(record.schema_id, 0))  # fmt: skip
+                channels[record.id] = self._channels[record.topic] = channel
+            elif isinstance(record, Message):
+                if not times or times[-1] != record.log_time:
+                    times.append(record.log_time)
+                if len(times) > keep_frames:
+                    break
+                self._writer.add_message(channels[record.channel_id], log_time=record.log_time, data=record.data,
+                                         publish_time=record.publish_time)  # fmt: skip
+        self._stream.flush()
 
     def _channel(self, message: McapMessage) -> int:
         channel = self._channels.get(message.topic)
@@ -171,8 +237,12 @@ class McapSink:
 
     def write(self, encoded: McapFrame) -> None:
         ns = encoded.timestamp_ns
-        for message in encoded.messages:
-            self._writer.add_message(self._channel(message), log_time=ns, data=message.data, publish_time=ns)
+        try:
+            for message in encoded.messages:
+                self._writer.add_message(self._channel(message), log_time=ns, data=message.data, publish_time=ns)
+            self._stream.flush()  # the frame's complete chunks reach the file: a killed run keeps them
+        except OSError as err:
+            raise SinkError(f"{self._partial}: cannot write: {err.strerror}") from err
 
     def close(self) -> None:
         self._writer.finish()

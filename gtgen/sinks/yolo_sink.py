@@ -26,8 +26,8 @@ for _i, _c in enumerate(YOLO_CLASSES):
 
 
 class YoloSink:
-    def __init__(self, folder: Path, min_visible_px: int) -> None:
-        self._folder = PartialFolder(folder, ("images", "labels"))
+    def __init__(self, folder: Path, min_visible_px: int, keep_frames: int = 0) -> None:
+        self._folder = PartialFolder(folder, ("images", "labels"), keep_frames)
         self._min_visible_px = min_visible_px
 
     def encode(self, record: FrameRecord, images: FrameImages) -> dict[str, bytes]:

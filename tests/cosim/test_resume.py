@@ -1,0 +1,99 @@
+"""Runs that survive: a run stopped by Ctrl-C, SIGTERM or kill -9 keeps its frames, and
+``--resume`` continues it to the same data as a run never stopped."""
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from cosim.errors import CosimError
+from cosim.resume import AlreadyCompleteError, begin, resume_point
+from cosim.scenario import load_scenario
+from gtgen.compare import compare_datasets
+from gtgen.load import load_labels
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+TINY = str(DATA / "tiny.yaml")
+
+
+def start(out: Path, frames: int, *extra: str) -> subprocess.Popen[str]:
+    cmd = [sys.executable, "-m", "cosim", "run", TINY, "--frames", str(frames), "--out", str(out), "--no-progress",
+           *extra]  # fmt: skip
+    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def stop_after(proc: subprocess.Popen[str], out: Path, frames: int, sig: int) -> tuple[float, str]:
+    """Send ``sig`` once ``frames`` frames are on disk; the seconds until it exits, and its stderr."""
+    states = out / ".resume" / "states.jsonl"
+    deadline = time.monotonic() + 240
+    while proc.poll() is None and time.monotonic() < deadline:
+        if states.exists() and states.read_text().count("\n") >= frames:
+            break
+        time.sleep(0.05)
+    sent = time.monotonic()
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    return time.monotonic() - sent, err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("sig", "code", "word"), [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "stopped")]
+)
+def test_a_stopped_run_keeps_every_frame_it_wrote_in_every_output(tmp_path, sig, code, word):
+    out = tmp_path / "out"
+    proc = start(out, 2000)
+    seconds, err = stop_after(proc, out, 25, sig)
+    assert proc.returncode == code and seconds < 10
+    line = err.strip().splitlines()[-1]
+    manifest = json.loads((out / "manifest.json").read_text())
+    kept = manifest["frames"]
+    assert manifest["complete"] is False and kept >= 25
+    assert line.startswith(f"{word}") and f"keeps frames 0 to {kept - 1}" in line and "--resume" in line
+    with (out / "run.mcap").open("rb") as stream:  # closed properly: the seeking reader reads its summary
+        times = {m.log_time for _, _, m in make_reader(stream).iter_messages(topics=["/gt/labels"])}
+    assert len(times) == kept
+    assert load_labels(out / "labels.csv")["frame"].nunique() == kept
+    for folder, ext in (("kitti/label_2", "txt"), ("kitti/velodyne", "bin"), ("yolo/images", "jpg")):
+        assert len(list((out / folder).glob(f"*.{ext}"))) == kept, folder
+    assert (out / "summary" / "stats.csv").exists()
+    assert not list(out.glob("*.partial"))
+
+
+@pytest.mark.slow
+def test_kill_9_then_resume_gives_the_data_of_a_run_never_stopped(tmp_path):
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    proc = start(killed, 120, "--no-summary")
+    stop_after(proc, killed, 60, signal.SIGKILL)
+    time.sleep(1.0)  # the writer process closes the files it holds
+    assert not (killed / "manifest.json").exists()
+    subprocess.run([sys.executable, "-m", "cosim", "run", TINY, "--frames", "120", "--out", str(whole),
+                    "--no-progress", "--no-summary"], check=True, capture_output=True)  # fmt: skip
+    resumed = subprocess.run([sys.executable, "-m", "cosim", "run", TINY, "--frames", "120", "--out", str(killed),
+                              "--no-progress", "--no-summary", "--resume"], capture_output=True, text=True)  # fmt: skip
+    assert resumed.returncode == 0, resumed.stderr
+    assert (killed / "labels.csv").read_bytes() == (whole / "labels.csv").read_bytes()
+    result = compare_datasets(whole, killed)
+    assert result.same, result.differences[:5]
+    assert json.loads((killed / "manifest.json").read_text())["complete"] is True
+    assert not (killed / ".resume").exists()
+
+
+def test_resuming_a_complete_dataset_or_another_scenario_says_so(tmp_path):
+    scenario = load_scenario(TINY)
+    (tmp_path / "manifest.json").write_text(json.dumps({"complete": True, "frames": scenario.frames}))
+    with pytest.raises(AlreadyCompleteError, match="complete already"):
+        resume_point(tmp_path, scenario)
+    (tmp_path / "manifest.json").unlink()
+    begin(tmp_path, scenario)
+    other = load_scenario(TINY, ["seed=9", "traffic.pedestrians=3"])
+    with pytest.raises(CosimError, match=r"another scenario \(seed, traffic.pedestrians differ\)"):
+        resume_point(tmp_path, other)
+    assert resume_point(tmp_path, load_scenario(TINY, ["frames=50"])) is None  # nothing kept yet: start afresh
+    with pytest.raises(CosimError, match="no interrupted run to continue here"):
+        resume_point(tmp_path / "empty", scenario)
