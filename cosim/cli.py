@@ -107,12 +107,25 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     jobs = plan(args.scenario, out_root, args.density, args.vehicles, args.seed, overrides)
     out_root.mkdir(parents=True, exist_ok=True)
 
+    print(f"sweep: {len(jobs)} runs into {out_root}/", flush=True)
+    done: list[SweepResult] = []
+
     def report(result: SweepResult) -> None:
+        done.append(result)
+        write_table(done, out_root / "sweep.csv")  # the table so far: a stopped sweep has one too
         status = f"error: {result.error}" if result.error else f"{result.seen_per_frame:.1f} seen objects/frame"
+        if not result.error and result.kept_frames == result.frames:
+            status = "complete before, skipped"
+        elif not result.error and result.kept_frames:
+            status += f", continued from frame {result.kept_frames}"
         print(f"{result.name}: {result.frames} frames in {result.seconds:.0f} s, {status}", flush=True)
 
-    print(f"sweep: {len(jobs)} runs into {out_root}/", flush=True)
-    results = run_dask(jobs, args.scheduler, report) if args.scheduler else run_local(jobs, args.workers, report)
+    try:
+        results = run_dask(jobs, args.scheduler, report) if args.scheduler else run_local(jobs, args.workers, report)
+    except KeyboardInterrupt:
+        print("interrupted; each run keeps the frames it wrote: start the same sweep again to continue",
+              file=sys.stderr)  # fmt: skip
+        return 130
     write_table(results, out_root / "sweep.csv")
     failed = [r for r in results if r.error]
     print(f"wrote {out_root}/sweep.csv ({len(results) - len(failed)} runs done, {len(failed)} failed)")

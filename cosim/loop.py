@@ -6,7 +6,9 @@ import contextlib
 import hashlib
 import json
 import shutil
+import signal
 import sys
+import threading
 from collections import Counter
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field, replace
@@ -186,8 +188,10 @@ def run(
     choice = sink_choice(scenario, out_dir, prepared.world.path, point)
     loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, summary, out_dir, progress, one_process, probe)
     stopped: BaseException | None = None
+    held: Handlers = {}
     with partials_removed_on_error(out_dir), open_sinks(choice, one_process, probe) as sinks:
         (out_dir / "manifest.json").unlink(missing_ok=True)  # only once every output has opened
+        shutil.rmtree(out_dir / "summary", ignore_errors=True)  # it would describe an earlier run
         if point is None:
             begin(out_dir, scenario)
         try:
@@ -196,12 +200,32 @@ def run(
             if summary.frames == 0:
                 raise
             stopped = err  # every output is closed with the frames written so far
-    probe.frame_done(scenario.frames)
-    write_manifest(scenario, out_dir, summary, prepared.xodr_path, complete=stopped is None)
+            held = hold_interrupts()  # a second Ctrl-C must not cut the closing short
+    try:
+        probe.frame_done(scenario.frames)
+        write_manifest(scenario, out_dir, summary, prepared.xodr_path, complete=stopped is None)
+    finally:
+        if stopped is not None:
+            release_interrupts(held)
     if stopped is not None:
         raise run_stopped(stopped, out_dir, summary.frames) from stopped
     finish(out_dir)
     return summary
+
+
+Handlers = dict[int, Any]
+
+
+def hold_interrupts() -> Handlers:
+    """Ignore SIGINT and SIGTERM (in the main thread) while a stopped run closes its files."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    return {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+
+def release_interrupts(held: Handlers) -> None:
+    for sig, handler in held.items():
+        signal.signal(sig, handler)
 
 
 @dataclass(slots=True)
@@ -348,6 +372,7 @@ def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr:
         "complete": complete,
         "frames": summary.frames,
         "objects_per_frame": summary.objects / max(summary.frames, 1),
+        "seen_per_frame": summary.seen / max(summary.frames, 1),
         "scene_cuts": summary.scene_cuts,
         "versions": versions,
         "files_sha256": files,

@@ -42,9 +42,10 @@ class ResumePoint:
     first_map_SE3_ego: SE3
 
 
-def scenario_identity(scenario: Scenario) -> dict[str, Any]:
-    """The scenario as plain data, without the keys a continuation may change."""
-    data = json.loads(json.dumps(asdict(scenario), default=str))
+def scenario_identity(scenario: Scenario | dict[str, Any]) -> dict[str, Any]:
+    """The scenario (or its plain data, as in manifest.json) without the keys a continuation
+    may change."""
+    data = json.loads(json.dumps(asdict(scenario) if isinstance(scenario, Scenario) else scenario, default=str))
     for key in FREE_KEYS:
         *parents, leaf = key.split(".")
         node = data
@@ -64,6 +65,17 @@ def begin(out_dir: Path, scenario: Scenario) -> None:
 def finish(out_dir: Path) -> None:
     """The run is complete: nothing is left to continue."""
     shutil.rmtree(out_dir / RESUME_DIR, ignore_errors=True)
+
+
+def complete_run(out_dir: Path, scenario: Scenario) -> dict[str, Any] | None:
+    """The manifest of a complete dataset of this scenario with all its frames in ``out_dir``, else None."""
+    path = out_dir / "manifest.json"
+    if not path.exists():
+        return None
+    manifest: dict[str, Any] = json.loads(path.read_text())
+    same = scenario_identity(manifest.get("scenario", {})) == scenario_identity(scenario)
+    whole = manifest.get("complete", True) and manifest.get("frames") == scenario.frames
+    return manifest if same and whole else None
 
 
 def _differences(a: Any, b: Any, prefix: str = "") -> list[str]:

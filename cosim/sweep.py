@@ -1,25 +1,38 @@
 """Sweeps: one scenario over traffic densities (or vehicle counts) and seeds.
 
-Each run is a separate process (libsumo runs one simulation per process): a local process
-pool by default, or the workers of a Dask cluster given its scheduler address. Every run
-writes a complete dataset under ``<out>/<run name>/``; ``<out>/sweep.csv`` gets one row per
-run (its settings, frames, objects per frame, seconds, and the error if it failed).
+Each run is a separate process (libsumo runs one simulation per process): local processes
+by default, or the workers of a Dask cluster given its scheduler address. Every run writes a
+complete dataset under ``<out>/<run name>/``; ``<out>/sweep.csv`` gets one row per run (its
+settings, frames, objects per frame, seconds, the frames kept from an earlier attempt, the
+attempts, and the error if it failed), rewritten as runs finish.
+
+A sweep started again over the same folder skips the runs that are complete, continues the
+ones that were stopped (``--resume`` of each), and runs the rest. A run whose process dies
+(killed, out of memory) is tried once more, continuing from what it kept, before its row says
+it failed.
 """
 
 from __future__ import annotations
 
 import csv
 import itertools
+import json
 import multiprocessing
+import os
+import signal
 import time
 from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
+from multiprocessing.connection import Connection, wait
+from multiprocessing.process import BaseProcess
 from pathlib import Path
 from typing import Any
 
 from cosim.errors import CosimError, ScenarioError
 from cosim.scenario import load_scenario
+from gtgen.errors import GtgenError
+from networks.errors import NetworkError
+from sensors.errors import SensorError
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,6 +57,8 @@ class SweepResult:
     seen_per_frame: float
     seconds: float
     error: str
+    kept_frames: int = 0  # frames kept from an earlier attempt (all of them: complete before)
+    attempts: int = 1
 
 
 def plan(
@@ -77,31 +92,123 @@ def plan(
     return jobs
 
 
-def run_job(job: SweepJob) -> SweepResult:
-    """Run one dataset (in a worker process); failures come back as a one-line error."""
+def run_job(job: SweepJob, attempt: int = 1) -> SweepResult:
+    """Run one dataset (in a worker process), or continue it, or report it complete; failures
+    come back as a one-line error."""
     from cosim.loop import run  # imported in the worker: libsumo and Open3D start there
+    from cosim.resume import AlreadyCompleteError, complete_run, resume_point
     from gtgen.summary import write_summary
 
-    start = time.perf_counter()
+    start, out = time.perf_counter(), Path(job.out_dir)
+    kept = 0
     try:
-        summary = run(load_scenario(job.scenario, list(job.overrides)), Path(job.out_dir), progress=False)
-        write_summary(Path(job.out_dir))
+        scenario = load_scenario(job.scenario, list(job.overrides))
+        if complete_run(out, scenario) is not None:
+            return _done_before(job, time.perf_counter() - start)
+        resume = (out / ".resume").exists()
+        if resume:
+            point = resume_point(out, scenario)
+            kept = 0 if point is None else point.frames
+        summary = run(scenario, out, progress=False, resume=resume)
+        write_summary(out)
+    except AlreadyCompleteError:
+        return _done_before(job, time.perf_counter() - start)
     except Exception as err:  # the sweep goes on; the row records what failed
-        return SweepResult(job.name, job.density, job.vehicles, job.seed, 0, 0.0, 0.0,
-                           time.perf_counter() - start, f"{type(err).__name__}: {err}".splitlines()[0])  # fmt: skip
+        return SweepResult(job.name, job.density, job.vehicles, job.seed, 0, 0.0, 0.0, time.perf_counter() - start,
+                           _error_line(err), kept, attempt)  # fmt: skip
     n = max(summary.frames, 1)
     return SweepResult(job.name, job.density, job.vehicles, job.seed, summary.frames, summary.objects / n,
-                       summary.seen / n, time.perf_counter() - start, "")  # fmt: skip
+                       summary.seen / n, time.perf_counter() - start, "", kept, attempt)  # fmt: skip
+
+
+def _done_before(job: SweepJob, seconds: float) -> SweepResult:
+    manifest = json.loads((Path(job.out_dir) / "manifest.json").read_text())
+    frames = int(manifest["frames"])
+    return SweepResult(job.name, job.density, job.vehicles, job.seed, frames, float(manifest["objects_per_frame"]),
+                       float(manifest.get("seen_per_frame", 0.0)), seconds, "", frames, 0)  # fmt: skip
+
+
+def _error_line(err: Exception) -> str:
+    from gtgen.crash import internal_error_line
+
+    if isinstance(err, CosimError | NetworkError | SensorError | GtgenError):
+        return str(err).splitlines()[0]
+    return internal_error_line(err, "the run")
+
+
+def _work(job: SweepJob, attempt: int, conn: Connection) -> None:  # runs in a worker process
+    conn.send(run_job(job, attempt))
+
+
+@dataclass(slots=True)
+class _Running:
+    job: SweepJob
+    attempt: int
+    process: BaseProcess
+    conn: Connection
 
 
 def run_local(jobs: list[SweepJob], workers: int, on_result: Callable[[SweepResult], None]) -> list[SweepResult]:
+    """Up to ``workers`` runs at once, each in a new process; a run whose process dies without
+    a result is tried once more. Ctrl-C stops the runs (each keeps its frames) and the sweep."""
     context = multiprocessing.get_context("spawn")
-    results = []
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context, max_tasks_per_child=1) as pool:
-        for result in pool.map(run_job, jobs):
-            on_result(result)
-            results.append(result)
-    return results
+    queue = [(job, 1) for job in jobs]
+    running: list[_Running] = []
+    results: dict[str, SweepResult] = {}
+    try:
+        while queue or running:
+            while queue and len(running) < workers:
+                job, attempt = queue.pop(0)
+                parent, child = context.Pipe(duplex=False)
+                process = context.Process(target=_work, args=(job, attempt, child), name=f"sweep-{job.name}")
+                process.start()
+                child.close()
+                running.append(_Running(job, attempt, process, parent))
+            ready = wait([r.process.sentinel for r in running] + [r.conn for r in running])
+            for r in [r for r in running if r.process.sentinel in ready or r.conn in ready]:
+                result = _collect(r)
+                running.remove(r)
+                if result is None and r.attempt == 1:
+                    queue.insert(0, (r.job, 2))  # died: once more, continuing from what it kept
+                    continue
+                result = result or _died(r)
+                results[r.job.name] = result
+                on_result(result)
+    except KeyboardInterrupt:
+        _stop(running)
+        raise
+    return [results[job.name] for job in jobs if job.name in results]
+
+
+def _collect(r: _Running) -> SweepResult | None:
+    """The run's result, once its process has sent it and ended (None: it died without one)."""
+    result: SweepResult | None = None
+    try:
+        if r.conn.poll(5.0):
+            result = r.conn.recv()
+    except (EOFError, OSError):
+        result = None
+    r.process.join()
+    r.conn.close()
+    return result
+
+
+def _died(r: _Running) -> SweepResult:
+    code = r.process.exitcode
+    line = f"the run's process died twice (last exit code {code}); it keeps what it wrote: sweep again to continue"
+    return SweepResult(r.job.name, r.job.density, r.job.vehicles, r.job.seed, 0, 0.0, 0.0, 0.0, line, 0, r.attempt)
+
+
+def _stop(running: list[_Running]) -> None:
+    """Ctrl-C for the runs too (as a terminal sends it): each closes its files with its frames."""
+    for r in running:
+        if r.process.pid is not None and r.process.is_alive():
+            os.kill(r.process.pid, signal.SIGINT)
+    for r in running:
+        r.process.join(60)
+        if r.process.is_alive():
+            r.process.kill()
+            r.process.join()
 
 
 def run_dask(jobs: list[SweepJob], scheduler: str, on_result: Callable[[SweepResult], None]) -> list[SweepResult]:
@@ -110,7 +217,7 @@ def run_dask(jobs: list[SweepJob], scheduler: str, on_result: Callable[[SweepRes
     except ImportError as err:
         raise CosimError("sweep --scheduler needs Dask: pip install 'sumo-dataset-factory[dask]'") from err
     with Client(scheduler) as client:
-        futures = client.map(run_job, jobs, pure=False)
+        futures = client.map(run_job, jobs, pure=False, retries=1)
         results = []
         for future in as_completed(futures):
             result = future.result()

@@ -1,6 +1,7 @@
 """Sweeps: one process per run, locally or on a Dask cluster."""
 
 import csv
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -46,3 +47,61 @@ def test_dask_sweep_runs_on_the_cluster_workers(tmp_path):
         results = run_dask(jobs, cluster.scheduler_address, lambda r: None)
     assert results[0].error == "" and results[0].frames == 4
     assert (tmp_path / jobs[0].name / "labels.csv").exists()
+
+
+def sweep_cmd(out: Path, seeds: list[int], frames: int = 40) -> list[str]:
+    overrides = [f"frames={frames}", "outputs.kitti=false", "outputs.yolo=false", "sensors.cameras=[]"]
+    return [sys.executable, "-m", "cosim", "sweep", TINY, "--seed", *map(str, seeds), "--workers", "1", "--out",
+            str(out)] + [a for o in overrides for a in ("--set", o)]  # fmt: skip
+
+
+def wait_for_frames(out: Path, frames: int, proc: subprocess.Popen) -> None:
+    import time
+
+    states = out / ".resume" / "states.jsonl"
+    deadline = time.monotonic() + 240
+    while proc.poll() is None and time.monotonic() < deadline:
+        if states.exists() and states.read_text().count("\n") >= frames:
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"{out}: no {frames} frames written")
+
+
+@pytest.mark.slow
+def test_a_sweep_stopped_in_its_third_run_and_started_again_redoes_only_the_third(tmp_path):
+    import signal
+
+    proc = subprocess.Popen(sweep_cmd(tmp_path, [1, 2, 3, 4]), cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    wait_for_frames(tmp_path / "tiny-s3", 10, proc)
+    proc.send_signal(signal.SIGINT)
+    proc.communicate(timeout=120)
+    assert proc.returncode == 130
+    first = {s: (tmp_path / f"tiny-s{s}" / "labels.csv").stat().st_mtime_ns for s in (1, 2)}
+    again = subprocess.run(sweep_cmd(tmp_path, [1, 2, 3, 4]), cwd=ROOT, capture_output=True, text=True, check=False)
+    assert again.returncode == 0, again.stderr
+    rows = {r["name"]: r for r in csv.DictReader((tmp_path / "sweep.csv").open())}
+    assert [rows[f"tiny-s{s}"]["error"] for s in (1, 2, 3, 4)] == [""] * 4
+    assert rows["tiny-s1"]["kept_frames"] == rows["tiny-s2"]["kept_frames"] == "40"  # complete: skipped
+    assert 0 < int(rows["tiny-s3"]["kept_frames"]) < 40 and rows["tiny-s4"]["kept_frames"] == "0"
+    assert {s: (tmp_path / f"tiny-s{s}" / "labels.csv").stat().st_mtime_ns for s in (1, 2)} == first
+    for s in (1, 2, 3, 4):
+        manifest = json.loads((tmp_path / f"tiny-s{s}" / "manifest.json").read_text())
+        assert manifest["complete"] is True and manifest["frames"] == 40
+
+
+@pytest.mark.slow
+def test_a_run_whose_process_dies_is_tried_once_more_and_continues(tmp_path):
+    import os
+    import signal
+
+    proc = subprocess.Popen(sweep_cmd(tmp_path, [5], frames=60), cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)  # fmt: skip
+    wait_for_frames(tmp_path / "tiny-s5", 20, proc)
+    workers = [int(p) for t in Path(f"/proc/{proc.pid}/task").glob("*/children") for p in t.read_text().split()]
+    worker = next(p for p in workers if b"spawn_main" in Path(f"/proc/{p}/cmdline").read_bytes())
+    os.kill(worker, signal.SIGKILL)
+    proc.communicate(timeout=240)
+    assert proc.returncode == 0
+    (row,) = csv.DictReader((tmp_path / "sweep.csv").open())
+    assert row["error"] == "" and row["attempts"] == "2" and int(row["kept_frames"]) >= 20
+    assert json.loads((tmp_path / "tiny-s5" / "manifest.json").read_text())["frames"] == 60
