@@ -10,7 +10,7 @@ import signal
 import sys
 import threading
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field, replace
 from importlib import metadata
 from pathlib import Path
@@ -47,6 +47,10 @@ class FrameSink(Protocol):
     def __enter__(self) -> FrameSink: ...
 
     def __exit__(self, kind: type[BaseException] | None, *_: object) -> None: ...
+
+    def ready(self) -> None:
+        """Wait until every output has opened (raises if one could not)."""
+        ...
 
     def write(self, record: FrameRecord) -> None: ...
 
@@ -133,10 +137,12 @@ def sink_choice(
     scenario: Scenario, out_dir: Path, map_world: Path | None = None, point: ResumePoint | None = None
 ) -> SinkChoice:
     """The run's outputs; with ``point``, those of a run that continues an earlier one."""
-    o = scenario.outputs
+    o, rig = scenario.outputs, scenario.sensors
     keep, first = (0, None) if point is None else (point.frames, point.first_map_SE3_ego)
+    sensors = tuple((kind, s.name) for kind, specs in (("lidar", rig.lidars), ("camera", rig.cameras),
+                                                       ("radar", rig.radars)) for s in specs)  # fmt: skip
     return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address,
-                      resume=True, keep_frames=keep, first_map_SE3_ego=first)  # fmt: skip
+                      sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first)  # fmt: skip
 
 
 def open_sinks(choice: SinkChoice, one_process: bool = False, clock: StageClock = NO_CLOCK) -> FrameSink:
@@ -189,13 +195,16 @@ def run(
     loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, summary, out_dir, progress, one_process, probe)
     stopped: BaseException | None = None
     held: Handlers = {}
-    with partials_removed_on_error(out_dir), open_sinks(choice, one_process, probe) as sinks:
-        (out_dir / "manifest.json").unlink(missing_ok=True)  # only once every output has opened
-        shutil.rmtree(out_dir / "summary", ignore_errors=True)  # it would describe an earlier run
+
+    def started() -> None:  # every output has opened: what describes an earlier run goes
+        (out_dir / "manifest.json").unlink(missing_ok=True)
+        shutil.rmtree(out_dir / "summary", ignore_errors=True)
         if point is None:
             begin(out_dir, scenario)
+
+    with partials_removed_on_error(out_dir), open_sinks(choice, one_process, probe) as sinks:
         try:
-            loop.frames(start, sinks)
+            loop.frames(start, sinks, started)
         except (KeyboardInterrupt, Terminated, TrafficError) as err:
             if summary.frames == 0:
                 raise
@@ -243,14 +252,17 @@ class FrameLoop:
     one_process: bool
     probe: FrameProbe
 
-    def frames(self, start: int, sinks: FrameSink) -> None:
+    def frames(self, start: int, sinks: FrameSink, started: Callable[[], None]) -> None:
         """Frames ``start`` .. the last: the traffic (simulated up to ``start`` first), sensed,
-        labelled, counted and handed to ``sinks`` with the loop's checkpoint."""
+        labelled, counted and handed to ``sinks`` with the loop's checkpoint. ``started`` runs
+        once the traffic has warmed up and every output has opened."""
         scenario, probe = self.scenario, self.probe
         radius_m = self.rig.reach_m + AGENT_MARGIN_M
         with open_traffic(self.net_path, scenario, radius_m, self.one_process, probe, start) as traffic:
             for notice in traffic.warm_up():
                 print(notice, file=sys.stderr)
+            sinks.ready()
+            started()
             bar = tqdm(range(start, scenario.frames), desc=scenario.name, unit="frame", disable=not self.progress,
                        file=sys.stderr, initial=start, total=scenario.frames)  # fmt: skip
             probe.frame_done(-1)

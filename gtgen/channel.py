@@ -9,7 +9,7 @@ any error into one :class:`Failed` line. The parent raises that line as its own 
 Parent to child: :class:`Start` (the job), then :class:`Go` (traffic: step one frame) or
 :class:`Slots`, :class:`Frame`, :class:`Inband` (writer: shared memory and frames), and
 :class:`Close` (finish, report stage times) or :class:`Abort` (stop, keep nothing).
-Child to parent: :class:`Ready`, :class:`Result`, :class:`Free`, :class:`Notice`,
+Child to parent: :class:`Ready`, :class:`Result`, :class:`Free`,
 :class:`Closed`, :class:`Failed`.
 """
 
@@ -98,13 +98,6 @@ class Free:
     """Slot ``slot`` may take the next frame."""
 
     slot: int
-
-
-@dataclass(frozen=True, slots=True)
-class Notice:
-    """A line for the user."""
-
-    line: str
 
 
 @dataclass(frozen=True, slots=True)

@@ -26,7 +26,7 @@ from multiprocessing import resource_tracker
 from multiprocessing.connection import Connection
 from multiprocessing.shared_memory import SharedMemory
 
-from gtgen.channel import Abort, Close, Closed, Frame, Free, Inband, Link, Notice, Slots, Start
+from gtgen.channel import Abort, Close, Closed, Frame, Free, Inband, Link, Ready, Slots, Start
 from gtgen.channel import serve as serve_child
 from gtgen.child import ABORT_WAIT_S
 from gtgen.errors import SinkError
@@ -56,7 +56,12 @@ class BackgroundSinks(ClosedOnExit):
         self._slots: list[SharedMemory] = []
         self._free: list[int] = []
         self._child_times: StageTimes | None = None
+        self._ready = False
         self._send(Start(choice, is_timing(clock)))
+
+    def ready(self) -> None:
+        """Wait until every sink has opened in the writer process (raises if one could not)."""
+        self._wait(lambda: self._ready)
 
     @property
     def pid(self) -> int:
@@ -127,8 +132,10 @@ class BackgroundSinks(ClosedOnExit):
     def _handle(self, message: object) -> None:
         if isinstance(message, Free):
             self._free.append(message.slot)
-        elif isinstance(message, Notice):
-            print(message.line, file=sys.stderr)
+        elif isinstance(message, Ready):
+            self._ready = True
+            for line in message.notices:
+                print(line, file=sys.stderr)
         elif isinstance(message, Closed):
             self._child_times = message.times
 
@@ -164,8 +171,7 @@ def serve(frames_rx: Connection, acks_tx: Connection) -> None:  # runs in the wr
 
     def work(group: SinkGroup, times: StageTimes) -> None:
         nonlocal slots
-        for line in group.notices:
-            acks_tx.send(Notice(line))
+        acks_tx.send(Ready(tuple(group.notices)))
         while True:
             message = frames_rx.recv()
             if isinstance(message, Slots):

@@ -32,6 +32,7 @@ class SinkChoice:
     yolo_min_visible_px: int = 25
     map_world: Path | None = None  # a static world file (networks.world.read_world) for the MCAP's /map
     live: LiveAddress | None = None  # serve the MCAP's messages to Foxglove over a WebSocket
+    sensors: tuple[tuple[str, str], ...] = ()  # the rig's (kind, name) pairs: the live view's channels
     resume: bool = False  # keep .resume/states.jsonl, so that an interrupted run can continue
     keep_frames: int = 0  # continue an earlier run: keep its first frames
     first_map_SE3_ego: SE3 | None = None  # the earlier run's ego pose at frame 0 (for KITTI's poses)
@@ -49,7 +50,7 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
     if kind == "live":
         if choice.live is None:
             raise ValueError("SinkChoice: no live address")
-        return LiveSink(choice.live, choice.map_world)
+        return LiveSink(choice.live, choice.map_world, choice.sensors)
     if kind == "csv":
         return CsvSink(out / "labels.csv", keep)
     if kind == "kitti":
@@ -89,6 +90,9 @@ class SinkGroup(ClosedOnExit):
             for line in group.notices:
                 print(line, file=sys.stderr)
         return group
+
+    def ready(self) -> None:
+        """Every sink is open (they open in the constructor)."""
 
     def write(self, record: FrameRecord) -> None:
         with self._clock.stage("encode"):

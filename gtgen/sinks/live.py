@@ -1,29 +1,47 @@
 """Live view: the MCAP's messages served over the Foxglove WebSocket protocol while a run
 writes its dataset. Open Foxglove, "Open connection", ``ws://127.0.0.1:8765``.
 
-It listens on 127.0.0.1 unless the address names another host; it serves the same topics
-and payloads as ``run.mcap`` (``/map`` again every ``MAP_REPEAT_FRAMES`` frames, for
-viewers that connect late) and writes nothing to disk. Frames go out as fast as they are
-made; a slow viewer drops messages, never the run.
+The protocol is Foxglove's WebSocket protocol v1, offered under both its names
+(``foxglove.websocket.v1``, which ``@foxglove/ws-protocol`` clients, Lichtblick and older
+Foxglove use, and ``foxglove.sdk.v1``, which the current Foxglove app uses). It listens on
+127.0.0.1 unless the address names another host; it serves the same topics and payloads as
+``run.mcap`` and writes nothing to disk. Every channel of the rig is advertised when the
+server starts, before frame 0, so a viewer connected early gets every frame; the static map
+goes to each subscriber of ``/map`` when it subscribes. Frames go out as fast as they are made:
+a viewer that falls behind loses its oldest messages, one that stops reading for
+``STALL_S`` seconds is disconnected, and closing never waits more than ``CLOSE_S`` seconds
+for a viewer: a viewer can lose messages, never delay or stop the run.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import asyncio
+import base64
+import contextlib
+import json
+import struct
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any
+
+from websockets.asyncio.server import Server, ServerConnection, serve
+from websockets.exceptions import ConnectionClosed
 
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.sinks.images import FrameImages
-from gtgen.sinks.mcap_sink import McapFrame, McapMessage, channel_schema, map_message, serialized_frame
-
-if TYPE_CHECKING:
-    import foxglove
+from gtgen.sinks.mcap_sink import MAP_TOPIC, McapFrame, channel_schema, map_message, planned_topics, serialized_frame
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
-MAP_REPEAT_FRAMES = 100
+SUBPROTOCOLS = ("foxglove.sdk.v1", "foxglove.websocket.v1")  # one protocol, two names
+QUEUE_MESSAGES = 256  # per viewer; the oldest are dropped beyond this
+STALL_S = 5.0  # a viewer that takes longer than this to take one message is disconnected
+CLOSE_S = 2.0
+MESSAGE_DATA = 1  # binary opcode: subscription id (uint32), log time (uint64), payload
 
 
 @dataclass(frozen=True, slots=True)
@@ -47,56 +65,177 @@ def parse_live_address(text: str) -> LiveAddress:
     return LiveAddress(host, int(port))
 
 
-class LiveSink:
-    """A Foxglove WebSocket server fed with every frame's messages."""
+@dataclass(eq=False, slots=True)
+class _Viewer:
+    connection: ServerConnection
+    channel_of: dict[int, int] = field(default_factory=dict)  # subscription id -> channel id
+    subscription_of: dict[int, int] = field(default_factory=dict)  # channel id -> subscription id
+    data: deque[bytes] = field(default_factory=lambda: deque(maxlen=QUEUE_MESSAGES))
+    control: deque[str] = field(default_factory=deque)
+    pending: asyncio.Event = field(default_factory=asyncio.Event)
 
-    def __init__(self, address: LiveAddress, map_world: Path | None = None) -> None:
-        import foxglove  # the WebSocket server starts only when a live view is asked for
 
-        self._foxglove = foxglove
-        self._context = foxglove.Context()
+def _message_data(subscription: int, log_time_ns: int, payload: bytes) -> bytes:
+    return struct.pack("<BIQ", MESSAGE_DATA, subscription, log_time_ns) + payload
+
+
+class FoxgloveServer:
+    """The Foxglove WebSocket protocol server, on an event loop in a thread of its own. Its
+    methods may be called from any thread and never wait for a viewer."""
+
+    def __init__(self, host: str, port: int, name: str = "sumo-dataset-factory") -> None:
+        self._loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._loop.run_forever, name="live-view", daemon=True)
+        self._thread.start()
+        self._name, self._session = name, str(time.time_ns())
+        self._viewers: set[_Viewer] = set()
+        self._channels: dict[int, dict[str, Any]] = {}
+        self._latched: dict[int, tuple[int, bytes]] = {}  # channel id -> the message a new subscriber gets
         try:
-            self._server = foxglove.start_server(
-                name="sumo-dataset-factory", host=address.host, port=address.port, context=self._context
-            )
-        except Exception as err:  # the SDK raises its own errors for a busy port or a bad host
-            raise SinkError(f"live view: cannot listen on {address}: {err}") from err
-        self.host = address.host
-        self.port = int(self._server.port)
+            self._server: Server = asyncio.run_coroutine_threadsafe(self._start(host, port), self._loop).result(10)
+        except BaseException:
+            self._stop_loop()
+            raise
+        self.port = int(self._server.sockets[0].getsockname()[1])
+
+    async def _start(self, host: str, port: int) -> Server:
+        return await serve(self._serve, host, port, subprotocols=list(SUBPROTOCOLS), ping_interval=None,  # type: ignore[arg-type]
+                           max_size=1 << 20, write_limit=1 << 20, close_timeout=CLOSE_S)  # fmt: skip
+
+    # --- any thread ---------------------------------------------------------------------------
+    def advertise(self, channel_id: int, topic: str, proto: type | None) -> None:
+        schema = channel_schema(proto)
+        text = base64.b64encode(schema.data).decode() if schema.encoding == "protobuf" else schema.data.decode()
+        channel = {"id": channel_id, "topic": topic, "encoding": schema.message_encoding,
+                   "schemaName": schema.name, "schema": text, "schemaEncoding": schema.encoding}  # fmt: skip
+        self._loop.call_soon_threadsafe(self._advertise, channel)
+
+    def publish(self, channel_id: int, log_time_ns: int, payload: bytes, latch: bool = False) -> None:
+        """Send to the channel's subscribers; with ``latch``, to every later subscriber too."""
+        self._loop.call_soon_threadsafe(self._publish, channel_id, log_time_ns, payload, latch)
+
+    def close(self) -> None:
+        """Disconnect every viewer (waiting at most ``CLOSE_S`` seconds) and stop."""
+        with contextlib.suppress(TimeoutError, RuntimeError):  # a viewer that will not close is left behind
+            asyncio.run_coroutine_threadsafe(self._close(), self._loop).result(CLOSE_S + 1.0)
+        self._stop_loop()
+
+    def _stop_loop(self) -> None:
+        self._loop.call_soon_threadsafe(self._loop.stop)
+        self._thread.join(CLOSE_S)
+
+    # --- the event loop's thread ----------------------------------------------------------------
+    def _advertise(self, channel: dict[str, Any]) -> None:
+        self._channels[channel["id"]] = channel
+        for viewer in self._viewers:
+            self._send_control(viewer, {"op": "advertise", "channels": [channel]})
+
+    def _publish(self, channel_id: int, log_time_ns: int, payload: bytes, latch: bool) -> None:
+        if latch:
+            self._latched[channel_id] = (log_time_ns, payload)
+        for viewer in self._viewers:
+            subscription = viewer.subscription_of.get(channel_id)
+            if subscription is not None:
+                viewer.data.append(_message_data(subscription, log_time_ns, payload))
+                viewer.pending.set()
+
+    @staticmethod
+    def _send_control(viewer: _Viewer, message: dict[str, Any]) -> None:
+        viewer.control.append(json.dumps(message, separators=(",", ":")))
+        viewer.pending.set()
+
+    async def _serve(self, connection: ServerConnection) -> None:
+        viewer = _Viewer(connection)
+        self._send_control(viewer, {"op": "serverInfo", "name": self._name, "capabilities": [],
+                                    "supportedEncodings": [], "metadata": {}, "sessionId": self._session})  # fmt: skip
+        if self._channels:
+            self._send_control(viewer, {"op": "advertise", "channels": list(self._channels.values())})
+        self._viewers.add(viewer)
+        sender = asyncio.create_task(self._send(viewer))
+        try:
+            async for text in connection:
+                if isinstance(text, str):
+                    self._request(viewer, json.loads(text))
+        except (ConnectionClosed, ValueError):
+            pass
+        finally:
+            self._viewers.discard(viewer)
+            sender.cancel()
+
+    def _request(self, viewer: _Viewer, request: dict[str, Any]) -> None:
+        if request.get("op") == "subscribe":
+            for sub in request.get("subscriptions", []):
+                channel = int(sub["channelId"])
+                viewer.channel_of[int(sub["id"])], viewer.subscription_of[channel] = channel, int(sub["id"])
+                if channel in self._latched:
+                    log_time_ns, payload = self._latched[channel]
+                    viewer.data.append(_message_data(int(sub["id"]), log_time_ns, payload))
+                    viewer.pending.set()
+        elif request.get("op") == "unsubscribe":
+            for sub_id in request.get("subscriptionIds", []):
+                channel = viewer.channel_of.pop(int(sub_id), -1)
+                viewer.subscription_of.pop(channel, None)
+
+    async def _send(self, viewer: _Viewer) -> None:
+        """Hand the viewer its messages, control first; give up on a viewer that stalls."""
+        connection = viewer.connection
+        while True:
+            await viewer.pending.wait()
+            viewer.pending.clear()
+            while viewer.control or viewer.data:
+                message: str | bytes = viewer.control.popleft() if viewer.control else viewer.data.popleft()
+                try:
+                    await asyncio.wait_for(connection.send(message), STALL_S)
+                except (TimeoutError, ConnectionClosed):
+                    connection.transport.abort()
+                    return
+
+    async def _close(self) -> None:
+        self._server.close()
+        for viewer in list(self._viewers):
+            viewer.connection.transport.abort()
+        await asyncio.wait_for(self._server.wait_closed(), CLOSE_S)
+
+
+class LiveSink:
+    """A Foxglove WebSocket server fed with every frame's messages; ``sensors`` ((kind, name)
+    pairs of the rig) name the channels it advertises before the first frame."""
+
+    def __init__(
+        self, address: LiveAddress, map_world: Path | None = None, sensors: tuple[tuple[str, str], ...] = ()
+    ) -> None:
+        try:
+            self._server = FoxgloveServer(address.host, address.port)
+        except OSError as err:
+            reason = err.strerror or str(err)
+            raise SinkError(f"live view: cannot listen on {address}: {reason}") from err
+        self.host, self.port = address.host, self._server.port
         self._map_world = map_world
-        self._map: McapMessage | None = None
-        self._frames = 0
-        self._channels: dict[str, foxglove.Channel] = {}
+        self._channels: dict[str, int] = {}
+        for topic, proto in planned_topics(sensors, map_world is not None) if sensors else []:
+            self._channel(topic, proto)
+
+    def _channel(self, topic: str, proto: type | None) -> int:
+        channel = self._channels.get(topic)
+        if channel is None:
+            channel = self._channels[topic] = len(self._channels) + 1
+            self._server.advertise(channel, topic, proto)
+        return channel
 
     def encode(self, record: FrameRecord, images: FrameImages) -> McapFrame:
         frame = serialized_frame(record, images)
-        if self._map_world is not None and self._frames % MAP_REPEAT_FRAMES == 0:
-            if self._map is None:
-                self._map = map_message(self._map_world, record.timestamp_ns)
-            frame = McapFrame(frame.timestamp_ns, (self._map, *frame.messages))
-        self._frames += 1
+        if self._map_world is not None:
+            frame = McapFrame(frame.timestamp_ns, (map_message(self._map_world, record.timestamp_ns), *frame.messages))
+            self._map_world = None
         return frame
 
     def write(self, encoded: McapFrame) -> None:
         for message in encoded.messages:
-            self._channel(message).log(message.data, log_time=encoded.timestamp_ns)
-
-    def _channel(self, message: McapMessage) -> foxglove.Channel:
-        channel = self._channels.get(message.topic)
-        if channel is None:
-            fg, described = self._foxglove, channel_schema(message)
-            schema = fg.Schema(name=described.name, encoding=described.encoding, data=described.data)
-            channel = fg.Channel(message.topic, schema=schema, message_encoding=described.message_encoding,
-                                 context=self._context)  # fmt: skip
-            self._channels[message.topic] = channel
-        return channel
-
-    def watched_topics(self) -> set[str]:
-        """Topics some viewer subscribed to (among those advertised so far)."""
-        return {topic for topic, channel in self._channels.items() if channel.has_sinks()}
+            channel = self._channel(message.topic, message.proto)
+            self._server.publish(channel, encoded.timestamp_ns, message.data, latch=message.topic == MAP_TOPIC)
 
     def close(self) -> None:
-        self._server.stop()
+        self._server.close()
 
     def abort(self) -> None:
-        self._server.stop()
+        self._server.close()

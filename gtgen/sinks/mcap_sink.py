@@ -24,7 +24,12 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
+from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.exceptions import McapError
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
@@ -92,13 +97,13 @@ class ChannelSchema:
     message_encoding: str  # "protobuf" or "json"
 
 
-def channel_schema(message: McapMessage) -> ChannelSchema:
-    """The schema of a serialized message: its protobuf's file descriptors, or the labels'
-    JSON schema."""
-    if message.proto is None:
+def channel_schema(proto: type | None) -> ChannelSchema:
+    """The schema of a topic's messages: its protobuf's file descriptors, or (``None``) the
+    labels' JSON schema."""
+    if proto is None:
         return ChannelSchema("gt.FrameLabels", "jsonschema", json.dumps(LABELS_SCHEMA).encode(), "json")
-    descriptors = build_file_descriptor_set(message.proto).SerializeToString()
-    return ChannelSchema(message.proto.DESCRIPTOR.full_name, "protobuf", descriptors, "protobuf")  # type: ignore[attr-defined]
+    descriptors = build_file_descriptor_set(proto).SerializeToString()
+    return ChannelSchema(proto.DESCRIPTOR.full_name, "protobuf", descriptors, "protobuf")  # type: ignore[attr-defined]
 
 
 def _serialized(topic: str, message: Any) -> McapMessage:
@@ -134,6 +139,19 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
     out.append(("/gt/boxes", fx.box_update(ns, record.labels)))
     out.append((LABELS_TOPIC, labels_json(record)))
     return out
+
+
+def planned_topics(sensors: tuple[tuple[str, str], ...], with_map: bool) -> list[tuple[str, type | None]]:
+    """Every topic a run of a rig writes, with its protobuf class (None: JSON), known before its
+    first frame. ``sensors``: (kind, name) pairs of the rig. The same topics as :func:`frame_messages`."""
+    topics: list[tuple[str, type | None]] = [(MAP_TOPIC, SceneUpdate)] if with_map else []
+    topics.append(("/tf", FrameTransforms))
+    topics += [(f"/{name}", PointCloud) for kind, name in sensors if kind == "lidar"]
+    topics += [(f"/{name}", PointCloud) for kind, name in sensors if kind == "radar"]
+    for name in (name for kind, name in sensors if kind == "camera"):
+        topics += [(f"/{name}/{k}", CompressedImage) for k in ("image", "depth", "instance", "class")]
+        topics += [(f"/{name}/calibration", CameraCalibration), (f"/{name}/annotations", ImageAnnotations)]
+    return [*topics, ("/gt/boxes", SceneUpdate), (LABELS_TOPIC, None)]
 
 
 def labels_json(record: FrameRecord) -> dict[str, Any]:
@@ -220,7 +238,7 @@ class McapSink:
     def _channel(self, message: McapMessage) -> int:
         channel = self._channels.get(message.topic)
         if channel is None:
-            schema = channel_schema(message)
+            schema = channel_schema(message.proto)
             schema_id = self._writer.register_schema(schema.name, schema.encoding, schema.data)
             channel = self._writer.register_channel(message.topic, schema.message_encoding, schema_id)
             self._channels[message.topic] = channel

@@ -1,11 +1,14 @@
-"""The live view: a Foxglove WebSocket client sees the MCAP's channels and receives the
-same payloads as ``run.mcap``; a bad address or a busy port is one clear error."""
+"""The live view: a Foxglove WebSocket client (either protocol name) connected before the
+first frame sees every channel, receives frame 0 on every topic and the static map, the
+same payloads as ``run.mcap``; a viewer that never reads cannot hold the run up; a bad
+address or a busy port is one clear error."""
 
 import json
 import struct
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 from websockets.sync.client import connect
@@ -14,9 +17,20 @@ from gtgen.errors import SinkError
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.live import LiveAddress, LiveSink, parse_live_address
+from gtgen.sinks.mcap_sink import frame_messages, planned_topics
 
-SUBPROTOCOL = "foxglove.sdk.v1"
 MESSAGE_DATA = 1  # binary opcode: subscription id (uint32), log time (uint64), payload
+RIG = (("lidar", "lidar"), ("camera", "camera"), ("radar", "radar"))
+
+
+@pytest.fixture
+def world_file(tmp_path) -> Path:
+    """A static world file (one ground quad) for the /map channel."""
+    path = tmp_path / "world.npz"
+    np.savez_compressed(path, vertices_m=np.array([[0, 0, 0], [50, 0, 0], [50, 50, 0], [0, 50, 0]], np.float32),
+                        triangles=np.array([[0, 1, 2], [0, 2, 3]], np.int32), triangle_class=np.ones(2, np.uint8),
+                        bounds_m=np.array([0.0, 0.0, 50.0, 50.0]), num_buildings=0)  # fmt: skip
+    return path
 
 
 def test_addresses_parse_with_localhost_and_8765_by_default():
@@ -28,47 +42,86 @@ def test_addresses_parse_with_localhost_and_8765_by_default():
             parse_live_address(bad)
 
 
-def test_a_viewer_receives_every_topic_with_the_payloads_written_to_the_mcap(records, tmp_path):
-    live = LiveSink(LiveAddress("127.0.0.1", 0))
-    mcap = SinkGroup.open(SinkChoice(tmp_path, csv=False, kitti=False, yolo=False))
-    received: dict[str, tuple[int, bytes]] = {}
+def test_the_planned_topics_are_the_topics_of_a_frame(records):
+    planned = dict(planned_topics(RIG, with_map=False))
+    written = dict((topic, type(m) if not isinstance(m, dict) else None)
+                   for topic, m in frame_messages(records[0], FrameImages(records[0].cameras)))  # fmt: skip
+    assert planned == written
+
+
+@pytest.mark.parametrize("subprotocol", ["foxglove.websocket.v1", "foxglove.sdk.v1"])
+def test_a_viewer_connected_before_the_run_gets_frame_0_on_every_topic_and_the_map(
+    records, tmp_path, world_file, subprotocol
+):
+    live = LiveSink(LiveAddress("127.0.0.1", 0), world_file, RIG)
+    mcap = SinkGroup.open(SinkChoice(tmp_path, csv=False, kitti=False, yolo=False, map_world=world_file))
+    received: dict[str, list[tuple[int, bytes]]] = {}
     try:
-        with connect(f"ws://127.0.0.1:{live.port}", subprotocols=[SUBPROTOCOL], open_timeout=5) as ws:
-            mcap.write(records[0])
-            first = live.encode(records[0], FrameImages(records[0].cameras))
-            live.write(first)  # advertises every channel
-            topics = _advertised(ws, count=len({m.topic for m in first.messages}))
-            assert topics["/lidar"]["schemaName"] == "foxglove.PointCloud"
-            assert topics["/lidar"]["encoding"] == "protobuf"
+        with connect(f"ws://127.0.0.1:{live.port}", subprotocols=[subprotocol], open_timeout=5) as ws:
+            assert ws.subprotocol == subprotocol
+            topics = _advertised(ws, count=len(planned_topics(RIG, with_map=True)))
+            assert (
+                topics["/lidar"]["schemaName"] == "foxglove.PointCloud" and topics["/lidar"]["encoding"] == "protobuf"
+            )
             assert topics["/gt/labels"]["encoding"] == "json"
             by_subscription = dict(enumerate(topics))
             subscriptions = [{"id": i, "channelId": topics[t]["id"]} for i, t in by_subscription.items()]
             ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
-            deadline = time.monotonic() + 5.0
-            while live.watched_topics() != set(topics) and time.monotonic() < deadline:
-                time.sleep(0.02)
-            for record in records[1:]:
+            time.sleep(0.3)  # the subscription reaches the server before the run's first frame
+            for record in records:
                 mcap.write(record)
                 live.write(live.encode(record, FrameImages(record.cameras)))
             last_ns = records[-1].timestamp_ns
-            while len(received) < len(topics) or any(t != last_ns for t, _ in received.values()):
+            while len(received) < len(topics) or any(v[-1][0] != last_ns for t, v in received.items() if t != "/map"):
                 data = ws.recv(timeout=5)
                 if isinstance(data, bytes) and data[0] == MESSAGE_DATA:
                     subscription, log_time = struct.unpack_from("<IQ", data, 1)
-                    received[by_subscription[subscription]] = (log_time, data[13:])
+                    received.setdefault(by_subscription[subscription], []).append((log_time, data[13:]))
     finally:
         live.close()
         mcap.close()
-    last = _last_payloads(tmp_path / "run.mcap")
-    assert set(received) == set(last)
-    for topic, payload in last.items():
-        assert received[topic][1] == payload, topic
+    written = _payloads(tmp_path / "run.mcap")
+    assert set(received) == set(written)
+    for topic, messages in written.items():
+        assert received[topic] == messages, topic  # frame 0 included, each message once
+
+
+def test_a_late_subscriber_of_the_map_gets_it_when_it_subscribes(records, world_file):
+    live = LiveSink(LiveAddress("127.0.0.1", 0), world_file, RIG)
+    try:
+        live.write(live.encode(records[0], FrameImages(records[0].cameras)))
+        with connect(f"ws://127.0.0.1:{live.port}", subprotocols=["foxglove.websocket.v1"], open_timeout=5) as ws:
+            topics = _advertised(ws, count=len(planned_topics(RIG, with_map=True)))
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 7, "channelId": topics["/map"]["id"]}]}))
+            data = ws.recv(timeout=5)
+            while not isinstance(data, bytes):
+                data = ws.recv(timeout=5)
+            assert struct.unpack_from("<BIQ", data) == (MESSAGE_DATA, 7, records[0].timestamp_ns)
+    finally:
+        live.close()
+
+
+def test_a_viewer_that_never_reads_does_not_hold_the_run_up(record_maker):
+    big = record_maker(0, lidar_azimuth_steps=8192)
+    live = LiveSink(LiveAddress("127.0.0.1", 0), None, RIG)
+    with connect(f"ws://127.0.0.1:{live.port}", subprotocols=["foxglove.sdk.v1"], open_timeout=5, max_size=None,
+                 max_queue=1, close_timeout=0.5) as ws:  # fmt: skip
+        topics = _advertised(ws, count=len(planned_topics(RIG, with_map=False)))
+        subscriptions = [{"id": i, "channelId": c["id"]} for i, c in enumerate(topics.values())]
+        ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
+        time.sleep(0.3)
+        start = time.monotonic()
+        encoded = live.encode(big, FrameImages(big.cameras))
+        for _ in range(200):  # about 1 GB the viewer never takes
+            live.write(encoded)
+        live.close()
+        assert time.monotonic() - start < 5.0
 
 
 def test_a_busy_port_is_one_clear_error():
     first = LiveSink(LiveAddress("127.0.0.1", 0))
     try:
-        with pytest.raises(SinkError, match=rf"live view: cannot listen on 127\.0\.0\.1:{first.port}"):
+        with pytest.raises(SinkError, match=rf"live view: cannot listen on 127\.0\.0\.1:{first.port}: "):
             LiveSink(LiveAddress("127.0.0.1", first.port))
     finally:
         first.close()
@@ -84,6 +137,9 @@ def _advertised(ws, count: int) -> dict[str, dict]:
     return topics
 
 
-def _last_payloads(path: Path) -> dict[str, bytes]:
+def _payloads(path: Path) -> dict[str, list[tuple[int, bytes]]]:
+    out: dict[str, list[tuple[int, bytes]]] = {}
     with path.open("rb") as stream:
-        return {c.topic: m.data for _, c, m in make_reader(stream).iter_messages()}
+        for _, channel, message in make_reader(stream).iter_messages(log_time_order=False):
+            out.setdefault(channel.topic, []).append((message.log_time, message.data))
+    return out
