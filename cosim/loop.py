@@ -124,13 +124,34 @@ def sense_and_label(
     """Cast every sensor into one scene of this frame, then label what the rays saw."""
     map_SE3_ego = state.ego.map_SE3_ego()
     with probe.stage("scene"):
-        scene = FrameScene(crop.around(map_SE3_ego.translation), rig.agents_in_view(state.agents, map_SE3_ego))
+        static = crop.around(map_SE3_ego.translation)
+        state = on_raised_surfaces(state, crop)
+        scene = FrameScene(static, rig.agents_in_view(state.agents, map_SE3_ego))
     outputs = rig.sense(scene, state.ego, rng, probe)
     probe.scene(frame_index, scene, map_SE3_ego)
     with probe.stage("labels"):
         timestamp_ns = round(state.time_s * 1e9)
         labels = label_frame(frame_index, timestamp_ns, state.agents, state.ego, outputs, scene, rig.label_range_m)
     return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut)
+
+
+PERSON_STEP_UP_M = 0.5  # a pedestrian stands on the highest static surface this far above its lane
+
+
+def on_raised_surfaces(state: WorldState, crop: StaticCrop) -> WorldState:
+    """Pedestrians standing on the world's surfaces: SUMO gives them their lane's height, the
+    world raises sidewalks and walking areas by a curb (``crop`` lies around the ego)."""
+    agents = state.agents
+    people = np.flatnonzero(agents.semantic_class == int(SemanticClass.PEDESTRIAN))
+    if people.size == 0:
+        return state
+    bottom = agents.center_map_m[people, 2] - agents.lwh_m[people, 2] / 2.0
+    above = agents.center_map_m[people].copy()
+    above[:, 2] = bottom + PERSON_STEP_UP_M
+    surface = crop.surface_below(above, PERSON_STEP_UP_M + 0.05)
+    center = agents.center_map_m.copy()
+    center[people, 2] += np.where(np.isfinite(surface), surface - bottom, 0.0)
+    return replace(state, agents=replace(agents, center_map_m=center))
 
 
 def sink_choice(
@@ -142,7 +163,8 @@ def sink_choice(
     sensors = tuple((kind, s.name) for kind, specs in (("lidar", rig.lidars), ("camera", rig.cameras),
                                                        ("radar", rig.radars)) for s in specs)  # fmt: skip
     return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address,
-                      sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first)  # fmt: skip
+                      sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first,
+                      kitti_native_types=o.kitti_types == "native")  # fmt: skip
 
 
 def open_sinks(choice: SinkChoice, one_process: bool = False, clock: StageClock = NO_CLOCK) -> FrameSink:
@@ -180,6 +202,9 @@ def run(
     holds, and ends with the same data as a run that was never stopped."""
     point = resume_point(out_dir, scenario) if resume else None
     make_output_folder(out_dir)
+    if progress:
+        print(f"{scenario.name}: preparing the network and its world (made on first use, then cached)",
+              file=sys.stderr, flush=True)  # fmt: skip
     prepared = prepare_network(scenario)
     if prepared.notice:
         print(prepared.notice, file=sys.stderr)
@@ -258,6 +283,10 @@ class FrameLoop:
         once the traffic has warmed up and every output has opened."""
         scenario, probe = self.scenario, self.probe
         radius_m = self.rig.reach_m + AGENT_MARGIN_M
+        if self.progress:
+            again = f", then again up to frame {start}" if start else ""
+            print(f"{scenario.name}: warming up the traffic ({scenario.warmup_s:g} s simulated{again})",
+                  file=sys.stderr, flush=True)  # fmt: skip
         with open_traffic(self.net_path, scenario, radius_m, self.one_process, probe, start) as traffic:
             for notice in traffic.warm_up():
                 print(notice, file=sys.stderr)
@@ -377,10 +406,12 @@ def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr:
         and p.parent.name not in ("image_2", "velodyne", "images")
         and RESUME_DIR not in p.relative_to(out_dir).parts
     }
+    scenario_data = asdict(scenario)
+    scenario_data.pop("source_dir")  # where the scenario file was: not part of the dataset
     manifest = {
-        "scenario": asdict(scenario),
+        "scenario": scenario_data,
         "seed": scenario.seed,
-        "network_file": str(xodr),
+        "network_sha256": _sha256(xodr),  # the OpenDRIVE file driven (the town's, or the user's)
         "complete": complete,
         "frames": summary.frames,
         "objects_per_frame": summary.objects / max(summary.frames, 1),

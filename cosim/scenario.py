@@ -79,6 +79,7 @@ class OutputsConfig:
     kitti: bool = True
     yolo: bool = True
     yolo_min_visible_px: int = 25  # objects with fewer visible camera pixels get no YOLO box
+    kitti_types: Literal["kitti", "native"] = "kitti"  # KITTI's own type names, or the simulator's
     live: str | int = ""  # serve a live view on PORT, HOST:PORT or HOST ("" = none)
 
     def __post_init__(self) -> None:

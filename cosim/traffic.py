@@ -5,6 +5,7 @@ libsumo runs one simulation per process; parallel runs use separate processes.
 
 from __future__ import annotations
 
+import os
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,7 +29,7 @@ from cosim.net_index import index_net
 from cosim.parking import ParkingArea, additional_xml, find_parking_areas, lane_types
 from cosim.scenario import Scenario
 from cosim.state import WorldState
-from networks.cache import cache_dir, digest
+from networks.cache import cache_dir, digest, intact, seal, take_notices
 from networks.sumo_tools import sumo_binary, sumo_home
 from sensors.agents import Agents, EgoState
 
@@ -100,6 +101,7 @@ class Traffic:
         ]  # fmt: skip
         if self._parking:
             cmd += ["--additional-files", str(_write_parking(net_path, self._parking))]
+        self._cache_notices = take_notices()
         try:
             libsumo.start(cmd)
         except libsumo.TraCIException as err:
@@ -107,7 +109,7 @@ class Traffic:
         self._variants = self._define_types()
         traffic = scenario.traffic
         total = target_vehicle_count(traffic.vehicles_per_lane_km, self._index.vehicle_lane_km, traffic.vehicles)
-        self.notices: list[str] = []
+        self.notices: list[str] = list(self._cache_notices)
         self._targets = self._open_targets(split_by_mix(total, traffic.mix))
         self._pedestrians = traffic.pedestrians if self._index.walk_edges else 0
         if traffic.pedestrians and not self._index.walk_edges:
@@ -516,6 +518,9 @@ def _spread(items: list[str], count: int) -> list[str]:
 def _write_parking(net_path: Path, areas: list[ParkingArea]) -> Path:
     text = additional_xml(areas)
     path = cache_dir("parking", digest(net_path.read_bytes(), text)) / "parking.add.xml"
-    if not path.exists():
-        path.write_text(text)
+    if not intact(path):
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.partial")
+        tmp.write_text(text)
+        tmp.replace(path)
+        seal(path)
     return path

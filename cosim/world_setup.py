@@ -9,6 +9,7 @@ import sumolib
 
 from cosim.errors import ScenarioError
 from cosim.scenario import Scenario
+from networks.cache import take_notices
 from networks.convert import conversion_notice, import_opendrive
 from networks.towns import TOWNS, town_names, town_opendrive
 from networks.world import StaticWorld, build_world, load_net
@@ -43,5 +44,6 @@ def prepare_network(scenario: Scenario) -> PreparedNetwork:
         msg = f"{source}: network: unknown town {scenario.network!r} (known: {known}; or a path to an .xodr file)"
         raise ScenarioError(msg)
     net_path = import_opendrive(xodr)
-    notice = "\n".join(n for n in (notice, conversion_notice(net_path)) if n)
-    return PreparedNetwork(xodr, net_path, build_world(net_path), notice)
+    world = build_world(net_path)
+    notices = [notice, *take_notices(), conversion_notice(net_path)]
+    return PreparedNetwork(xodr, net_path, world, "\n".join(n for n in notices if n))

@@ -38,10 +38,79 @@ def cache_dir(kind: str, key: str) -> Path:
 @contextmanager
 def scratch_dir(folder: Path) -> Iterator[Path]:
     """A private folder inside a cache folder for one writer's partial files (several
-    processes may fill the same cache entry at once); removed afterwards. Finished files
-    are moved into ``folder`` with ``Path.replace``, which is atomic."""
-    scratch = Path(tempfile.mkdtemp(prefix=".scratch-", dir=folder))
+    processes may fill the same cache entry at once); removed afterwards, or by the next
+    writer if its process was killed. Finished files are moved into ``folder`` with
+    ``Path.replace``, which is atomic."""
+    remove_stale_scratch(folder)
+    scratch = Path(tempfile.mkdtemp(prefix=f".scratch-{os.getpid()}-", dir=folder))
     try:
         yield scratch
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+# --- entries that are checked before use ------------------------------------------------------
+# A cached file gets a seal beside it (``<name>.sha256``: its size and SHA-256) once complete.
+# A file whose seal is missing or does not match (a truncated write, a damaged disk) is made
+# again, with a notice the run shows.
+_notices: list[str] = []
+
+
+def _seal_path(path: Path) -> Path:
+    return path.with_name(path.name + ".sha256")
+
+
+def file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def seal(path: Path) -> None:
+    """Mark a complete cached file as good (after it is in place)."""
+    tmp = _seal_path(path).with_suffix(f".{os.getpid()}.partial")
+    tmp.write_text(f"{path.stat().st_size} {file_sha256(path)}\n")
+    tmp.replace(_seal_path(path))
+
+
+def intact(path: Path) -> bool:
+    """Whether a cached file is there and matches its seal; a damaged one is removed, with a notice."""
+    if not path.exists():
+        return False
+    try:
+        size, sha = _seal_path(path).read_text().split()
+        good = path.stat().st_size == int(size) and file_sha256(path) == sha
+    except (OSError, ValueError):
+        good = False
+    if not good:
+        _notices.append(f"note: {path}: the cached file was damaged or incomplete; it is made again")
+        path.unlink(missing_ok=True)
+        _seal_path(path).unlink(missing_ok=True)
+    return good
+
+
+def take_notices() -> list[str]:
+    """The notices of cache entries made again since the last call."""
+    out = list(_notices)
+    _notices.clear()
+    return out
+
+
+def remove_stale_scratch(folder: Path) -> None:
+    """Remove scratch folders whose writer process is gone (killed while it wrote)."""
+    for scratch in folder.glob(".scratch-*"):
+        pid = scratch.name.split("-")[1]
+        if pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True

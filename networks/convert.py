@@ -9,12 +9,12 @@ from xml.etree import ElementTree
 
 import shapely
 
-from networks.cache import cache_dir, digest, scratch_dir
+from networks.cache import cache_dir, digest, intact, scratch_dir, seal
 from networks.errors import NetconvertError, NetworkError
 from networks.sumo_tools import sumo_binary
 from networks.world import lane_footprint, load_net
 
-CONVERT_VERSION = "4"
+CONVERT_VERSION = "5"
 
 # Sidewalks and crossings for pedestrians, smooth lane shapes, z kept from the file.
 IMPORT_OPTIONS: tuple[str, ...] = (
@@ -85,7 +85,7 @@ def import_opendrive(xodr_path: Path) -> Path:
     key = digest(CONVERT_VERSION, data, LANE_TYPES_XML, *IMPORT_OPTIONS)
     folder = cache_dir("nets", f"{xodr_path.stem}-{key}")
     net = folder / "net.net.xml"
-    if net.exists():
+    if intact(net):
         return net
     with scratch_dir(folder) as scratch:
         types = scratch / "lanes.typ.xml"
@@ -118,8 +118,17 @@ def import_opendrive(xodr_path: Path) -> Path:
                     "but read as right-hand traffic its sidewalks lay on the driving lanes)"
                 )
         (scratch / "netconvert.log").replace(folder / "netconvert.log")
+        _drop_header_comment(partial)
         partial.replace(net)
+    seal(net)
     return net
+
+
+def _drop_header_comment(net_path: Path) -> None:
+    """Remove netconvert's header comment (its options, with this run's scratch paths), so the
+    file, and every cache key made from it, depends on the network only."""
+    text = net_path.read_text(encoding="utf-8")
+    net_path.write_text(re.sub(r"<!--.*?-->\s*", "", text, count=1, flags=re.DOTALL), encoding="utf-8")
 
 
 def conversion_notice(net_path: Path) -> str:

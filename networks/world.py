@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,12 +21,12 @@ import sumolib
 from shapely.geometry import LineString, Point, Polygon, box
 from shapely.prepared import prep
 
-from networks.cache import cache_dir, digest
+from networks.cache import cache_dir, digest, intact, seal
 from networks.classes import SemanticClass
 from networks.errors import NetworkError
 from networks.mesh import ClassedMesh, box_mesh, draped_polygon, flat_polygon, merge, prism, raised_polygon, ribbon
 
-WORLD_VERSION = "9"
+WORLD_VERSION = "10"
 CURB_HEIGHT_M = 0.15
 CURB_WALL_M = CURB_HEIGHT_M + 0.15  # curbs reach below the road and the terrain: no ray slips under a sidewalk
 ROAD_SKIRT_M = 0.15  # below a road's outer edges, deeper than the terrain lies under it
@@ -58,7 +59,7 @@ def read_world(path: Path) -> StaticWorld:
             mesh = ClassedMesh(data["vertices_m"], data["triangles"], data["triangle_class"])
             bounds = tuple(float(v) for v in data["bounds_m"].tolist())
             return StaticWorld(mesh, bounds, int(data["num_buildings"]), path)  # type: ignore[arg-type]
-    except (OSError, KeyError, ValueError) as err:
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as err:
         raise NetworkError(f"{path}: not a readable world file ({err})") from err
 
 
@@ -74,7 +75,7 @@ def build_world(net_path: Path, seed: int = 0, props: bool = True) -> StaticWorl
     street lights and trees along the sidewalks."""
     key = digest(WORLD_VERSION, net_path.read_bytes(), str(seed), str(props))
     cached = cache_dir("worlds", key) / "world.npz"
-    if cached.exists():
+    if intact(cached):
         return read_world(cached)
     world = _build(load_net(net_path), seed, props)
     tmp = cached.with_suffix(f".{os.getpid()}.partial.npz")  # one per process: others may write it too
@@ -87,6 +88,7 @@ def build_world(net_path: Path, seed: int = 0, props: bool = True) -> StaticWorl
         num_buildings=world.num_buildings,
     )
     tmp.replace(cached)
+    seal(cached)
     return dataclasses.replace(world, path=cached)
 
 

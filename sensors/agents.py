@@ -258,19 +258,27 @@ TEMPLATES: dict[int, MeshTemplate] = {
 """Template mesh per agent class; other classes are drawn as their box."""
 
 
+AGENT_LIFT_M = 0.03
+"""Agents' meshes stand this far above the bottom of their box (the road): a clearance no
+sensor resolves, which keeps every return off the road out of every box and every return of
+an agent inside its box, under strict point-in-box tests of the exported labels."""
+
+
 def agent_meshes(agents: Agents, templates: dict[int, MeshTemplate] | None = None) -> AgentMeshes:
-    """All agents' template meshes, scaled to their l/w/h and posed; one pass per class."""
+    """All agents' template meshes, scaled to their l/w/h (less :data:`AGENT_LIFT_M` at the
+    bottom) and posed; one pass per class."""
     table = TEMPLATES if templates is None else templates
     rotations = agents.rotations()
+    mesh_center = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
+    mesh_lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
     verts, tris, inst, cls = [], [], [], []
     offset = 0
     for c in np.unique(agents.semantic_class):
         mask = agents.semantic_class == c
         group, template = agents.select(mask), table.get(int(c), BOX_TEMPLATE)
         n, v, t = len(group), template.unit_vertices.shape[0], template.triangles.shape[0]
-        verts.append(
-            place_in_boxes(template.unit_vertices, group.center_map_m, group.lwh_m, rotations[mask]).reshape(-1, 3)
-        )
+        posed = place_in_boxes(template.unit_vertices, mesh_center[mask], mesh_lwh[mask], rotations[mask])
+        verts.append(posed.reshape(-1, 3))
         tris.append(
             (template.triangles[None] + offset + v * np.arange(n, dtype=np.int32)[:, None, None]).reshape(-1, 3)
         )

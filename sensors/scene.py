@@ -33,6 +33,7 @@ class StaticCrop:
         self._slack = slack_m
         self._center: npt.NDArray[np.float64] | None = None
         self._crop = mesh
+        self._surfaces: Any = None  # the crop's own scene, for surface_below, made when first asked
 
     def around(self, center_xy_m: npt.ArrayLike) -> ClassedMesh:
         c = np.asarray(center_xy_m, dtype=np.float64)[:2]
@@ -46,8 +47,23 @@ class StaticCrop:
         """The centre of the current crop (None before the first)."""
         return None if self._center is None else (float(self._center[0]), float(self._center[1]))
 
+    def surface_below(self, xyz_m: npt.NDArray[np.float64], reach_m: float) -> npt.NDArray[np.float64]:
+        """``(N,)`` height of the first static surface straight below each point, looking at
+        most ``reach_m`` down (NaN: nothing there); the points lie within the current crop."""
+        if self._surfaces is None:
+            self._surfaces = RaycastingScene()
+            crop = self._crop
+            if crop.triangles.shape[0]:
+                self._surfaces.add_triangles(o3c.Tensor.from_numpy(np.ascontiguousarray(crop.vertices_m, np.float32)),
+                                             o3c.Tensor.from_numpy(crop.triangles.astype(np.uint32)))  # fmt: skip
+        rays = np.zeros((xyz_m.shape[0], 6), np.float32)
+        rays[:, :3], rays[:, 5] = xyz_m, -1.0
+        t_hit = self._surfaces.cast_rays(o3c.Tensor.from_numpy(rays))["t_hit"].numpy().astype(np.float64)
+        return np.where(t_hit <= reach_m, xyz_m[:, 2] - t_hit, np.nan)
+
     def restore(self, center_xy_m: npt.ArrayLike | None) -> None:
         """Crop around ``center_xy_m`` (a crop's centre kept from an earlier run; None: no crop yet)."""
+        self._surfaces = None  # the crop's own scene, for surface_below, made when first asked
         if center_xy_m is None:
             self._center, self._crop = None, self._mesh
             return

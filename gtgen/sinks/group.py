@@ -36,6 +36,7 @@ class SinkChoice:
     resume: bool = False  # keep .resume/states.jsonl, so that an interrupted run can continue
     keep_frames: int = 0  # continue an earlier run: keep its first frames
     first_map_SE3_ego: SE3 | None = None  # the earlier run's ego pose at frame 0 (for KITTI's poses)
+    kitti_native_types: bool = False  # KITTI labels with the simulator's class names
 
     def partial_paths(self) -> list[Path]:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
@@ -54,7 +55,7 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
     if kind == "csv":
         return CsvSink(out / "labels.csv", keep)
     if kind == "kitti":
-        return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego)
+        return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego, choice.kitti_native_types)
     if kind == "resume":
         return ResumeSink(out, keep)
     return YoloSink(out / "yolo", choice.yolo_min_visible_px, keep)

@@ -26,6 +26,7 @@ import numpy.typing as npt
 
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
+from gtgen.labels import CameraLabels
 from gtgen.sinks.folder import PartialFolder, kept_lines
 from gtgen.sinks.images import FrameImages
 from networks.classes import SemanticClass
@@ -33,14 +34,22 @@ from networks.geometry import SE3
 
 POSE_LINE = "poses.txt+"  # an encoded frame's line of poses.txt (appended, not a file of its own)
 
+# KITTI's own types (Car, Van, Truck, Pedestrian, Person_sitting, Cyclist, Tram, Misc,
+# DontCare): two-wheelers with their rider are Cyclist, a bus is Misc (KITTI's "other
+# vehicles"). ``native``: the simulator's class names instead.
 KITTI_TYPES = {
     SemanticClass.CAR: "Car",
     SemanticClass.TRUCK: "Truck",
-    SemanticClass.BUS: "Bus",
-    SemanticClass.MOTORCYCLE: "Motorcycle",
+    SemanticClass.BUS: "Misc",
+    SemanticClass.MOTORCYCLE: "Cyclist",
     SemanticClass.BICYCLE: "Cyclist",
     SemanticClass.PEDESTRIAN: "Pedestrian",
 }
+NATIVE_TYPES = {cls: cls.label.capitalize() for cls in KITTI_TYPES}
+KITTI_MARGIN_M = 0.015
+"""A KITTI box is the object's box grown by this on each side, and lifted by it off the road
+(agents' meshes stand higher, see ``sensors.agents.AGENT_LIFT_M``): a strict point-in-box
+test of a label finds exactly the object's LiDAR points."""
 
 
 # Our classes as SemanticKITTI's label ids (its semantic-kitti.yaml): bicycles and
@@ -80,7 +89,10 @@ def _matrix_line(name: str, m: np.ndarray) -> str:
 
 
 class KittiSink:
-    def __init__(self, folder: Path, keep_frames: int = 0, first_map_SE3_ego: SE3 | None = None) -> None:
+    def __init__(
+        self, folder: Path, keep_frames: int = 0, first_map_SE3_ego: SE3 | None = None, native_types: bool = False
+    ) -> None:
+        self._types = NATIVE_TYPES if native_types else KITTI_TYPES
         if keep_frames > 0 and first_map_SE3_ego is None:
             raise SinkError("kitti: continuing a run needs the ego's pose at its first frame")
         self._folder = PartialFolder(folder, ("image_2", "velodyne", "label_2", "calib", "labels"), keep_frames)
@@ -115,7 +127,7 @@ class KittiSink:
             f"image_2/{name}.png": images.png(0),
             f"velodyne/{name}.bin": points.tobytes(),
             f"labels/{name}.label": point_labels.tobytes(),
-            f"label_2/{name}.txt": self._labels(record, cam_SE3_ego, cam_labels).encode(),
+            f"label_2/{name}.txt": self._labels(record, cam_SE3_ego, cam_labels, self._types).encode(),
             f"calib/{name}.txt": ("\n".join(lines) + "\n").encode(),
             POSE_LINE: (" ".join(f"{v:.12e}" for v in pose.ravel()) + "\n").encode(),
         }
@@ -131,24 +143,30 @@ class KittiSink:
         self._folder.append_file("poses.txt", pose)
 
     @staticmethod
-    def _labels(record: FrameRecord, cam_SE3_ego, cam_labels) -> str:  # type: ignore[no-untyped-def]
+    def _labels(
+        record: FrameRecord, cam_SE3_ego: SE3, cam_labels: CameraLabels, types: dict[SemanticClass, str]
+    ) -> str:
+        """One line per object the camera's image holds and a sensor saw. The 3D box (metres,
+        4 decimals) is grown by ``KITTI_MARGIN_M`` on every side and lifted by it; the 2D box,
+        truncation and alpha keep KITTI's 2 decimals."""
         labels, o = record.labels, record.labels.objects
-        bottom = o.center_ego_m - np.column_stack([np.zeros((len(o), 2)), o.lwh_m[:, 2] / 2])
-        location = cam_SE3_ego.transform_from(bottom)
+        lifted_bottom = o.lwh_m[:, 2] / 2 - KITTI_MARGIN_M
+        location = cam_SE3_ego.transform_from(o.center_ego_m - np.column_stack([np.zeros((len(o), 2)), lifted_bottom]))
+        dims = o.lwh_m + np.array([2 * KITTI_MARGIN_M, 2 * KITTI_MARGIN_M, 0.0])
         boxes = cam_labels.boxes
         rows = []
         for i in np.flatnonzero(np.isfinite(boxes.clipped_px[:, 0]) & labels.seen):
-            kitti_type = KITTI_TYPES.get(SemanticClass(int(o.semantic_class[i])))
+            kitti_type = types.get(SemanticClass(int(o.semantic_class[i])))
             if kitti_type is None:
                 continue
             left, top, right, bottom_px = boxes.clipped_px[i]
-            length, width, height = o.lwh_m[i]
+            length, width, height = dims[i]
             x, y, z = location[i]
             occluded = int(cam_labels.visibility.occluded[i])
             rows.append(
                 f"{kitti_type} {boxes.truncated[i]:.2f} {occluded} {boxes.alpha_rad[i]:.2f} "
-                f"{left:.2f} {top:.2f} {right:.2f} {bottom_px:.2f} {height:.2f} {width:.2f} {length:.2f} "
-                f"{x:.2f} {y:.2f} {z:.2f} {boxes.rotation_y_rad[i]:.2f}"
+                f"{left:.2f} {top:.2f} {right:.2f} {bottom_px:.2f} {height:.4f} {width:.4f} {length:.4f} "
+                f"{x:.4f} {y:.4f} {z:.4f} {boxes.rotation_y_rad[i]:.4f}"
             )
         return "".join(r + "\n" for r in rows)
 

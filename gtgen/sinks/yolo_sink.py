@@ -53,8 +53,8 @@ class YoloSink:
         self._folder.write_files(encoded)
 
     def close(self) -> None:
-        data = {"path": str(self._folder.final.resolve()), "train": "images", "val": "images",
-                "names": {i: c.label for i, c in enumerate(YOLO_CLASSES)}}  # fmt: skip
+        # No "path": YOLO tools then read "images" relative to this file's folder, wherever it is moved.
+        data = {"train": "images", "val": "images", "names": {i: c.label for i, c in enumerate(YOLO_CLASSES)}}
         (self._folder.partial / "data.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
         self._folder.commit()
 

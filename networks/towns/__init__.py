@@ -7,7 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from networks.cache import cache_dir, digest, scratch_dir
+from networks.cache import cache_dir, digest, intact, scratch_dir, seal
 from networks.plain import PlainNetwork, write_opendrive
 from networks.towns.grid import skeleton_town
 from networks.towns.town03 import town03
@@ -68,9 +68,10 @@ def town_opendrive(name: str, seed: int = 0) -> Path:
     key = digest(GENERATOR_VERSION, name, str(seed), network.nodes_xml(), network.edges_xml())
     folder = cache_dir("towns", f"{name}-{key}")
     xodr = folder / f"{name}.xodr"
-    if not xodr.exists():
+    if not intact(xodr):
         with scratch_dir(folder) as scratch:
             write_opendrive(network, scratch, scratch / xodr.name)
             for made in scratch.iterdir():
                 made.replace(folder / made.name)
+        seal(xodr)
     return xodr

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cosim.loop import AGENT_MARGIN_M, sense_and_label
+from cosim.loop import AGENT_MARGIN_M, on_raised_surfaces, sense_and_label
 from cosim.rig import build_rig
 from cosim.scenario import load_scenario
 from cosim.traffic import Traffic
@@ -36,6 +36,7 @@ def test_lidar_seen_flags_match_a_brute_force_cast_per_object():
             state = traffic.world_state().near(rig.reach_m + AGENT_MARGIN_M)
             record = sense_and_label(frame, state, crop, rig, rng)
             static = crop.around(state.ego.map_SE3_ego().translation)
+            state = on_raised_surfaces(state, crop)  # as the frame's scene has them
             rays = lidar.rays(state.ego.map_SE3_ego())
             nearest = FrameScene(static, state.agents).cast(rays).range_m
             for i, track_id in enumerate(record.labels.objects.track_id):

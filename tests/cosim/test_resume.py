@@ -97,3 +97,23 @@ def test_resuming_a_complete_dataset_or_another_scenario_says_so(tmp_path):
     assert resume_point(tmp_path, load_scenario(TINY, ["frames=50"])) is None  # nothing kept yet: start afresh
     with pytest.raises(CosimError, match="no interrupted run to continue here"):
         resume_point(tmp_path / "empty", scenario)
+
+
+@pytest.mark.slow
+def test_a_busy_live_port_stops_the_run_before_an_earlier_dataset_is_touched(tmp_path):
+    import socket
+
+    from cosim.loop import run
+    from gtgen.errors import SinkError
+
+    (tmp_path / "manifest.json").write_text('{"complete": true, "frames": 3}\n')
+    (tmp_path / "labels.csv").write_text("frame\n0\n")
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        with pytest.raises(SinkError, match=f"live view: cannot listen on 127.0.0.1:{port}"):
+            run(load_scenario(TINY, ["frames=3", f"outputs.live={port}"]), tmp_path, progress=False)
+    assert (tmp_path / "manifest.json").read_text() == '{"complete": true, "frames": 3}\n'
+    assert (tmp_path / "labels.csv").read_text() == "frame\n0\n"
+    assert not list(tmp_path.glob("*.partial"))

@@ -11,7 +11,7 @@ import yaml
 
 from gtgen.load import iter_messages, lidar_points, radar_points
 from gtgen.sinks.group import SinkChoice, SinkGroup
-from gtgen.sinks.kitti_sink import KITTI_TYPES, SEMANTIC_KITTI_LUT
+from gtgen.sinks.kitti_sink import KITTI_MARGIN_M, KITTI_TYPES, SEMANTIC_KITTI_LUT
 from gtgen.sinks.yolo_sink import YOLO_CLASSES
 from gtgen.table import label_table, table_columns
 from networks.classes import SemanticClass
@@ -49,11 +49,13 @@ def kitti_calib(path: Path) -> dict[str, np.ndarray]:
     return {k: np.array(v.split(), float) for k, v in (line.split(": ", 1) for line in path.read_text().splitlines())}
 
 
-def kitti_box_pixels(row: list[str], P2: np.ndarray) -> np.ndarray:
+def kitti_box_pixels(row: list[str], P2: np.ndarray, margin_m: float = 0.0) -> np.ndarray:
     """The 3D box of a KITTI label row projected with P2, as KITTI's devkit draws it: corners
-    around the bottom centre ``location``, turned by ``rotation_y`` about the camera's y axis."""
+    around the bottom centre ``location``, turned by ``rotation_y`` about the camera's y axis;
+    shrunk by ``margin_m`` on each side and lowered by it first."""
     h, w, length = (float(v) for v in row[8:11])
     x, y, z, ry = (float(v) for v in row[11:15])
+    w, length, y = w - 2 * margin_m, length - 2 * margin_m, y + margin_m
     cx = np.array([1, 1, -1, -1, 1, 1, -1, -1]) * length / 2
     cy = np.array([0, 0, 0, 0, -1, -1, -1, -1]) * h
     cz = np.array([1, -1, -1, 1, 1, -1, -1, 1]) * w / 2
@@ -78,8 +80,9 @@ def test_kitti_labels_read_back_as_the_seen_objects_and_their_boxes_project_onto
             assert row[0] == KITTI_TYPES[SemanticClass(int(objects.semantic_class[i]))]
             assert int(row[2]) == cam.visibility.occluded[i]
             np.testing.assert_allclose([float(v) for v in row[4:8]], cam.boxes.clipped_px[i], atol=0.006)
-            np.testing.assert_allclose([float(v) for v in row[8:11]], objects.lwh_m[i, [2, 1, 0]], atol=0.006)
-            uv = kitti_box_pixels(row, calib["P2"].reshape(3, 4))
+            grown = objects.lwh_m[i, [2, 1, 0]] + np.array([0.0, 2, 2]) * KITTI_MARGIN_M  # h, w, l
+            np.testing.assert_allclose([float(v) for v in row[8:11]], grown, atol=6e-5)
+            uv = kitti_box_pixels(row, calib["P2"].reshape(3, 4), KITTI_MARGIN_M)
             if float(row[1]) == 0.0:  # not truncated: the projected box is the 2D box
                 np.testing.assert_allclose([uv[0].min(), uv[1].min(), uv[0].max(), uv[1].max()],
                                            [float(v) for v in row[4:8]], atol=0.2)  # fmt: skip

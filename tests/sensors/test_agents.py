@@ -7,7 +7,7 @@ import pytest
 
 from networks.classes import AGENT_CLASSES, SemanticClass
 from networks.geometry import SE3
-from sensors.agents import TEMPLATES, Agents, agent_meshes
+from sensors.agents import AGENT_LIFT_M, TEMPLATES, Agents, agent_meshes
 from sensors.lidar import Lidar, LidarSpec
 from sensors.pinhole import box_corners
 from sensors.weather import DAY
@@ -63,11 +63,13 @@ def test_each_triangle_carries_its_agents_instance_and_class() -> None:
         assert np.sum(meshes.triangle_instance == inst) == TEMPLATES[cls].triangles.shape[0]
 
 
-def test_a_class_without_template_is_drawn_as_its_box(synth: SimpleNamespace) -> None:
+def test_a_class_without_template_is_drawn_as_its_box_standing_just_off_the_road(synth: SimpleNamespace) -> None:
     boxes = synth.agents([(5, SemanticClass.POLE, 1.0, 2.0, 1.0, 2.0, 1.0, 2.0, 0.3)])
     meshes = agent_meshes(boxes)
     assert meshes.triangles.shape == (12, 3)
-    np.testing.assert_allclose(np.sort(meshes.vertices_m, axis=0), np.sort(corners(boxes)[0], axis=0), atol=1e-5)
+    expected = corners(boxes)[0]
+    expected[:, 2] = np.maximum(expected[:, 2], AGENT_LIFT_M)  # the bottom 3 cm above the box's (the road)
+    np.testing.assert_allclose(np.sort(meshes.vertices_m, axis=0), np.sort(expected, axis=0), atol=1e-5)
 
 
 def test_no_agents_give_an_empty_mesh() -> None:

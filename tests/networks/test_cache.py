@@ -1,0 +1,62 @@
+"""The cache keeps itself whole: damaged entries are made again with a notice, keys depend on
+content only, and a killed writer's scratch folder goes."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from networks.cache import cache_dir, scratch_dir, take_notices
+from networks.convert import import_opendrive
+from networks.towns import town_opendrive
+from networks.world import build_world
+
+
+def test_a_truncated_world_or_net_is_made_again_with_a_notice():
+    xodr = town_opendrive("skeleton")
+    net = import_opendrive(xodr)
+    world = build_world(net)
+    take_notices()
+    for path in (world.path, net):
+        data = path.read_bytes()
+        path.write_bytes(data[: len(data) // 2])
+    net_again = import_opendrive(xodr)
+    again = build_world(net_again)
+    notices = take_notices()
+    assert net_again == net and again.path == world.path
+    assert any(str(net) in n and "damaged or incomplete" in n for n in notices)
+    assert any(str(world.path) in n for n in notices)
+    assert again.mesh.triangles.shape == world.mesh.triangles.shape
+
+
+def test_the_same_network_converted_in_two_caches_is_the_same_file(tmp_path, monkeypatch):
+    xodr = town_opendrive("skeleton")
+    nets = []
+    for name in ("a", "b"):
+        monkeypatch.setenv("SUMO_DATASET_CACHE", str(tmp_path / name))
+        nets.append(import_opendrive(xodr))
+    assert nets[0].read_bytes() == nets[1].read_bytes()
+    assert nets[0].relative_to(tmp_path / "a") == nets[1].relative_to(tmp_path / "b")
+
+
+def test_a_killed_writers_scratch_folder_is_removed_by_the_next_writer():
+    folder = cache_dir("test", "scratch")
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    stale = folder / f".scratch-{int(dead.stdout)}-abc"
+    stale.mkdir()
+    (stale / "half.xml").write_text("<net")
+    with scratch_dir(folder) as scratch:
+        assert scratch.name.startswith(f".scratch-{os.getpid()}-")
+    assert not stale.exists()
+
+
+@pytest.mark.parametrize("damage", [b"", b"PK\x03\x04 not a zip"])
+def test_a_world_file_that_is_not_a_world_is_one_clear_error(tmp_path, damage):
+    from networks.errors import NetworkError
+    from networks.world import read_world
+
+    path = tmp_path / "world.npz"
+    path.write_bytes(damage)
+    with pytest.raises(NetworkError, match="not a readable world file"):
+        read_world(path)
