@@ -37,7 +37,7 @@ from typing import Any
 
 from gtgen.timing import StageTimes
 from networks.geometry import SE3
-from sensors.scene import FrameScene
+from sensors.engine import Scene
 
 SPAWN = multiprocessing.get_context("spawn")
 TICKS = os.sysconf("SC_CLK_TCK")
@@ -126,7 +126,7 @@ class BenchProbe:
     rss_mb_by_process: dict[int, dict[str, float]] = field(default_factory=dict)
     peak_mb: dict[str, float] = field(default_factory=dict)
     cpu_s: dict[str, float] = field(default_factory=dict)  # main and helpers, over the frames
-    scenes: list[tuple[FrameScene, SE3]] = field(default_factory=list)
+    scenes: list[tuple[Scene, SE3]] = field(default_factory=list)
 
     def stage(self, name: str) -> Any:
         return self.times.stage(name)
@@ -134,7 +134,7 @@ class BenchProbe:
     def add(self, name: str, seconds: float, calls: int = 1) -> None:
         self.times.add(name, seconds, calls)
 
-    def scene(self, frame_index: int, scene: FrameScene, map_SE3_ego: SE3) -> None:
+    def scene(self, frame_index: int, scene: Scene, map_SE3_ego: SE3) -> None:
         """Keep a few scenes, all before frame 100: what they hold is not memory growth."""
         every = max(min(self.frames, MEMORY_FROM_FRAME) // max(self.cast_scenes, 1), 1)
         if frame_index % every == every // 2 and len(self.scenes) < self.cast_scenes:
@@ -161,7 +161,7 @@ class BenchProbe:
         self.peak_mb["helpers"] = max(self.peak_mb.get("helpers", 0.0), helpers)
 
 
-def pure_cast_ms(scenes: list[tuple[FrameScene, SE3]], rig: Any) -> dict[str, float]:
+def pure_cast_ms(scenes: list[tuple[Scene, SE3]], rig: Any) -> dict[str, float]:
     """Median per frame of Open3D's own cast of each sensor's rays (best of a few repeats)."""
     per_sensor: dict[str, list[float]] = {}
     for scene, map_SE3_ego in scenes:
@@ -175,7 +175,7 @@ def pure_cast_ms(scenes: list[tuple[FrameScene, SE3]], rig: Any) -> dict[str, fl
                 best = float("inf")
                 for _ in range(CAST_REPEATS):
                     start = time.perf_counter()
-                    scene.cast_open3d(rays)
+                    scene.cast_raw(rays)
                     best = min(best, time.perf_counter() - start)
                 total += best
             per_sensor.setdefault(kind, []).append(total * 1e3)

@@ -34,7 +34,8 @@ from gtgen.sinks.resume_sink import RESUME_DIR
 from gtgen.timing import NO_CLOCK, NoClock, StageClock
 from networks.classes import SemanticClass
 from networks.geometry import SE3
-from sensors.scene import FrameScene, StaticCrop
+from sensors.engine import Scene
+from sensors.scene import StaticCrop
 
 AGENT_MARGIN_M = 10.0
 
@@ -58,7 +59,7 @@ class FrameSink(Protocol):
 class FrameProbe(StageClock, Protocol):
     """The benchmark's view into the loop: stage times, each frame's scene, frame ends."""
 
-    def scene(self, frame_index: int, scene: FrameScene, map_SE3_ego: SE3) -> None: ...
+    def scene(self, frame_index: int, scene: Scene, map_SE3_ego: SE3) -> None: ...
 
     def frame_done(self, frame_index: int) -> None:
         """Called with -1 before the first frame, then after each frame, and with the frame
@@ -67,7 +68,7 @@ class FrameProbe(StageClock, Protocol):
 
 
 class _NoProbe(NoClock):
-    def scene(self, frame_index: int, scene: FrameScene, map_SE3_ego: SE3) -> None:
+    def scene(self, frame_index: int, scene: Scene, map_SE3_ego: SE3) -> None:
         pass
 
     def frame_done(self, frame_index: int) -> None:
@@ -126,7 +127,7 @@ def sense_and_label(
     with probe.stage("scene"):
         static = crop.around(map_SE3_ego.translation)
         state = on_raised_surfaces(state, crop)
-        scene = FrameScene(static, rig.agents_in_view(state.agents, map_SE3_ego))
+        scene = rig.engine.scene(static, rig.agents_in_view(state.agents, map_SE3_ego))
     outputs = rig.sense(scene, state.ego, rng, probe)
     probe.scene(frame_index, scene, map_SE3_ego)
     with probe.stage("labels"):
@@ -209,6 +210,8 @@ def run(
     if prepared.notice:
         print(prepared.notice, file=sys.stderr)
     rig = build_rig(scenario)
+    if rig.notice:
+        print(rig.notice, file=sys.stderr)
     crop = StaticCrop(prepared.world.mesh, rig.reach_m)
     rng = np.random.default_rng(scenario.seed)
     summary, start = RunSummary(), 0

@@ -11,9 +11,9 @@ from gtgen.timing import NO_CLOCK, StageClock
 from networks.geometry import SE3
 from sensors.agents import Agents, EgoState
 from sensors.camera import Camera
+from sensors.engine import Engine, Scene, open_engine
 from sensors.lidar import Lidar
 from sensors.radar import Radar
-from sensors.scene import FrameScene
 from sensors.sensor import Sensor, SensorOutput
 from sensors.view import bounding_radius_m
 from sensors.weather import Weather, weather_preset
@@ -26,6 +26,8 @@ class Rig:
 
     sensors: tuple[Sensor, ...]
     weather: Weather
+    engine: Engine
+    notice: str = ""  # why the engine asked for is not the one used ('' if it is)
 
     def of_kind(self, kind: str) -> tuple[Sensor, ...]:
         return tuple(s for s in self.sensors if s.kind == kind)
@@ -49,7 +51,7 @@ class Rig:
         return agents.select(keep)
 
     def sense(
-        self, scene: FrameScene, ego: EgoState, rng: np.random.Generator, clock: StageClock = NO_CLOCK
+        self, scene: Scene, ego: EgoState, rng: np.random.Generator, clock: StageClock = NO_CLOCK
     ) -> tuple[SensorOutput, ...]:
         """Every sensor's output of this frame, in rig order (each timed as its kind)."""
         outputs = []
@@ -64,4 +66,5 @@ def build_rig(scenario: Scenario) -> Rig:
     sensors: list[Sensor] = [Lidar(s) for s in spec.lidars]
     sensors += [Camera(s) for s in spec.cameras]
     sensors += [Radar(s) for s in spec.radars]
-    return Rig(tuple(sensors), weather_preset(scenario.weather))
+    engine, notice = open_engine(scenario.engine)
+    return Rig(tuple(sensors), weather_preset(scenario.weather), engine, notice)

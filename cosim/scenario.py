@@ -106,6 +106,7 @@ class Scenario:
     traffic: TrafficConfig = field(default_factory=TrafficConfig)
     ego: EgoConfig = field(default_factory=EgoConfig)
     weather: Literal["day", "night", "rain", "fog"] = "day"
+    engine: Literal["auto", "open3d", "mitsuba"] = "auto"  # the ray engine (see sensors/engine.py)
     sensors: SensorsConfig = field(default_factory=SensorsConfig)
     outputs: OutputsConfig = field(default_factory=OutputsConfig)
     name: str = "scenario"

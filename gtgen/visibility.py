@@ -26,7 +26,7 @@ F64 = npt.NDArray[np.float64]
 
 
 class SilhouetteCaster(Protocol):
-    """The frame's scene as the labels use it (:class:`sensors.scene.FrameScene`)."""
+    """The frame's scene as the labels use it (:class:`sensors.engine.Scene`)."""
 
     def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
         """Whether ray ``i`` meets agent ``instance_id[i]`` with everything else taken away."""

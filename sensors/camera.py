@@ -27,8 +27,8 @@ from sensors.shading import Shading
 from sensors.view import spheres_in_view
 from sensors.weather import Weather
 
-if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
-    from sensors.scene import FrameScene
+if TYPE_CHECKING:
+    from sensors.engine import Scene
 
 F64 = npt.NDArray[np.float64]
 
@@ -121,17 +121,18 @@ class Camera:
         """``(H * W, 6) float32`` rays in the map frame, row-major over pixels."""
         return sensor_rays(map_SE3_ego.compose(self.spec.ego_SE3_sensor), self._dirs_cam)
 
-    def sense(self, scene: FrameScene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> CameraOutput:
+    def sense(self, scene: Scene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> CameraOutput:
         """Render one frame; the seed of the image noise (night, rain, fog) is drawn from ``rng``."""
         map_SE3_ego = ego.map_SE3_ego()
-        hits = scene.cast(self.rays(map_SE3_ego))
+        map_SE3_cam = map_SE3_ego.compose(self.spec.ego_SE3_sensor)
+        hits = scene.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, self._dirs_cam)
         far = hits.range_m > np.float32(self.spec.range_m)  # nothing hit within range
         depth = hits.range_m * self._dirs_cam[:, 2]
         depth[far] = 0.0
         hits.instance_id[far] = 0  # the frame's own arrays; shading paints sky over these pixels
         hits.semantic_class[far] = 0
         seed = int(rng.integers(0, 2**63)) if weather.noise_sigma > 0 else None
-        map_R_cam = map_SE3_ego.compose(self.spec.ego_SE3_sensor).rotation.astype(np.float32)
+        map_R_cam = map_SE3_cam.rotation.astype(np.float32)
         shading = Shading(self.spec.pinhole, self.spec.range_m, map_R_cam, hits.normal, weather, seed)
         h, w = self.shape
         frame = CameraFrame(depth.reshape(h, w), hits.instance_id.reshape(h, w), hits.semantic_class.reshape(h, w),

@@ -31,7 +31,7 @@ from sensors.weather import (
 )
 
 if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
-    from sensors.scene import FrameScene
+    from sensors.engine import Scene
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,7 +126,7 @@ class Lidar:
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         return sensor_rays(map_SE3_ego.compose(self.spec.ego_SE3_sensor), self._dirs32)
 
-    def sense(self, scene: FrameScene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> LidarOutput:
+    def sense(self, scene: Scene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> LidarOutput:
         """One sweep; the ``weather`` (day changes nothing) shortens the range, drops and
         weakens returns and adds near spurious ones (class NONE, instance 0)."""
         w = weather

@@ -29,7 +29,7 @@ from sensors.view import spheres_in_view
 from sensors.weather import Weather
 
 if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
-    from sensors.scene import FrameScene
+    from sensors.engine import Scene
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,17 +134,19 @@ def thin_to_budget(
     rng: np.random.Generator,
 ) -> npt.NDArray[np.int64]:
     """Indices of the returns kept: the strongest per range-azimuth cell, then a weighted
-    sample without replacement down to ``spec.points_per_frame``, sorted."""
+    sample without replacement down to ``spec.points_per_frame``, sorted. Strengths (to 0.01
+    dB) and weights (to 1e-4) are rounded first, so that the float noise of one ray engine or
+    another does not decide which of two equal returns is kept."""
     cell_r = np.floor(np.asarray(range_m) / spec.cell_range_m).astype(np.int64)
     cell_a = np.floor(np.asarray(azimuth_rad) / math.radians(spec.cell_azimuth_deg)).astype(np.int64)
-    order = np.lexsort((-np.asarray(strength), cell_a, cell_r))
+    order = np.lexsort((-np.round(np.asarray(strength, np.float64), 2), cell_a, cell_r))
     cells = np.stack([cell_r[order], cell_a[order]], axis=1)
     first = np.ones(order.shape[0], np.bool_)
     first[1:] = np.any(cells[1:] != cells[:-1], axis=1)
     kept = np.sort(order[first])
     if kept.shape[0] <= spec.points_per_frame:
         return kept
-    w = np.asarray(weight, np.float64)[kept]
+    w = np.maximum(np.round(np.asarray(weight, np.float64)[kept], 4), 1e-4)
     chosen = rng.choice(kept.shape[0], size=spec.points_per_frame, replace=False, p=w / w.sum())
     return np.sort(kept[chosen])
 
@@ -173,9 +175,9 @@ class Radar:
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         return sensor_rays(map_SE3_ego.compose(self.spec.ego_SE3_sensor), self._dirs32)
 
-    def sense(self, scene: FrameScene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> RadarOutput:
+    def sense(self, scene: Scene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> RadarOutput:
         """One frame of returns (the weather does not change them); surfaces move with their
-        agent's velocity (:attr:`FrameScene.agents`), the radar with the ego's."""
+        agent's velocity (:attr:`Scene.agents`), the radar with the ego's."""
         rays = self.rays(ego.map_SE3_ego())
         hits = scene.cast(rays)
         cls_all = hits.semantic_class

@@ -14,10 +14,21 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from networks.geometry import SE3
 from networks.mesh import ClassedMesh
 from sensors.agents import AgentMeshes, Agents, agent_meshes
 from sensors.hits import RayHits
 from sensors.o3d import INVALID_ID, RaycastingScene, o3c
+from sensors.rays import sensor_rays
+
+
+class Open3DEngine:
+    """The reference engine: Open3D's raycasting scene, rebuilt for every frame."""
+
+    name = "open3d"
+
+    def scene(self, static: ClassedMesh, agents: Agents) -> FrameScene:
+        return FrameScene(static, agents)
 
 
 class StaticCrop:
@@ -93,7 +104,7 @@ class FrameScene:
         self._instance_of_row = np.concatenate(
             [np.zeros(static.triangle_class.shape[0], np.uint32), meshes.triangle_instance, [0]]
         ).astype(np.uint32)
-        self.cast_open3d(np.zeros((1, 6), np.float32))  # builds the BVH
+        self.cast_raw(np.zeros((1, 6), np.float32))  # builds the BVH
 
     def _add(self, vertices: npt.NDArray[np.floating[Any]], triangles: npt.NDArray[np.integer[Any]]) -> int:
         if triangles.shape[0] == 0:
@@ -102,13 +113,19 @@ class FrameScene:
         t = o3c.Tensor.from_numpy(np.ascontiguousarray(triangles, dtype=np.uint32))
         return int(self._scene.add_triangles(v, t))
 
-    def cast_open3d(self, rays: npt.NDArray[np.float32]) -> dict[str, Any]:
+    def cast_raw(self, rays: npt.NDArray[np.float32]) -> dict[str, Any]:
         """Open3D's own cast (its tensors by name), nothing added: what the benchmark compares to."""
         tensor = o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32))
         return dict(self._scene.cast_rays(tensor, nthreads=self._nthreads))
 
+    def cast_from(
+        self, origin_map_m: npt.NDArray[np.float64], map_R_sensor: npt.NDArray[np.float64],
+        dirs_sensor: npt.NDArray[np.float32],
+    ) -> RayHits:  # fmt: skip
+        return self.cast(sensor_rays(SE3(map_R_sensor, origin_map_m), dirs_sensor))
+
     def cast(self, rays: npt.NDArray[np.float32]) -> RayHits:
-        result = self.cast_open3d(rays)
+        result = self.cast_raw(rays)
         t_hit = result["t_hit"].numpy()
         geometry = result["geometry_ids"].numpy()
         row = result["primitive_ids"].numpy()  # becomes the row in the class and instance tables

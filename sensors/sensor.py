@@ -22,7 +22,7 @@ from sensors.radar import RadarOutput
 from sensors.weather import Weather
 
 if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
-    from sensors.scene import FrameScene
+    from sensors.engine import Scene
 
 F64 = npt.NDArray[np.float64]
 SensorOutput = LidarOutput | CameraOutput | RadarOutput
@@ -61,6 +61,6 @@ class Sensor(Protocol):
         """``(N, 6) float32`` rays (origin, unit direction) in the map frame."""
         ...
 
-    def sense(self, scene: FrameScene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> SensorOutput:
+    def sense(self, scene: Scene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> SensorOutput:
         """One frame of this sensor in ``scene``, mounted on the ``ego``."""
         ...

@@ -59,4 +59,4 @@ def test_cast_tells_class_and_instance_of_static_agent_and_missed_rays():
     assert hits.semantic_class.tolist() == [int(SemanticClass.SIDEWALK), int(SemanticClass.CAR), 0]
     assert hits.instance_id.tolist() == [0, 10, 0]
     assert hits.range_m[0] == 5.0 and 3.0 < hits.range_m[1] < 4.0 and np.isinf(hits.range_m[2])
-    assert scene.cast_open3d(rays)["geometry_ids"].numpy()[2] == INVALID_ID
+    assert scene.cast_raw(rays)["geometry_ids"].numpy()[2] == INVALID_ID

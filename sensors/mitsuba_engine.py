@@ -1,0 +1,144 @@
+"""The fast ray engine: Mitsuba 3's scenes traced with Dr.Jit's LLVM backend (Embree's packet
+kernels, coherent rays), the only module that imports them.
+
+The static world near the ego is one Mitsuba scene, made again only when the crop changes; the
+agents are a second scene, made every frame (one merged mesh). A ray is cast in both and the
+nearer hit wins. Per hit the scenes give the triangle: its class, instance and face normal come
+from tables, as in the Open3D engine. A sensor's ray directions are handed to Dr.Jit once and
+turned into the map frame on its side. Importing this module raises ImportError, or
+RuntimeError/OSError from Dr.Jit, when the engine cannot start (no libLLVM 15 or newer).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from networks.cache import cache_root
+
+# Dr.Jit keeps compiled kernels on disk: in this project's cache, not in ~/.drjit.
+os.environ.setdefault("DRJIT_CACHE_DIR", str(cache_root() / "drjit"))
+try:
+    import drjit as dr
+    import mitsuba as mi
+except ImportError as err:  # pragma: no cover - depends on the machine
+    raise ImportError(f"mitsuba and drjit are not installed ({err})") from err
+
+mi.set_variant("llvm_ad_rgb")  # raises when Dr.Jit's LLVM backend finds no libLLVM
+
+from networks.mesh import ClassedMesh  # noqa: E402
+from sensors.agents import AgentMeshes, Agents, agent_meshes  # noqa: E402
+from sensors.hits import RayHits  # noqa: E402
+from sensors.scene import _hits_alone  # noqa: E402
+
+
+def _face_normals(
+    vertices: npt.NDArray[np.floating[Any]], triangles: npt.NDArray[np.integer[Any]]
+) -> npt.NDArray[np.float32]:
+    v = vertices.astype(np.float32)
+    n = np.cross(v[triangles[:, 1]] - v[triangles[:, 0]], v[triangles[:, 2]] - v[triangles[:, 0]])
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.asarray(n / np.where(length > 0, length, 1.0), dtype=np.float32)
+
+
+class _Part:
+    """One Mitsuba scene of a triangle mesh, or none for an empty one."""
+
+    def __init__(
+        self, name: str, vertices: npt.NDArray[np.floating[Any]], triangles: npt.NDArray[np.integer[Any]]
+    ) -> None:
+        self.triangles = int(triangles.shape[0])
+        self.scene: Any = None
+        if self.triangles:
+            used, local = np.unique(triangles.ravel(), return_inverse=True)
+            mesh = mi.Mesh(name, int(used.shape[0]), self.triangles, has_vertex_normals=False,
+                           has_vertex_texcoords=False)  # fmt: skip
+            params = mi.traverse(mesh)
+            params["vertex_positions"] = mi.Float(np.ascontiguousarray(vertices[used], dtype=np.float32).ravel())
+            params["faces"] = mi.UInt32(local.astype(np.uint32))
+            params.update()
+            self.scene = mi.load_dict({"type": "scene", name: mesh})
+
+    def cast(self, ray: Any) -> tuple[Any, Any]:
+        """Distance (inf: no hit) and triangle of each ray."""
+        hit = self.scene.ray_intersect_preliminary(ray, coherent=True)
+        return hit.t, hit.prim_index
+
+
+class MitsubaEngine:
+    name = "mitsuba"
+
+    def __init__(self) -> None:
+        self._static_mesh: ClassedMesh | None = None
+        self._static: _Part | None = None
+        self._static_normals = np.zeros((0, 3), np.float32)
+
+    def scene(self, static: ClassedMesh, agents: Agents) -> MitsubaScene:
+        if static is not self._static_mesh:
+            self._static_mesh, self._static = static, _Part("static", static.vertices_m, static.triangles)
+            self._static_normals = _face_normals(static.vertices_m, static.triangles)
+        if self._static is None:
+            raise RuntimeError("MitsubaEngine: no static scene")
+        return MitsubaScene(self, static, self._static, agents)
+
+
+class MitsubaScene:
+    """One frame: the static part (kept by the engine) and this frame's agents."""
+
+    def __init__(self, engine: MitsubaEngine, static: ClassedMesh, part: _Part, agents: Agents) -> None:
+        self._engine, self._static = engine, part
+        self.agents = agents
+        self.agent_meshes: AgentMeshes = agent_meshes(agents)
+        meshes = self.agent_meshes
+        self._agents = _Part("agents", meshes.vertices_m, meshes.triangles)
+        n_static, n_agent = static.triangle_class.shape[0], meshes.triangle_class.shape[0]
+        self._agent_row0, self._nothing_row = n_static, n_static + n_agent
+        self._class_of_row = np.concatenate([static.triangle_class, meshes.triangle_class, [0]]).astype(np.uint8)
+        self._instance_of_row = np.concatenate([np.zeros(n_static, np.uint32), meshes.triangle_instance, [0]])
+        self._instance_of_row = self._instance_of_row.astype(np.uint32)
+        agent_normals = _face_normals(meshes.vertices_m, meshes.triangles)
+        self._normal_of_row = np.concatenate([engine._static_normals, agent_normals, np.zeros((1, 3), np.float32)])
+
+    def cast(self, rays: npt.NDArray[np.float32]) -> RayHits:
+        columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]
+        ray = mi.Ray3f(mi.Point3f(*columns[:3]), mi.Vector3f(*columns[3:]))
+        return self._hits(ray)
+
+    def cast_from(
+        self, origin_map_m: npt.NDArray[np.float64], map_R_sensor: npt.NDArray[np.float64],
+        dirs_sensor: npt.NDArray[np.float32],
+    ) -> RayHits:  # fmt: skip
+        """The same ray directions as the reference engine's (turned by OpenCV in float32), one origin."""
+        dirs = np.asarray(cv2.transform(dirs_sensor.reshape(-1, 1, 3), np.asarray(map_R_sensor, np.float32)))
+        dirs = dirs.reshape(-1, 3)
+        origin = mi.Point3f(*(float(v) for v in np.asarray(origin_map_m, np.float32)))
+        direction = mi.Vector3f(*(mi.Float(np.ascontiguousarray(dirs[:, i])) for i in range(3)))
+        return self._hits(mi.Ray3f(origin, direction))
+
+    def cast_raw(self, rays: npt.NDArray[np.float32]) -> Any:
+        columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]
+        ray = mi.Ray3f(mi.Point3f(*columns[:3]), mi.Vector3f(*columns[3:]))
+        t, prim = self._static.cast(ray)
+        dr.eval(t, prim)
+        return t
+
+    def _hits(self, ray: Any) -> RayHits:
+        t, prim = self._static.cast(ray)
+        row = mi.UInt32(prim)
+        if self._agents.scene is not None:
+            t_agent, prim_agent = self._agents.cast(ray)
+            nearer = t_agent < t
+            t = dr.select(nearer, t_agent, t)
+            row = dr.select(nearer, prim_agent + self._agent_row0, row)
+        row = dr.select(dr.isinf(t), self._nothing_row, row)
+        dr.eval(t, row)
+        range_m = t.numpy().astype(np.float32, copy=False)
+        rows = row.numpy()
+        return RayHits(range_m, self._class_of_row[rows], self._instance_of_row[rows], self._normal_of_row[rows])
+
+    def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
+        return _hits_alone(self.agent_meshes, rays, instance_id)
