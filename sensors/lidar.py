@@ -130,8 +130,10 @@ class Lidar:
         """One sweep; the ``weather`` (day changes nothing) shortens the range, drops and
         weakens returns and adds near spurious ones (class NONE, instance 0)."""
         w = weather
-        rays = self.rays(ego.map_SE3_ego())
-        hits, spurious = add_spurious_returns(scene.cast(rays), rays, w, rng)
+        map_SE3_lidar = ego.map_SE3_ego().compose(self.spec.ego_SE3_sensor)
+        rays = sensor_rays(map_SE3_lidar, self._dirs32)
+        cast = scene.cast_from(map_SE3_lidar.translation, map_SE3_lidar.rotation, self._dirs32)
+        hits, spurious = add_spurious_returns(cast, rays, w, rng)
         keep = hits.range_m <= lidar_max_range_m(w, self.spec.range_m)
         dropout = lidar_dropout(w, self.spec.dropout) if w.lidar_dropout > 0 else self.spec.dropout
         if dropout > 0:

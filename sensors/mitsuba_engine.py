@@ -69,6 +69,42 @@ class _Part:
         return hit.t, hit.prim_index
 
 
+class _AgentPart:
+    """The agents' scene: one mesh with room for ``capacity`` triangles and vertices, whose
+    positions and faces are replaced every frame (unused faces are degenerate, never hit). The
+    scene object stays the same, so Dr.Jit's kernels that trace it are compiled once; it is
+    made again only when a frame needs more room."""
+
+    def __init__(self) -> None:
+        self.capacity = 0
+        self.triangles = 0
+        self.scene: Any = None
+        self._params: Any = None
+
+    def update(self, vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32]) -> None:
+        self.triangles = int(triangles.shape[0])
+        if self.triangles == 0:
+            return
+        need = max(int(triangles.shape[0]), int(vertices.shape[0]))
+        if need > self.capacity:
+            self.capacity = 1 << max(need - 1, 1023).bit_length()
+            mesh = mi.Mesh("agents", self.capacity, self.capacity, has_vertex_normals=False, has_vertex_texcoords=False)
+            self.scene = mi.load_dict({"type": "scene", "agents": mesh})
+            self._params = mi.traverse(self.scene)
+        positions = np.zeros((self.capacity, 3), np.float32)
+        positions[: vertices.shape[0]] = vertices
+        faces = np.zeros((self.capacity, 3), np.uint32)
+        faces[: triangles.shape[0]] = triangles
+        self._params["agents.vertex_positions"] = mi.Float(positions.ravel())
+        self._params["agents.faces"] = mi.UInt32(faces.ravel())
+        self._params.update()
+        dr.eval()  # the update's own work, apart from the casts: their kernels stay the same
+
+    def cast(self, ray: Any) -> tuple[Any, Any]:
+        hit = self.scene.ray_intersect_preliminary(ray, coherent=True)
+        return hit.t, hit.prim_index
+
+
 class MitsubaEngine:
     name = "mitsuba"
 
@@ -76,6 +112,7 @@ class MitsubaEngine:
         self._static_mesh: ClassedMesh | None = None
         self._static: _Part | None = None
         self._static_normals = np.zeros((0, 3), np.float32)
+        self.agent_part = _AgentPart()
 
     def scene(self, static: ClassedMesh, agents: Agents) -> MitsubaScene:
         if static is not self._static_mesh:
@@ -94,7 +131,8 @@ class MitsubaScene:
         self.agents = agents
         self.agent_meshes: AgentMeshes = agent_meshes(agents)
         meshes = self.agent_meshes
-        self._agents = _Part("agents", meshes.vertices_m, meshes.triangles)
+        self._agents = engine.agent_part
+        self._agents.update(meshes.vertices_m, meshes.triangles)
         n_static, n_agent = static.triangle_class.shape[0], meshes.triangle_class.shape[0]
         self._agent_row0, self._nothing_row = n_static, n_static + n_agent
         self._class_of_row = np.concatenate([static.triangle_class, meshes.triangle_class, [0]]).astype(np.uint8)
@@ -115,7 +153,7 @@ class MitsubaScene:
         """The same ray directions as the reference engine's (turned by OpenCV in float32), one origin."""
         dirs = np.asarray(cv2.transform(dirs_sensor.reshape(-1, 1, 3), np.asarray(map_R_sensor, np.float32)))
         dirs = dirs.reshape(-1, 3)
-        origin = mi.Point3f(*(float(v) for v in np.asarray(origin_map_m, np.float32)))
+        origin = mi.Point3f(*(dr.opaque(mi.Float, float(v)) for v in np.asarray(origin_map_m, np.float32)))
         direction = mi.Vector3f(*(mi.Float(np.ascontiguousarray(dirs[:, i])) for i in range(3)))
         return self._hits(mi.Ray3f(origin, direction))
 
@@ -129,12 +167,13 @@ class MitsubaScene:
     def _hits(self, ray: Any) -> RayHits:
         t, prim = self._static.cast(ray)
         row = mi.UInt32(prim)
-        if self._agents.scene is not None:
+        if self._agents.triangles:
             t_agent, prim_agent = self._agents.cast(ray)
             nearer = t_agent < t
             t = dr.select(nearer, t_agent, t)
-            row = dr.select(nearer, prim_agent + self._agent_row0, row)
-        row = dr.select(dr.isinf(t), self._nothing_row, row)
+            # opaque: the numbers change from frame to frame, the compiled kernel must not
+            row = dr.select(nearer, prim_agent + dr.opaque(mi.UInt32, self._agent_row0), row)
+        row = dr.select(dr.isinf(t), dr.opaque(mi.UInt32, self._nothing_row), row)
         dr.eval(t, row)
         range_m = t.numpy().astype(np.float32, copy=False)
         rows = row.numpy()

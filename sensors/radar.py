@@ -178,8 +178,9 @@ class Radar:
     def sense(self, scene: Scene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> RadarOutput:
         """One frame of returns (the weather does not change them); surfaces move with their
         agent's velocity (:attr:`Scene.agents`), the radar with the ego's."""
-        rays = self.rays(ego.map_SE3_ego())
-        hits = scene.cast(rays)
+        map_SE3_radar = ego.map_SE3_ego().compose(self.spec.ego_SE3_sensor)
+        rays = sensor_rays(map_SE3_radar, self._dirs32)
+        hits = scene.cast_from(map_SE3_radar.translation, map_SE3_radar.rotation, self._dirs32)
         cls_all = hits.semantic_class
         cos_inc = np.abs(np.einsum("ij,ij->i", rays[:, 3:6], hits.normal))
         reflect = RADAR_REFLECTIVITY_BY_CLASS[cls_all]
