@@ -36,6 +36,9 @@ from sensors.hits import RayHits  # noqa: E402
 from sensors.scene import _hits_alone  # noqa: E402
 
 
+_NORMAL = np.dtype((np.void, 12))  # one row of a float32 (N, 3) table, taken whole
+
+
 def _face_normals(
     vertices: npt.NDArray[np.floating[Any]], triangles: npt.NDArray[np.integer[Any]]
 ) -> npt.NDArray[np.float32]:
@@ -87,7 +90,7 @@ class _AgentPart:
             return
         need = max(int(triangles.shape[0]), int(vertices.shape[0]))
         if need > self.capacity:
-            self.capacity = 1 << max(need - 1, 1023).bit_length()
+            self.capacity = -(-int(need * 1.25) // 1024) * 1024  # room to grow before the next remake
             mesh = mi.Mesh("agents", self.capacity, self.capacity, has_vertex_normals=False, has_vertex_texcoords=False)
             self.scene = mi.load_dict({"type": "scene", "agents": mesh})
             self._params = mi.traverse(self.scene)
@@ -140,6 +143,7 @@ class MitsubaScene:
         self._instance_of_row = self._instance_of_row.astype(np.uint32)
         agent_normals = _face_normals(meshes.vertices_m, meshes.triangles)
         self._normal_of_row = np.concatenate([engine._static_normals, agent_normals, np.zeros((1, 3), np.float32)])
+        self._normal_of_row = np.ascontiguousarray(self._normal_of_row).view(_NORMAL).ravel()
 
     def cast(self, rays: npt.NDArray[np.float32]) -> RayHits:
         columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]
@@ -177,7 +181,8 @@ class MitsubaScene:
         dr.eval(t, row)
         range_m = t.numpy().astype(np.float32, copy=False)
         rows = row.numpy()
-        return RayHits(range_m, self._class_of_row[rows], self._instance_of_row[rows], self._normal_of_row[rows])
+        normals = np.take(self._normal_of_row, rows).view(np.float32).reshape(-1, 3)  # 12-byte rows, taken whole
+        return RayHits(range_m, np.take(self._class_of_row, rows), np.take(self._instance_of_row, rows), normals)
 
     def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
         return _hits_alone(self.agent_meshes, rays, instance_id)

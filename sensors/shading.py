@@ -100,7 +100,8 @@ def lighting(
     ``range_m``; ``forward`` is each ray's cosine to the optical axis (the headlight cone)."""
     facing = np.einsum("ij,ij->i", normal, dirs)
     sun = np.asarray(weather.sun_dir_map, np.float32)
-    sun_cos = (normal @ (sun / np.linalg.norm(sun))) * np.where(facing > 0, np.float32(-1.0), np.float32(1.0))
+    sun_cos = normal @ (sun / np.linalg.norm(sun))
+    np.negative(sun_cos, out=sun_cos, where=facing > 0)  # the lit side is the one the ray sees
     light = np.float32(weather.ambient) + np.float32(weather.sun_gain) * np.maximum(sun_cos, np.float32(0.0))
     if weather.headlight_gain > 0:
         falloff = 1.0 / (1.0 + (range_m / np.float32(weather.headlight_range_m)) ** 2)
@@ -119,10 +120,11 @@ def shade(
 ) -> npt.NDArray[np.float32]:
     """``(N, 3) float32`` BGR in 0..255: lit albedo hazed with distance where ``hit``, sky elsewhere."""
     light = lighting(hits.normal, dirs_map, hits.range_m, forward, weather)
+    f = haze_fraction(weather, hits.range_m, range_m)
+    # lit albedo blended into haze in one pass: albedo * 255 * exposure * light * (1 - f) + haze * f
     image = surface_albedo(hits.semantic_class, hits.instance_id)
-    image *= (np.float32(255.0 * weather.exposure) * light)[:, None]
-    f = haze_fraction(weather, hits.range_m, range_m)[:, None]
-    image += (np.asarray(weather.haze_bgr, np.float32) * np.float32(weather.exposure) - image) * f
+    image *= (np.float32(255.0 * weather.exposure) * light * (np.float32(1.0) - f))[:, None]
+    image += f[:, None] * (np.asarray(weather.haze_bgr, np.float32) * np.float32(weather.exposure))
     miss = np.flatnonzero(~hit)
     image[miss] = sky_bgr(weather, dirs_map[miss, 2]) * np.float32(weather.exposure)
     return image

@@ -28,7 +28,7 @@ from google.protobuf.timestamp_pb2 import Timestamp
 
 from gtgen.colours import CLASS_RGB
 from gtgen.labels import CameraLabels, FrameLabels
-from gtgen.sinks.images import FrameImages
+from gtgen.sinks.images import JPEG_QUALITY, FrameImages
 from networks.classes import SemanticClass
 from networks.geometry import SE3
 from sensors.camera import CameraOutput
@@ -54,7 +54,6 @@ RADAR_FIELDS = (
     ("strength", 28, _F.FLOAT32), ("instance", 32, _F.UINT32), ("class", 36, _F.UINT8),
 )  # fmt: skip
 
-JPEG_QUALITY = 90
 DEPTH_UNITS_PER_M = 256.0  # 16-bit depth PNG: 1/256 m steps up to 255.99 m (as KITTI's depth maps)
 
 

@@ -20,6 +20,7 @@ from gtgen.errors import SinkError
 from sensors.camera import CameraOutput, depth_to_uint16
 from sensors.shading import shade_frame
 
+JPEG_QUALITY = 90  # every sink that writes the camera image as JPEG writes this one encoding
 PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 1, cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_UP]
 
 

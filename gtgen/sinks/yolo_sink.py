@@ -14,12 +14,11 @@ import yaml
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.sinks.folder import PartialFolder
-from gtgen.sinks.images import FrameImages
+from gtgen.sinks.images import JPEG_QUALITY, FrameImages
 from networks.classes import SemanticClass
 
 YOLO_CLASSES = (SemanticClass.CAR, SemanticClass.TRUCK, SemanticClass.BUS, SemanticClass.MOTORCYCLE,
                 SemanticClass.BICYCLE, SemanticClass.PEDESTRIAN)  # fmt: skip
-JPEG_QUALITY = 92
 _INDEX = np.full(256, -1, np.int64)
 for _i, _c in enumerate(YOLO_CLASSES):
     _INDEX[int(_c)] = _i
