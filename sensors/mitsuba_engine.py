@@ -35,7 +35,6 @@ from sensors.agents import AgentMeshes, Agents, agent_meshes  # noqa: E402
 from sensors.hits import RayHits  # noqa: E402
 from sensors.scene import _hits_alone  # noqa: E402
 
-
 _NORMAL = np.dtype((np.void, 12))  # one row of a float32 (N, 3) table, taken whole
 
 
