@@ -169,7 +169,8 @@ class BenchProbe:
 
 
 def pure_cast_ms(scenes: list[tuple[Scene, SE3]], rig: Any) -> dict[str, float]:
-    """Median per frame of Open3D's own cast of each sensor's rays (best of a few repeats)."""
+    """Median per frame of the ray engine's own cast of each sensor's rays, static world and agents
+    (best of a few repeats)."""
     per_sensor: dict[str, list[float]] = {}
     for scene, map_SE3_ego in scenes:
         for kind in ("lidar", "camera", "radar"):

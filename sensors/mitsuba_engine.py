@@ -163,9 +163,11 @@ class MitsubaScene:
     def cast_raw(self, rays: npt.NDArray[np.float32]) -> Any:
         columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]
         ray = mi.Ray3f(mi.Point3f(*columns[:3]), mi.Vector3f(*columns[3:]))
-        t, prim = self._static.cast(ray)
-        dr.eval(t, prim)
-        return t
+        t, _ = self._static.cast(ray)
+        if self._agents.triangles:
+            t_agent = self._agents.cast(ray)[0]
+            t = dr.select(t_agent < t, t_agent, t)
+        return t.numpy()  # waits for the kernel: Dr.Jit launches it in the background
 
     def _hits(self, ray: Any) -> RayHits:
         t, prim = self._static.cast(ray)
