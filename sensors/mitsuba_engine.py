@@ -2,7 +2,7 @@
 kernels, coherent rays), the only module that imports them.
 
 The static world near the ego is one Mitsuba scene, made again only when the crop changes; the
-agents are a second scene, made every frame (one merged mesh). A ray is cast in both and the
+agents are a second scene whose one merged mesh is replaced every frame. A ray is cast in both and the
 nearer hit wins. Per hit the scenes give the triangle: its class, instance and face normal come
 from tables, as in the Open3D engine. A sensor's ray directions are handed to Dr.Jit once and
 turned into the map frame on its side. Importing this module raises ImportError, or
@@ -72,35 +72,23 @@ class _Part:
 
 
 class _AgentPart:
-    """The agents' scene: one mesh with room for ``capacity`` triangles and vertices, whose
-    positions and faces are replaced every frame (unused faces are degenerate, never hit). The
-    scene object stays the same, so Dr.Jit's kernels that trace it are compiled once; it is
-    made again only when a frame needs more room."""
+    """The agents' scene: one mesh whose positions and faces are replaced every frame, at
+    this frame's size. The scene object stays the same, so Dr.Jit compiles the kernels that
+    trace it once, and Embree builds the agents' BVH over their own triangles only."""
 
     def __init__(self) -> None:
-        self.capacity = 0
         self.triangles = 0
-        self.scene: Any = None
-        self._params: Any = None
+        mesh = mi.Mesh("agents", 3, 1, has_vertex_normals=False, has_vertex_texcoords=False)
+        self.scene: Any = mi.load_dict({"type": "scene", "agents": mesh})
+        self._params: Any = mi.traverse(self.scene)
 
     def update(self, vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32]) -> None:
         self.triangles = int(triangles.shape[0])
         if self.triangles == 0:
-            return
-        need = max(int(triangles.shape[0]), int(vertices.shape[0]))
-        if need > self.capacity:
-            self.capacity = -(-int(need * 1.25) // 1024) * 1024  # room to grow before the next remake
-            mesh = mi.Mesh("agents", self.capacity, self.capacity, has_vertex_normals=False, has_vertex_texcoords=False)
-            self.scene = mi.load_dict({"type": "scene", "agents": mesh})
-            self._params = mi.traverse(self.scene)
-        positions = np.zeros((self.capacity, 3), np.float32)
-        positions[: vertices.shape[0]] = vertices
-        faces = np.zeros((self.capacity, 3), np.uint32)
-        faces[: triangles.shape[0]] = triangles
-        self._params["agents.vertex_positions"] = mi.Float(positions.ravel())
-        self._params["agents.faces"] = mi.UInt32(faces.ravel())
+            return  # the last frame's agents stay in the scene, never cast (see MitsubaScene)
+        self._params["agents.vertex_positions"] = mi.Float(np.ascontiguousarray(vertices, np.float32).ravel())
+        self._params["agents.faces"] = mi.UInt32(np.ascontiguousarray(triangles, np.uint32).ravel())
         self._params.update()
-        dr.eval()  # the update's own work, apart from the casts: their kernels stay the same
 
     def cast(self, ray: Any) -> tuple[Any, Any]:
         hit = self.scene.ray_intersect_preliminary(ray, coherent=True)
