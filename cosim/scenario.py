@@ -73,6 +73,13 @@ class SensorsConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class StreetConfig:
+    """What stands and is painted along the streets; each can be turned off (for ablations)."""
+
+    markings: bool = True  # lane, edge, stop and give-way lines, zebra stripes
+
+
+@dataclass(frozen=True, slots=True)
 class OutputsConfig:
     mcap: bool = True
     csv: bool = True
@@ -107,6 +114,7 @@ class Scenario:
     ego: EgoConfig = field(default_factory=EgoConfig)
     weather: Literal["day", "night", "rain", "fog"] = "day"
     engine: Literal["auto", "open3d", "mitsuba"] = "auto"  # the ray engine (see sensors/engine.py)
+    street: StreetConfig = field(default_factory=StreetConfig)
     sensors: SensorsConfig = field(default_factory=SensorsConfig)
     outputs: OutputsConfig = field(default_factory=OutputsConfig)
     name: str = "scenario"

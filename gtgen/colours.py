@@ -13,13 +13,17 @@ CLASS_RGB: dict[int, tuple[float, float, float]] = {
     SemanticClass.VEGETATION: (0.24, 0.67, 0.24),
     SemanticClass.POLE: (0.86, 0.86, 0.0),
     SemanticClass.TERRAIN: (0.24, 0.35, 0.24),
-    SemanticClass.CROSSING: (0.9, 0.9, 0.9),
+    SemanticClass.CROSSING: (0.5, 0.5, 0.55),
     SemanticClass.CAR: (0.2, 0.6, 1.0),
     SemanticClass.TRUCK: (1.0, 0.6, 0.12),
     SemanticClass.BUS: (1.0, 0.86, 0.12),
     SemanticClass.MOTORCYCLE: (0.9, 0.2, 0.9),
     SemanticClass.BICYCLE: (0.2, 0.9, 0.9),
     SemanticClass.PEDESTRIAN: (1.0, 0.24, 0.24),
+    SemanticClass.LANE_MARKING: (1.0, 1.0, 1.0),
+    SemanticClass.LANE_MARKING_YELLOW: (1.0, 0.85, 0.1),
+    SemanticClass.TRAFFIC_LIGHT: (0.1, 1.0, 0.4),
+    SemanticClass.TRAFFIC_SIGN: (1.0, 0.3, 0.6),
 }
 
 

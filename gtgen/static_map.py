@@ -18,13 +18,17 @@ from networks.mesh import ClassedMesh
 
 MAP_RGBA: dict[SemanticClass, tuple[float, float, float, float]] = {
     SemanticClass.ROAD: (0.35, 0.35, 0.38, 1.0),
-    SemanticClass.CROSSING: (0.85, 0.85, 0.85, 1.0),
+    SemanticClass.CROSSING: (0.4, 0.4, 0.43, 1.0),
     SemanticClass.SIDEWALK: (0.62, 0.6, 0.58, 1.0),
     SemanticClass.CURB: (0.75, 0.75, 0.75, 1.0),
     SemanticClass.BUILDING: (0.72, 0.6, 0.5, 0.9),
     SemanticClass.VEGETATION: (0.25, 0.55, 0.25, 1.0),
     SemanticClass.POLE: (0.6, 0.6, 0.65, 1.0),
     SemanticClass.TERRAIN: (0.3, 0.4, 0.28, 1.0),
+    SemanticClass.LANE_MARKING: (0.95, 0.95, 0.95, 1.0),
+    SemanticClass.LANE_MARKING_YELLOW: (0.95, 0.8, 0.1, 1.0),
+    SemanticClass.TRAFFIC_LIGHT: (0.15, 0.15, 0.15, 1.0),
+    SemanticClass.TRAFFIC_SIGN: (0.85, 0.85, 0.85, 1.0),
 }
 
 

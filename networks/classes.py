@@ -24,10 +24,19 @@ class SemanticClass(IntEnum):
     MOTORCYCLE = 13
     BICYCLE = 14
     PEDESTRIAN = 15
+    LANE_MARKING = 20  # white paint: lane, edge, stop and give-way lines, zebra stripes
+    LANE_MARKING_YELLOW = 21  # yellow paint
+    TRAFFIC_LIGHT = 22
+    TRAFFIC_SIGN = 23
 
     @property
     def is_agent(self) -> bool:
-        return self.value >= SemanticClass.CAR.value
+        """A road user moved by the traffic simulation."""
+        return SemanticClass.CAR.value <= self.value <= SemanticClass.PEDESTRIAN.value
+
+    @property
+    def is_paint(self) -> bool:
+        return self in (SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW)
 
     @property
     def label(self) -> str:

@@ -14,7 +14,7 @@ from networks.errors import NetconvertError, NetworkError
 from networks.sumo_tools import sumo_binary
 from networks.world import lane_footprint, load_net
 
-CONVERT_VERSION = "5"
+CONVERT_VERSION = "6"
 
 # Sidewalks and crossings for pedestrians, smooth lane shapes, z kept from the file.
 IMPORT_OPTIONS: tuple[str, ...] = (
@@ -26,6 +26,7 @@ IMPORT_OPTIONS: tuple[str, ...] = (
     "--no-turnarounds.except-deadend", "true",
     "--ignore-errors.edge-type", "true",
     "--no-warnings", "true",
+    "--output.original-names", "true",  # each lane's OpenDRIVE road and lane (origId): its roadMarks
 )  # fmt: skip
 
 _VEHICLES_ONLY = (

@@ -24,9 +24,10 @@ from shapely.prepared import prep
 from networks.cache import cache_dir, digest, intact, seal
 from networks.classes import SemanticClass
 from networks.errors import NetworkError
+from networks.markings import MARKINGS_VERSION, is_left_hand, marking_mesh, read_road_marks
 from networks.mesh import ClassedMesh, box_mesh, draped_polygon, flat_polygon, merge, prism, raised_polygon, ribbon
 
-WORLD_VERSION = "10"
+WORLD_VERSION = "11"
 CURB_HEIGHT_M = 0.15
 CURB_WALL_M = CURB_HEIGHT_M + 0.15  # curbs reach below the road and the terrain: no ray slips under a sidewalk
 ROAD_SKIRT_M = 0.15  # below a road's outer edges, deeper than the terrain lies under it
@@ -45,6 +46,11 @@ class StaticWorld:
     bounds_m: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax in the map frame
     num_buildings: int
     path: Path | None = None  # the cached world file, readable with :func:`read_world`
+    notice: str = ""  # what the user should know about how the world was built ('' if nothing)
+
+
+def _notice_line(problem: str) -> str:
+    return f"note: {problem}" if problem else ""
 
 
 def lane_footprint(lane: sumolib.net.lane.Lane) -> Polygon:
@@ -70,14 +76,28 @@ def load_net(net_path: Path) -> sumolib.net.Net:
         raise NetworkError(f"{net_path}: cannot read SUMO network: {err}") from err
 
 
-def build_world(net_path: Path, seed: int = 0, props: bool = True) -> StaticWorld:
+def build_world(
+    net_path: Path, seed: int = 0, props: bool = True, markings: bool = True, xodr_path: Path | None = None
+) -> StaticWorld:
     """Build (or load from the cache) the static world of a SUMO network; ``props`` adds
-    street lights and trees along the sidewalks."""
-    key = digest(WORLD_VERSION, net_path.read_bytes(), str(seed), str(props))
-    cached = cache_dir("worlds", key) / "world.npz"
+    street lights and trees along the sidewalks, ``markings`` the road markings (from the
+    ``roadMark`` records of ``xodr_path``, the OpenDRIVE file the network was converted from,
+    where it has them; see :mod:`networks.markings`)."""
+    source = xodr_path.read_bytes() if markings and xodr_path is not None else b""
+    key = digest(WORLD_VERSION, net_path.read_bytes(), str(seed), str(props), str(markings), MARKINGS_VERSION, source)
+    folder = cache_dir("worlds", key)
+    cached = folder / "world.npz"
     if intact(cached):
-        return read_world(cached)
-    world = _build(load_net(net_path), seed, props)
+        notice = folder / "notice.txt"
+        return dataclasses.replace(read_world(cached), notice=notice.read_text() if notice.exists() else "")
+    net = load_net(net_path)
+    world = _build(net, seed, props)
+    if markings:
+        marks = read_road_marks(xodr_path)
+        paint = marking_mesh(net, marks, is_left_hand(net_path))
+        world = dataclasses.replace(world, mesh=merge([world.mesh, paint]), notice=_notice_line(marks.problem))
+        if marks.problem:
+            (folder / "notice.txt").write_text(world.notice)
     tmp = cached.with_suffix(f".{os.getpid()}.partial.npz")  # one per process: others may write it too
     np.savez_compressed(
         tmp,

@@ -8,6 +8,11 @@ import numpy as np
 
 from networks.classes import SemanticClass
 
+# LiDAR reflectivity: asphalt returns weakly (about 0.1), retro-reflective road paint (glass
+# beads) several times more: the contrast that LiDAR lane-marking extraction and reflectivity
+# maps rely on (Levinson and Thrun, "Robust vehicle localization in urban environments using
+# probabilistic maps", ICRA 2010; Guan et al., "Using mobile laser scanning data for automated
+# extraction of road markings", ISPRS J. 2014).
 _REFLECTIVITY = {
     SemanticClass.NONE: 0.0,
     SemanticClass.ROAD: 0.12,
@@ -17,7 +22,11 @@ _REFLECTIVITY = {
     SemanticClass.VEGETATION: 0.35,
     SemanticClass.POLE: 0.5,
     SemanticClass.TERRAIN: 0.2,
-    SemanticClass.CROSSING: 0.7,
+    SemanticClass.CROSSING: 0.12,  # asphalt: its zebra stripes are paint
+    SemanticClass.LANE_MARKING: 0.6,
+    SemanticClass.LANE_MARKING_YELLOW: 0.55,
+    SemanticClass.TRAFFIC_LIGHT: 0.3,
+    SemanticClass.TRAFFIC_SIGN: 0.9,  # retro-reflective sheeting
     SemanticClass.CAR: 0.6,
     SemanticClass.TRUCK: 0.6,
     SemanticClass.BUS: 0.6,
@@ -36,6 +45,10 @@ _RADAR_REFLECTIVITY = {
     SemanticClass.POLE: 0.9,
     SemanticClass.TERRAIN: 0.03,
     SemanticClass.CROSSING: 0.02,
+    SemanticClass.LANE_MARKING: 0.02,
+    SemanticClass.LANE_MARKING_YELLOW: 0.02,
+    SemanticClass.TRAFFIC_LIGHT: 0.6,
+    SemanticClass.TRAFFIC_SIGN: 0.9,
     SemanticClass.CAR: 1.0,
     SemanticClass.TRUCK: 1.0,
     SemanticClass.BUS: 1.0,
@@ -54,7 +67,11 @@ _ALBEDO_BGR = {
     SemanticClass.VEGETATION: (0.15, 0.45, 0.2),
     SemanticClass.POLE: (0.35, 0.35, 0.38),
     SemanticClass.TERRAIN: (0.25, 0.5, 0.45),
-    SemanticClass.CROSSING: (0.85, 0.85, 0.85),
+    SemanticClass.CROSSING: (0.27, 0.26, 0.25),  # asphalt under the stripes
+    SemanticClass.LANE_MARKING: (0.85, 0.85, 0.85),
+    SemanticClass.LANE_MARKING_YELLOW: (0.1, 0.7, 0.9),
+    SemanticClass.TRAFFIC_LIGHT: (0.08, 0.08, 0.08),
+    SemanticClass.TRAFFIC_SIGN: (0.8, 0.8, 0.8),
     SemanticClass.CAR: (0.6, 0.3, 0.2),
     SemanticClass.TRUCK: (0.3, 0.55, 0.8),
     SemanticClass.BUS: (0.15, 0.7, 0.85),

@@ -71,6 +71,10 @@ SEMANTIC_KITTI_IDS = {
     SemanticClass.MOTORCYCLE: 15,
     SemanticClass.BICYCLE: 11,
     SemanticClass.PEDESTRIAN: 30,
+    SemanticClass.LANE_MARKING: 60,
+    SemanticClass.LANE_MARKING_YELLOW: 60,
+    SemanticClass.TRAFFIC_LIGHT: 81,  # SemanticKITTI has no traffic-light class: with the signs
+    SemanticClass.TRAFFIC_SIGN: 81,
 }
 SEMANTIC_KITTI_LUT = np.zeros(256, np.uint32)  # 0 "unlabeled" for any class not listed
 for _cls, _id in SEMANTIC_KITTI_IDS.items():

@@ -180,6 +180,27 @@ def test_static_map_is_written_once_at_the_first_frame_with_every_classed_triang
     assert written[SemanticClass.ROAD] > 100 and written[SemanticClass.BUILDING] > 100
 
 
+def test_lane_markings_are_bright_in_the_lidar_and_classed_in_the_camera(dataset):
+    """Every frame has LiDAR points on paint, at least twice as intense as the road at the same
+    range; the camera's class mask has paint pixels."""
+    import cv2
+
+    for _, _, cloud in iter_messages(dataset / "run.mcap", ["/lidar"]):
+        points = lidar_points(cloud)
+        paint = points["class"] == SemanticClass.LANE_MARKING
+        assert paint.sum() > 50
+        rng = np.hypot(points["x"], points["y"])
+        for lo, hi in ((3.0, 8.0), (8.0, 15.0)):
+            band = (rng >= lo) & (rng < hi)
+            road = band & (points["class"] == SemanticClass.ROAD)
+            if (band & paint).sum() >= 10 and road.sum() >= 10:
+                assert points["intensity"][band & paint].mean() >= 2.0 * points["intensity"][road].mean()
+    masks = [cv2.imdecode(np.frombuffer(m.data, np.uint8), cv2.IMREAD_UNCHANGED)
+             for _, _, m in iter_messages(dataset / "run.mcap", ["/camera/class"])]  # fmt: skip
+    assert len(masks) == 20
+    assert all(np.sum(mask == SemanticClass.LANE_MARKING) > 200 for mask in masks)
+
+
 def test_a_run_that_will_not_fit_on_the_disk_stops_early_with_one_line_and_no_dataset(tmp_path, monkeypatch):
     import shutil
     from collections import namedtuple
@@ -206,8 +227,8 @@ def test_semantic_kitti_point_labels_match_the_point_cloud_and_poses_follow_the_
         assert len(labels) == len(velo) == len(cloud)
         np.testing.assert_array_equal(labels & 0xFFFF, SEMANTIC_KITTI_LUT[cloud["class"]])
         np.testing.assert_array_equal(labels >> 16, cloud["instance"] & 0xFFFF)
-        assert set(np.unique(labels & 0xFFFF)) <= {1, 10, 11, 13, 15, 18, 30, 40, 48, 50, 70, 72, 80}
-        assert {10, 40, 50} <= set(np.unique(labels & 0xFFFF))
+        assert set(np.unique(labels & 0xFFFF)) <= {1, 10, 11, 13, 15, 18, 30, 40, 48, 50, 60, 70, 72, 80, 81}
+        assert {10, 40, 50, 60} <= set(np.unique(labels & 0xFFFF))
     poses = np.loadtxt(kitti / "poses.txt").reshape(-1, 3, 4)
     assert poses.shape == (20, 3, 4)
     np.testing.assert_allclose(poses[0], np.eye(4)[:3], atol=1e-9)

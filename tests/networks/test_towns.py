@@ -168,13 +168,14 @@ def _cast(world: StaticWorld, origins: np.ndarray, directions: np.ndarray) -> tu
 
 def test_the_road_under_a_car_is_solid_wherever_it_drives(town):
     """Straight down from 1.5 m above any point a car can drive on, the first surface is
-    the road itself: no hole, no sidewalk or junction slab above or below the lane."""
+    the road itself (or its paint): no hole, no sidewalk or junction slab above or below the lane."""
     _, _, net, world = town
     points = _driving_lane_points(net, np.random.default_rng(0), 4000)
     down = np.tile([0.0, 0.0, -1.0], (len(points), 1))
     t_hit, cls = _cast(world, points + np.array([0.0, 0.0, 1.5]), down)
     surface_dz = 1.5 - t_hit
-    on_road = np.isin(cls, [SemanticClass.ROAD, SemanticClass.CROSSING]) & (np.abs(surface_dz) < 0.1)
+    paved = [SemanticClass.ROAD, SemanticClass.CROSSING, SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW]
+    on_road = np.isin(cls, paved) & (np.abs(surface_dz) < 0.1)
     assert np.isfinite(t_hit).all()
     assert not np.any(cls == SemanticClass.TERRAIN)
     assert on_road.mean() > 0.999, points[~on_road][:5]

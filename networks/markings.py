@@ -1,0 +1,422 @@
+"""Road markings as classed geometry: lane lines, edge lines, stop and give-way lines and zebra
+stripes, thin strips a few millimetres above the road surface.
+
+Lane lines come from the OpenDRIVE file's ``roadMark`` records (type, colour, width, where
+along the lane each starts), placed on the SUMO lanes converted from that file (each SUMO lane
+knows its OpenDRIVE road and lane through netconvert's ``origId``), so a user's map keeps its
+own markings and they lie exactly on the world mesh's lanes. A road without readable
+``roadMark`` records gets markings from rules on its SUMO lanes: broken lines between lanes of
+one direction, a solid line between directions, solid edge lines where the road has no
+sidewalk. Stop lines are painted where a lane enters a junction under a traffic light or a
+stop rule, give-way lines where it must yield; crossings get zebra stripes.
+
+White paint is :attr:`SemanticClass.LANE_MARKING`, yellow paint
+:attr:`SemanticClass.LANE_MARKING_YELLOW`.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from xml.etree import ElementTree
+
+import numpy as np
+import numpy.typing as npt
+import sumolib
+
+from networks.classes import SemanticClass
+from networks.mesh import ClassedMesh, merge, ribbon
+
+MARKINGS_VERSION = "2"  # part of the world cache key: change it when the markings change
+PAINT_HEIGHT_M = 0.005  # above the lane surface
+CROSSING_PAINT_HEIGHT_M = 0.013  # 3 mm above the crossing's own strip (1 cm above the road)
+LINE_WIDTH_M = {"standard": 0.12, "bold": 0.25}
+DOUBLE_GAP_M = 0.12  # between the two lines of a double line
+EDGE_INSET_M = 0.1  # an edge line's outer side this far inside the road's edge
+DASH_M = {"town": (3.0, 6.0), "fast": (6.0, 12.0)}  # dash and gap of broken lines (RMS 1980, Germany)
+FAST_SPEED_MPS = 70.0 / 3.6
+BOTTS_DOTS_M = (0.15, 1.0)
+STOP_LINE_WIDTH_M = 0.4  # along the lane (Germany: 0.5, US MUTCD: 12-24 in)
+GIVE_WAY_WIDTH_M = 0.3
+GIVE_WAY_DASH_M = (0.5, 0.25)
+LINE_BACK_M = 0.3  # a stop line's far side this far before the lane's end
+ZEBRA_STRIPE_M = 0.5  # along the walking direction (Germany and UK: 0.5 m bars, 0.5 m gaps)
+ZEBRA_MARGIN_M = 0.25  # each end of a bar inside the crossing's width
+
+PAINTED_TYPES = ("solid", "broken", "solid solid", "solid broken", "broken solid", "broken broken", "botts dots")
+UNPAINTED_TYPES = ("none", "grass", "curb", "custom", "edge")
+_YELLOW = ("yellow", "orange")
+_STOP_STATES = frozenset("sw")  # SUMO link states: stop sign, all-way stop
+_YIELD_STATES = frozenset("m")  # minor link: give way
+
+
+@dataclass(frozen=True, slots=True)
+class RoadMark:
+    """One ``roadMark`` record: from ``s_offset_m`` of its lane section on."""
+
+    s_offset_m: float
+    kind: str  # one of PAINTED_TYPES or UNPAINTED_TYPES
+    yellow: bool
+    width_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class LaneSection:
+    s_m: float
+    length_m: float
+    marks: dict[int, tuple[RoadMark, ...]]  # OpenDRIVE lane id -> its marks, by s_offset
+
+
+@dataclass(frozen=True, slots=True)
+class RoadMarks:
+    """The ``roadMark`` records of an OpenDRIVE file, by road id (roads with none or with
+    unreadable ones are left out), and what could not be read (one line, '' if all could)."""
+
+    roads: dict[str, tuple[LaneSection, ...]]
+    problem: str = ""
+
+
+def read_road_marks(xodr_path: Path | None) -> RoadMarks:
+    """Every road's ``roadMark`` records; a road with an unreadable record is left out (its
+    markings then come from the lane rules) and the first such record is named in ``problem``."""
+    if xodr_path is None:
+        return RoadMarks({})
+    try:
+        root = ElementTree.parse(xodr_path).getroot()
+    except (ElementTree.ParseError, OSError) as err:
+        return RoadMarks({}, f"{xodr_path}: roadMark records not read ({err})")
+    roads: dict[str, tuple[LaneSection, ...]] = {}
+    bad: list[str] = []
+    for road in root.iter("road"):
+        road_id = road.get("id", "")
+        try:
+            sections = _sections(road)
+        except ValueError as err:
+            bad.append(f"road {road_id}: {err}")
+            continue
+        if any(section.marks for section in sections):
+            roads[road_id] = sections
+    problem = ""
+    if bad:
+        problem = (f"{xodr_path}: {len(bad)} road(s) with unreadable roadMark records (first: {bad[0]}); "
+                   "their markings follow the lane rules instead")  # fmt: skip
+    return RoadMarks(roads, problem)
+
+
+def _sections(road: ElementTree.Element) -> tuple[LaneSection, ...]:
+    road_length = _number(road.get("length"), "length", 0.0)
+    found = road.findall("lanes/laneSection")
+    starts = [_number(sec.get("s"), "laneSection s", 0.0) for sec in found]
+    sections = []
+    for k, sec in enumerate(found):
+        end = starts[k + 1] if k + 1 < len(found) else road_length
+        marks: dict[int, tuple[RoadMark, ...]] = {}
+        for lane in sec.iter("lane"):
+            records = lane.findall("roadMark")
+            if not records:
+                continue
+            lane_id = int(_number(lane.get("id"), "lane id", None))
+            marks[lane_id] = tuple(sorted((_mark(r, lane_id) for r in records), key=lambda m: m.s_offset_m))
+        sections.append(LaneSection(starts[k], max(end - starts[k], 1e-6), marks))
+    return tuple(sections)
+
+
+def _mark(record: ElementTree.Element, lane_id: int) -> RoadMark:
+    kind = " ".join((record.get("type") or "none").split()).lower()
+    if kind not in PAINTED_TYPES and kind not in UNPAINTED_TYPES:
+        raise ValueError(f"lane {lane_id}: roadMark type {record.get('type')!r} (expected one of "
+                         f"{', '.join(PAINTED_TYPES + UNPAINTED_TYPES)})")  # fmt: skip
+    weight = (record.get("weight") or "standard").lower()
+    width = _number(record.get("width"), f"lane {lane_id}: roadMark width", 0.0)
+    if width <= 0.0 or width > 1.0:
+        width = LINE_WIDTH_M.get(weight, LINE_WIDTH_M["standard"])
+    s_offset = _number(record.get("sOffset"), f"lane {lane_id}: roadMark sOffset", 0.0)
+    return RoadMark(max(s_offset, 0.0), kind, (record.get("color") or "").lower() in _YELLOW, width)
+
+
+def _number(text: str | None, what: str, default: float | None) -> float:
+    if text is None or not text.strip():
+        if default is None:
+            raise ValueError(f"{what} missing")
+        return default
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{what} {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{what} {text!r} is not finite")
+    return value
+
+
+def is_left_hand(net_path: Path) -> bool:
+    """Whether a SUMO network drives on the left (its ``<net lefthand="true">``)."""
+    with open(net_path, encoding="utf-8") as f:
+        head = f.read(4096)
+    match = re.search(r"<net\s[^>]*>", head)
+    return bool(match and re.search(r'\slefthand="(true|1)"', match.group(0)))
+
+
+@dataclass(frozen=True, slots=True)
+class _Line:
+    """A painted line along a lane: its lateral offset from the lane's centre line (left
+    positive), the part of the lane it covers, how it is painted."""
+
+    offset_m: float
+    s0_m: float
+    s1_m: float
+    kind: str
+    yellow: bool
+    width_m: float
+
+
+def marking_mesh(net: sumolib.net.Net, marks: RoadMarks, left_hand: bool) -> ClassedMesh:
+    """All markings of a network: lane and edge lines, stop and give-way lines, zebra stripes."""
+    parts: list[ClassedMesh] = []
+    centre_lines_seen: set[tuple[tuple[float, float], ...]] = set()
+    outer = 1.0 if left_hand else -1.0  # the side of a lane away from the road's centre (left is +)
+    for edge in sorted(net.getEdges(withInternal=True), key=lambda e: e.getID()):
+        if edge.getFunction() == "crossing":
+            parts += [_zebra(lane) for lane in edge.getLanes()]
+            continue
+        if edge.getFunction():
+            continue
+        lanes = sorted(edge.getLanes(), key=lambda lane: lane.getIndex())
+        for lane in lanes:
+            if not _paved_for_vehicles(lane) or len(lane.getShape()) < 2:
+                continue
+            for line in _lines_of(edge, lanes, lane, marks, outer, centre_lines_seen):
+                parts.append(_paint_line(lane, line, outer))
+            parts.append(_stop_line(net, lane))
+    return merge(parts)
+
+
+def _paved_for_vehicles(lane: sumolib.net.lane.Lane) -> bool:
+    """A lane whose surface is road (driving, parking, shoulder...), not a sidewalk."""
+    return bool(lane.getPermissions() != {"pedestrian"})
+
+
+def _lines_of(
+    edge: sumolib.net.edge.Edge, lanes: list[sumolib.net.lane.Lane], lane: sumolib.net.lane.Lane,
+    marks: RoadMarks, outer: float, centre_lines_seen: set[tuple[tuple[float, float], ...]],
+) -> list[_Line]:  # fmt: skip
+    """The lines along ``lane``'s outer side, and along its inner side if it is the innermost."""
+    i, width, length = lane.getIndex(), lane.getWidth(), lane.getLength()
+    lines: list[_Line] = []
+    neighbour = lanes[i - 1] if i > 0 else None
+    if neighbour is None or _paved_for_vehicles(neighbour):  # beside a sidewalk: a kerb, no paint
+        at_edge = neighbour is None
+        for mark in _outer_marks(edge, lane, neighbour, marks):
+            lines.append(_placed(mark, outer * width / 2.0, at_edge, outer))
+    if i == len(lanes) - 1:
+        key = _centre_key(lane, outer)
+        if key not in centre_lines_seen:
+            centre_lines_seen.add(key)
+            for mark in _centre_marks(edge, lane, marks):
+                lines.append(_placed(mark, -outer * width / 2.0, _is_edge(edge), -outer))
+    return [_clipped(line, length) for line in lines]
+
+
+def _clipped(line: _Line, length_m: float) -> _Line:
+    """``line`` with its span clipped to the lane's length."""
+    return _Line(line.offset_m, max(line.s0_m, 0.0), min(line.s1_m, length_m), line.kind, line.yellow, line.width_m)
+
+
+def _placed(mark: _Line, boundary_m: float, at_edge: bool, side: float) -> _Line:
+    """A line on the lane boundary at ``boundary_m``; at the road's edge moved inside it."""
+    offset = boundary_m - side * (_painted_width(mark) / 2.0 + EDGE_INSET_M) if at_edge else boundary_m
+    return _Line(offset, mark.s0_m, mark.s1_m, mark.kind, mark.yellow, mark.width_m)
+
+
+def _painted_width(line: _Line) -> float:
+    return 2 * line.width_m + DOUBLE_GAP_M if " " in line.kind and line.kind != "botts dots" else line.width_m
+
+
+def _is_edge(edge: sumolib.net.edge.Edge) -> bool:
+    """Whether no road runs the other way between the same junctions: the inner side of a
+    one-way road's innermost lane is then the road's edge."""
+    back = edge.getFromNode()
+    return not any(e.getToNode() is back for e in edge.getToNode().getOutgoing() if not e.getFunction())
+
+
+def _centre_key(lane: sumolib.net.lane.Lane, outer: float) -> tuple[tuple[float, float], ...]:
+    """The inner boundary's ends, rounded and unordered: both directions of a road share it."""
+    shape = np.asarray(lane.getShape(), np.float64)
+    normals = _unit_left(shape)
+    inner = shape + normals * (-outer * lane.getWidth() / 2.0)
+    ends = sorted((round(float(p[0]) * 2) / 2, round(float(p[1]) * 2) / 2) for p in (inner[0], inner[-1]))
+    return tuple(ends)
+
+
+def _od_lane(lane: sumolib.net.lane.Lane, marks: RoadMarks) -> tuple[LaneSection, int] | None:
+    """The OpenDRIVE lane section and lane id a SUMO lane was converted from (None if unknown
+    or if the road has no readable marks)."""
+    orig = lane.getParam("origId", "") or ""
+    road_id, _, lane_text = orig.rpartition("_")
+    sections = marks.roads.get(road_id)
+    if not sections:
+        return None
+    try:
+        lane_id = int(lane_text)
+    except ValueError:
+        return None
+    s_start = 0.0
+    edge_id = lane.getEdge().getID().lstrip("-")
+    if edge_id.startswith(road_id + "."):
+        try:
+            s_start = float(edge_id[len(road_id) + 1 :])
+        except ValueError:
+            s_start = 0.0
+    section = sections[0]
+    for candidate in sections:
+        if candidate.s_m <= s_start + 1e-3:
+            section = candidate
+    return section, lane_id
+
+
+def _spans(records: tuple[RoadMark, ...], section: LaneSection, length_m: float, reversed_: bool) -> list[_Line]:
+    """A lane section's marks as spans of a SUMO lane ``length_m`` long (against the road's
+    direction if ``reversed_``)."""
+    out = []
+    for k, mark in enumerate(records):
+        end = records[k + 1].s_offset_m if k + 1 < len(records) else section.length_m
+        a, b = mark.s_offset_m / section.length_m, min(end / section.length_m, 1.0)
+        if b <= a or mark.kind not in PAINTED_TYPES:
+            continue
+        if reversed_:
+            a, b = 1.0 - b, 1.0 - a
+        out.append(_Line(0.0, a * length_m, b * length_m, mark.kind, mark.yellow, mark.width_m))
+    return out
+
+
+def _outer_marks(
+    edge: sumolib.net.edge.Edge, lane: sumolib.net.lane.Lane, neighbour: sumolib.net.lane.Lane | None,
+    marks: RoadMarks,
+) -> list[_Line]:  # fmt: skip
+    found = _od_lane(lane, marks)
+    if found is not None:
+        section, lane_id = found
+        return _spans(section.marks.get(lane_id, ()), section, lane.getLength(), reversed_=lane_id > 0)
+    length = lane.getLength()
+    if neighbour is not None and _drives(lane) and _drives(neighbour):
+        return [_Line(0.0, 0.0, length, "broken", False, LINE_WIDTH_M["standard"])]
+    if _drives(lane) or neighbour is not None:  # the road's edge, or beside a parking lane
+        return [_Line(0.0, 0.0, length, "solid", False, LINE_WIDTH_M["standard"])]
+    return []
+
+
+def _centre_marks(edge: sumolib.net.edge.Edge, lane: sumolib.net.lane.Lane, marks: RoadMarks) -> list[_Line]:
+    found = _od_lane(lane, marks)
+    if found is not None:
+        section, lane_id = found
+        return _spans(section.marks.get(0, ()), section, lane.getLength(), reversed_=lane_id > 0)
+    if not _drives(lane):
+        return []
+    return [_Line(0.0, 0.0, lane.getLength(), "solid", False, LINE_WIDTH_M["standard"])]
+
+
+def _drives(lane: sumolib.net.lane.Lane) -> bool:
+    return bool(lane.getPermissions() - {"pedestrian"})
+
+
+def _unit_left(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Unit left normals of a ``(K, 2+)`` polyline at its vertices (mitred)."""
+    p = np.asarray(xy, np.float64)[:, :2]
+    seg = np.diff(p, axis=0)
+    seg /= np.maximum(np.linalg.norm(seg, axis=1, keepdims=True), 1e-9)
+    n_seg = np.stack([-seg[:, 1], seg[:, 0]], axis=1)
+    normals = np.empty_like(p)
+    normals[0], normals[-1] = n_seg[0], n_seg[-1]
+    mid = n_seg[:-1] + n_seg[1:]
+    mid /= np.maximum(np.linalg.norm(mid, axis=1, keepdims=True), 1e-9)
+    cos_half = np.sum(mid * n_seg[:-1], axis=1, keepdims=True)
+    normals[1:-1] = mid / np.clip(cos_half, 0.5, 1.0)
+    return normals
+
+
+def _clean(shape: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1) > 1e-3])
+    return np.asarray(shape[keep], np.float64)
+
+
+def _cut(shape: npt.NDArray[np.float64], s0: float, s1: float) -> npt.NDArray[np.float64]:
+    """The part of a ``(K, 3)`` polyline between arc lengths ``s0`` and ``s1``."""
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1))])
+    inside = shape[(s > s0) & (s < s1)]
+    ends = [np.array([np.interp(v, s, shape[:, k]) for k in range(3)]) for v in (s0, s1)]
+    return np.vstack([ends[0], inside, ends[1]])
+
+
+def _paint_line(lane: sumolib.net.lane.Lane, line: _Line, outer: float) -> ClassedMesh:
+    """The strips of one line along ``lane``."""
+    shape = _clean(np.asarray(lane.getShape3D(), np.float64))
+    if shape.shape[0] < 2 or line.s1_m - line.s0_m < 0.05:
+        return ClassedMesh.empty()
+    cls = SemanticClass.LANE_MARKING_YELLOW if line.yellow else SemanticClass.LANE_MARKING
+    kinds = line.kind.split() if line.kind != "botts dots" else ["botts dots"]
+    half_gap = (line.width_m + DOUBLE_GAP_M) / 2.0  # of a double line: the first type nearer the road's centre
+    offsets = [line.offset_m]
+    if len(kinds) == 2:
+        offsets = [line.offset_m - outer * half_gap, line.offset_m + outer * half_gap]
+    dash = DASH_M["fast" if lane.getSpeed() > FAST_SPEED_MPS else "town"]
+    parts = []
+    for kind, offset in zip(kinds, offsets, strict=True):
+        moved = shape.copy()
+        moved[:, :2] += _unit_left(shape) * offset
+        if kind == "solid":
+            pieces = [(line.s0_m, line.s1_m)]
+        else:
+            on, off = BOTTS_DOTS_M if kind == "botts dots" else dash
+            pieces = [(a, min(a + on, line.s1_m)) for a in np.arange(line.s0_m, line.s1_m - 0.05, on + off)]
+        for a, b in pieces:
+            parts.append(ribbon(_cut(moved, a, b), line.width_m, cls, PAINT_HEIGHT_M))
+    return merge(parts)
+
+
+def _stop_line(net: sumolib.net.Net, lane: sumolib.net.lane.Lane) -> ClassedMesh:
+    """A solid stop line across the lane's end under a traffic light or a stop rule, a broken
+    give-way line where its links must yield; nothing where it has right of way."""
+    links = [c for c in lane.getOutgoing() if c.getToLane() is not None]
+    if not links or not _drives(lane):
+        return ClassedMesh.empty()
+    states = {c.getState() for c in links}
+    signalled = any(c.getTLSID() for c in links)
+    if signalled or states & _STOP_STATES:
+        width, dashes = STOP_LINE_WIDTH_M, None
+    elif states & _YIELD_STATES:
+        width, dashes = GIVE_WAY_WIDTH_M, GIVE_WAY_DASH_M
+    else:
+        return ClassedMesh.empty()
+    shape = _clean(np.asarray(lane.getShape3D(), np.float64))
+    length = float(np.sum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1)))
+    if shape.shape[0] < 2 or length < width + LINE_BACK_M + 0.5:
+        return ClassedMesh.empty()
+    s = length - LINE_BACK_M - width / 2.0
+    centre = _cut(shape, s - 0.01, s + 0.01)
+    c, heading = centre[0], centre[-1, :2] - centre[0, :2]
+    left = np.array([-heading[1], heading[0]]) / max(float(np.linalg.norm(heading)), 1e-9)
+    half = lane.getWidth() / 2.0 - 0.05
+    across = np.array([[*(c[:2] + left * half), c[2]], [*(c[:2] - left * half), c[2]]])
+    if dashes is None:
+        return ribbon(across, width, SemanticClass.LANE_MARKING, PAINT_HEIGHT_M)
+    on, off = dashes
+    return merge([ribbon(_cut(across, a, min(a + on, 2 * half)), width, SemanticClass.LANE_MARKING, PAINT_HEIGHT_M)
+                  for a in np.arange(0.0, 2 * half - 0.1, on + off)])  # fmt: skip
+
+
+def _zebra(lane: sumolib.net.lane.Lane) -> ClassedMesh:
+    """Stripes across a crossing, parallel to the traffic, ``ZEBRA_STRIPE_M`` wide and apart."""
+    shape = _clean(np.asarray(lane.getShape3D(), np.float64))
+    if shape.shape[0] < 2:
+        return ClassedMesh.empty()
+    length = float(np.sum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1)))
+    bar = lane.getWidth() - 2 * ZEBRA_MARGIN_M
+    if bar <= 0.2 or length < 2 * ZEBRA_STRIPE_M:
+        return ClassedMesh.empty()
+    count = int((length + ZEBRA_STRIPE_M) // (2 * ZEBRA_STRIPE_M))
+    start = (length - (2 * count - 1) * ZEBRA_STRIPE_M) / 2.0  # stripes centred on the crossing
+    return merge([
+        ribbon(_cut(shape, a, a + ZEBRA_STRIPE_M), bar, SemanticClass.LANE_MARKING, CROSSING_PAINT_HEIGHT_M)
+        for a in start + 2 * ZEBRA_STRIPE_M * np.arange(count)
+    ])  # fmt: skip
