@@ -54,7 +54,9 @@ def town05() -> tuple[sumolib.net.Net, StaticWorld]:
 
 def test_every_crossing_is_painted_as_stripes_not_a_slab(town05):
     net, world = town05
-    crossings = [lane for e in net.getEdges(withInternal=True) if e.getFunction() == "crossing" for lane in e.getLanes()]
+    crossings = [
+        lane for e in net.getEdges(withInternal=True) if e.getFunction() == "crossing" for lane in e.getLanes()
+    ]
     assert len(crossings) > 20
     for lane in crossings:
         line = np.asarray(lane.getShape(), np.float64)
@@ -100,7 +102,9 @@ def test_markings_follow_the_files_roadmarks_colour_and_doubling(tmp_path):
     axis = mid + left * inner.getWidth() / 2.0
     across = axis + np.linspace(-0.4, 0.4, 161)[:, None] * left
     cls = _down(world, across)
-    yellow_runs = int(np.sum((cls[1:] == SemanticClass.LANE_MARKING_YELLOW) & (cls[:-1] != SemanticClass.LANE_MARKING_YELLOW)))
+    yellow_runs = int(
+        np.sum((cls[1:] == SemanticClass.LANE_MARKING_YELLOW) & (cls[:-1] != SemanticClass.LANE_MARKING_YELLOW))
+    )
     assert yellow_runs == 2
     assert cls[80] == SemanticClass.ROAD  # the gap between the two lines
 
