@@ -23,17 +23,21 @@ from cosim.errors import CosimError, RunStoppedError, Terminated, TrafficError
 from cosim.resume import ResumePoint, begin, finish, resume_point
 from cosim.rig import Rig, build_rig
 from cosim.scenario import Scenario
+from cosim.signals import SignalHeads
 from cosim.state import WorldState
 from cosim.traffic_feed import TrafficFeed, TrafficInline, TrafficProcess
 from cosim.world_setup import prepare_network
 from gtgen.frame import FrameRecord
 from gtgen.labels import FrameLabels, label_frame
+from gtgen.signals import SignalLabels
 from gtgen.sinks.background import BackgroundSinks
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.sinks.resume_sink import RESUME_DIR
 from gtgen.timing import NO_CLOCK, NoClock, StageClock
 from networks.classes import SemanticClass
 from networks.geometry import SE3
+from networks.markings import is_left_hand
+from networks.street import signal_heads
 from sensors.engine import Scene
 from sensors.scene import StaticCrop
 
@@ -121,19 +125,27 @@ def sense_and_label(
     rig: Rig,
     rng: np.random.Generator,
     probe: FrameProbe = NO_PROBE,
+    signals: SignalHeads | None = None,
 ) -> FrameRecord:
-    """Cast every sensor into one scene of this frame, then label what the rays saw."""
+    """Cast every sensor into one scene of this frame, then label what the rays saw (the
+    traffic lights' heads among the objects, with ``signals``)."""
     map_SE3_ego = state.ego.map_SE3_ego()
     with probe.stage("scene"):
         static = crop.around(map_SE3_ego.translation)
         state = on_raised_surfaces(state, crop)
-        scene = rig.engine.scene(static, rig.agents_in_view(state.agents, map_SE3_ego))
+        if signals is not None:
+            state = signals.join(state, rig.label_range_m + AGENT_MARGIN_M)
+        in_view = rig.agents_in_view(state.agents, map_SE3_ego)
+        scene = rig.engine.scene(static, in_view)
     outputs = rig.sense(scene, state.ego, rng, probe)
+    if signals is not None:
+        outputs = signals.light_cameras(outputs, in_view, state, map_SE3_ego)
     probe.scene(frame_index, scene, map_SE3_ego)
     with probe.stage("labels"):
         timestamp_ns = round(state.time_s * 1e9)
         labels = label_frame(frame_index, timestamp_ns, state.agents, state.ego, outputs, scene, rig.label_range_m)
-    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut)
+        lights = signals.labels(labels, state) if signals is not None else SignalLabels.empty()
+    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut, signals=lights)
 
 
 PERSON_STEP_UP_M = 0.5  # a pedestrian stands on the highest static surface this far above its lane
@@ -165,7 +177,8 @@ def sink_choice(
                                                        ("radar", rig.radars)) for s in specs)  # fmt: skip
     return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address,
                       sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first,
-                      kitti_native_types=o.kitti_types == "native")  # fmt: skip
+                      kitti_native_types=o.kitti_types == "native",
+                      traffic_lights=scenario.street.traffic_lights)  # fmt: skip
 
 
 def open_sinks(choice: SinkChoice, one_process: bool = False, clock: StageClock = NO_CLOCK) -> FrameSink:
@@ -220,7 +233,11 @@ def run(
         crop.restore(point.checkpoint["crop_center_xy_m"])
         summary, start = RunSummary.from_dict(point.checkpoint["summary"]), point.frames
     choice = sink_choice(scenario, out_dir, prepared.world.path, point)
-    loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, summary, out_dir, progress, one_process, probe)
+    signals = None
+    if scenario.street.traffic_lights:
+        signals = SignalHeads(signal_heads(prepared.net, is_left_hand(prepared.net_path)))
+    loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, summary, out_dir, progress, one_process, probe,
+                     signals)  # fmt: skip
     stopped: BaseException | None = None
     held: Handlers = {}
 
@@ -279,6 +296,7 @@ class FrameLoop:
     progress: bool
     one_process: bool
     probe: FrameProbe
+    signals: SignalHeads | None = None
 
     def frames(self, start: int, sinks: FrameSink, started: Callable[[], None]) -> None:
         """Frames ``start`` .. the last: the traffic (simulated up to ``start`` first), sensed,
@@ -299,7 +317,8 @@ class FrameLoop:
                        file=sys.stderr, initial=start, total=scenario.frames)  # fmt: skip
             probe.frame_done(-1)
             for frame_index in bar:
-                record = sense_and_label(frame_index, traffic.next(), self.crop, self.rig, self.rng, probe)
+                state = traffic.next()
+                record = sense_and_label(frame_index, state, self.crop, self.rig, self.rng, probe, self.signals)
                 self.summary.add(record.labels, record.scene_cut)
                 sinks.write(replace(record, checkpoint=self.checkpoint()))
                 probe.frame_done(frame_index)

@@ -77,6 +77,7 @@ class StreetConfig:
     """What stands and is painted along the streets; each can be turned off (for ablations)."""
 
     markings: bool = True  # lane, edge, stop and give-way lines, zebra stripes
+    traffic_lights: bool = True  # a pole and a labelled signal head per signalised approach, live states
 
 
 @dataclass(frozen=True, slots=True)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -13,14 +13,18 @@ from sensors.agents import Agents, EgoState
 class WorldState:
     """``agents``: every agent but the ego (instance id = track id, stable over the scene);
     ``scene_cut``: the ego is a new one, put at the start of a route when the last one ran out
-    of road (what came before is another scene)."""
+    of road (what came before is another scene); ``signal_states``: each traffic light's
+    state string at this step (libsumo's, one letter per controlled link); ``ego_lane``: the
+    SUMO lane the ego drives on."""
 
     time_s: float
     agents: Agents
     ego: EgoState
     scene_cut: bool = False
+    signal_states: dict[str, str] = field(default_factory=dict)
+    ego_lane: str = ""
 
     def near(self, radius_m: float) -> WorldState:
         """Only the agents whose centre lies within ``radius_m`` of the ego (in the plane)."""
         d = np.linalg.norm(self.agents.center_map_m[:, :2] - self.ego.center_map_m[:2], axis=1)
-        return WorldState(self.time_s, self.agents.select(d <= radius_m), self.ego, self.scene_cut)
+        return replace(self, agents=self.agents.select(d <= radius_m))

@@ -107,6 +107,8 @@ class Traffic:
         except libsumo.TraCIException as err:
             raise TrafficError(f"{net_path}: SUMO could not load the network: {err}") from err
         self._variants = self._define_types()
+        lights = scenario.street.traffic_lights
+        self._signals: tuple[str, ...] = tuple(sorted(libsumo.trafficlight.getIDList())) if lights else ()
         traffic = scenario.traffic
         total = target_vehicle_count(traffic.vehicles_per_lane_km, self._index.vehicle_lane_km, traffic.vehicles)
         self.notices: list[str] = list(self._cache_notices)
@@ -465,7 +467,9 @@ class Traffic:
             raise TrafficError(f"the ego vehicle {self._ego!r} is not among the agents read at t={self._time():.2f} s")
         e = int(np.flatnonzero(is_ego)[0])
         ego = EgoState(center[e], lwh[e], float(yaw[e]), float(pitch[e]), velocity[e])
-        return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut)
+        signals = {tls: libsumo.trafficlight.getRedYellowGreenState(tls) for tls in self._signals}
+        lane = str(libsumo.vehicle.getLaneID(self._ego))
+        return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut, signals, lane)
 
     @staticmethod
     def _time() -> float:

@@ -44,6 +44,7 @@ def prepare_network(scenario: Scenario) -> PreparedNetwork:
         msg = f"{source}: network: unknown town {scenario.network!r} (known: {known}; or a path to an .xodr file)"
         raise ScenarioError(msg)
     net_path = import_opendrive(xodr)
-    world = build_world(net_path, markings=scenario.street.markings, xodr_path=xodr)
+    street = scenario.street
+    world = build_world(net_path, markings=street.markings, xodr_path=xodr, traffic_lights=street.traffic_lights)
     notices = [notice, *take_notices(), conversion_notice(net_path), world.notice]
     return PreparedNetwork(xodr, net_path, world, "\n".join(n for n in notices if n))

@@ -6,6 +6,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from gtgen.labels import FrameLabels
+from gtgen.signals import SignalLabels
 from networks.geometry import SE3
 from sensors.camera import CameraOutput
 from sensors.lidar import LidarOutput
@@ -19,7 +20,8 @@ class FrameRecord:
     :class:`~gtgen.labels.CameraLabels` per camera, in the order of :attr:`cameras`).
     ``scene_cut``: the ego was put back at the start of a route before this frame (it ran
     out of road): this frame starts a new scene. ``checkpoint``: what the frame loop needs to
-    continue after this frame (plain JSON data, kept by the run's resume file)."""
+    continue after this frame (plain JSON data, kept by the run's resume file). ``signals``:
+    the traffic lights' states, for the heads among the labelled objects."""
 
     frame_index: int
     timestamp_ns: int
@@ -28,6 +30,7 @@ class FrameRecord:
     labels: FrameLabels
     scene_cut: bool = False
     checkpoint: Mapping[str, object] = field(default_factory=dict)
+    signals: SignalLabels = field(default_factory=SignalLabels.empty)
 
     @property
     def lidars(self) -> tuple[LidarOutput, ...]:

@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from networks.classes import SemanticClass
 from networks.records import check_arrays
 from sensors.hits import RayHits
 from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAINT_BGR
@@ -27,6 +28,54 @@ from sensors.weather import Weather, haze_fraction, image_noise, sky_bgr
 
 if TYPE_CHECKING:
     from sensors.camera import CameraFrame
+
+
+LAMP_BGR = np.array([[40, 40, 255], [0, 200, 255], [90, 255, 60]], np.float32)  # red, yellow, green: lit
+UNLIT_LAMP_BGR = np.array([35, 35, 35], np.float32)
+LAMP_UP_M = np.array([0.3, 0.0, -0.3], np.float32)  # each lamp's centre above the housing's centre
+LAMP_RADIUS_M = 0.11
+LIT_LAMPS = {"red": (0,), "yellow": (1,), "green": (2,), "red_yellow": (0, 1), "off": ()}
+
+
+@dataclass(frozen=True, slots=True)
+class Lamps:
+    """Signal heads the camera may see, whose lamps it draws (lit ones emissive, in their
+    colour, by day and night): ``instance_id: (K,) uint32``, the housing's ``centre_cam``,
+    its ``front_cam`` (towards the traffic) and ``up_cam`` axes, ``(K, 3) float32`` in the
+    camera's optical frame, ``half_depth_m`` of the housing, and ``lit: (K, 3) bool`` (red,
+    yellow, green)."""
+
+    instance_id: npt.NDArray[np.uint32]
+    centre_cam: npt.NDArray[np.float32]
+    front_cam: npt.NDArray[np.float32]
+    up_cam: npt.NDArray[np.float32]
+    lit: npt.NDArray[np.bool_]
+    half_depth_m: float
+
+    def __post_init__(self) -> None:
+        check_arrays(self, instance_id=(np.uint32, ("K",)), centre_cam=(np.float32, ("K", 3)),
+                     front_cam=(np.float32, ("K", 3)), up_cam=(np.float32, ("K", 3)),
+                     lit=(np.bool_, ("K", 3)))  # fmt: skip
+
+    def paint(self, image: npt.NDArray[np.uint8], points_cam: npt.NDArray[np.float32],
+              instance_id: npt.NDArray[np.uint32], pixels: npt.NDArray[np.intp], exposure: float) -> None:  # fmt: skip
+        """Draw the lamps into ``image`` (``(H * W, 3)``) at ``pixels``, the housings' pixels,
+        whose surface points are ``points_cam`` and ids ``instance_id``."""
+        order = np.argsort(self.instance_id)
+        pos = np.minimum(np.searchsorted(self.instance_id[order], instance_id), len(order) - 1)
+        found = self.instance_id[order][pos] == instance_id
+        k = order[pos[found]]
+        d = points_cam[found] - self.centre_cam[k]
+        forward = np.einsum("ij,ij->i", d, self.front_cam[k])
+        up = np.einsum("ij,ij->i", d, self.up_cam[k])
+        side2 = np.einsum("ij,ij->i", d, d) - forward**2 - up**2
+        front = forward > np.float32(self.half_depth_m - 0.03)
+        for lamp in range(3):
+            inside = front & (side2 + (up - LAMP_UP_M[lamp]) ** 2 < np.float32(LAMP_RADIUS_M**2))
+            lit = inside & self.lit[k, lamp]
+            at = pixels[found]
+            image[at[inside & ~lit]] = to_uint8(UNLIT_LAMP_BGR[None, :] * np.float32(exposure))
+            image[at[lit]] = to_uint8(LAMP_BGR[lamp][None, :])
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,6 +90,7 @@ class Shading:
     normal: npt.NDArray[np.float32]
     weather: Weather
     noise_seed: int | None
+    lamps: Lamps | None = None  # signal heads' lamps to draw (None: none in view)
 
     def __post_init__(self) -> None:
         pixels = self.pinhole.width_px * self.pinhole.height_px
@@ -65,6 +115,10 @@ def shade_frame(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         if noise is not None:
             shaded += noise[part, None]
         image[part] = to_uint8(shaded)
+    if sh.lamps is not None and len(sh.lamps.instance_id):
+        pixels = np.flatnonzero((classes == SemanticClass.TRAFFIC_LIGHT) & hit)
+        points = dirs_cam[pixels] * range_m[pixels, None]
+        sh.lamps.paint(image, points, instances[pixels], pixels, sh.weather.exposure)
     return image.reshape(*frame.depth_m.shape, 3)
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
+from gtgen.signals import SIGNAL_COLUMNS, signal_table
 from gtgen.sinks.images import FrameImages
 from gtgen.table import COLUMNS, format_rows, label_table, table_columns
 
@@ -26,7 +27,10 @@ def rows_of_frames(text: str, keep_frames: int) -> tuple[str, bool]:
 
 
 class CsvSink:
-    def __init__(self, path: Path, keep_frames: int = 0) -> None:
+    """``labels.csv``; with ``signals``, ``traffic_lights.csv`` (columns in :mod:`gtgen.signals`)."""
+
+    def __init__(self, path: Path, keep_frames: int = 0, signals: bool = False) -> None:
+        self._signals = signals
         self._path = path
         self._partial = path.with_name(path.name + ".partial")
         kept, self._header_written = "", False
@@ -41,11 +45,16 @@ class CsvSink:
             raise SinkError(f"{self._partial}: cannot write: {err.strerror}") from err
 
     def encode(self, record: FrameRecord, images: FrameImages) -> str:
-        rows = format_rows(label_table(record.labels))
+        if self._signals:
+            rows = format_rows(signal_table(record.labels, record.signals))
+            header = SIGNAL_COLUMNS
+        else:
+            rows = format_rows(label_table(record.labels))
+            header = table_columns(record.labels)  # the columns depend on the rig's cameras
         text = "".join(row + "\n" for row in rows)
-        if not self._header_written:  # the columns depend on the rig's cameras
+        if not self._header_written:
             self._header_written = True
-            text = ",".join(table_columns(record.labels)) + "\n" + text
+            text = ",".join(header) + "\n" + text
         return text
 
     def write(self, encoded: str) -> None:
@@ -57,7 +66,7 @@ class CsvSink:
 
     def close(self) -> None:
         if not self._header_written:
-            self._file.write(",".join(COLUMNS) + "\n")
+            self._file.write(",".join(SIGNAL_COLUMNS if self._signals else COLUMNS) + "\n")
         self._file.close()
         self._partial.replace(self._path)
 

@@ -28,6 +28,7 @@ from google.protobuf.timestamp_pb2 import Timestamp
 
 from gtgen.colours import CLASS_RGB
 from gtgen.labels import CameraLabels, FrameLabels
+from gtgen.signals import STATE_RGB
 from gtgen.sinks.images import JPEG_QUALITY, FrameImages
 from networks.classes import SemanticClass
 from networks.geometry import SE3
@@ -103,17 +104,22 @@ def radar_cloud(ns: int, radar: RadarOutput) -> PointCloud:
     return _cloud(ns, radar.spec.name, packed, RADAR_FIELDS)
 
 
-def box_update(ns: int, labels: FrameLabels) -> SceneUpdate:
+def box_update(ns: int, labels: FrameLabels, signal_states: dict[int, str] | None = None) -> SceneUpdate:
+    """A cube per labelled object, coloured by class (traffic lights by the state they show)."""
     o = labels.objects
+    states = signal_states or {}
     entities = []
     for i in range(len(o)):
         cls = SemanticClass(int(o.semantic_class[i]))
-        r, g, b = CLASS_RGB.get(cls, (0.8, 0.8, 0.8))
+        state = states.get(int(o.track_id[i]))
+        r, g, b = STATE_RGB[state] if state is not None else CLASS_RGB.get(cls, (0.8, 0.8, 0.8))
         box_pose = pose(SE3.from_xyz_rpy(o.center_ego_m[i], yaw=float(o.yaw_ego_rad[i])))
         size = Vector3(x=float(o.lwh_m[i, 0]), y=float(o.lwh_m[i, 1]), z=float(o.lwh_m[i, 2]))
         cube = CubePrimitive(pose=box_pose, size=size, color=Color(r=r, g=g, b=b, a=0.35 if labels.seen[i] else 0.08))
         metadata = {"class": cls.label, "lidar_points": str(int(labels.lidar_points[i])),
                     "parked": str(bool(o.parked[i])).lower(), "seen": str(bool(labels.seen[i])).lower()}  # fmt: skip
+        if state is not None:
+            metadata["state"] = state
         entities.append(SceneEntity(
             timestamp=timestamp(ns), frame_id="ego", id=str(int(o.track_id[i])), cubes=[cube],
             metadata=[KeyValuePair(key=k, value=v) for k, v in metadata.items()],

@@ -37,10 +37,16 @@ class SinkChoice:
     keep_frames: int = 0  # continue an earlier run: keep its first frames
     first_map_SE3_ego: SE3 | None = None  # the earlier run's ego pose at frame 0 (for KITTI's poses)
     kitti_native_types: bool = False  # KITTI labels with the simulator's class names
+    traffic_lights: bool = False  # traffic_lights.csv beside labels.csv (with csv)
+
+    @property
+    def lights_csv(self) -> bool:
+        return self.csv and self.traffic_lights
 
     def partial_paths(self) -> list[Path]:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
-        names = {"mcap": "run.mcap", "csv": "labels.csv", "kitti": "kitti", "yolo": "yolo"}
+        names = {"mcap": "run.mcap", "csv": "labels.csv", "lights_csv": "traffic_lights.csv", "kitti": "kitti",
+                 "yolo": "yolo"}  # fmt: skip
         return [self.out_dir / f"{name}.partial" for kind, name in names.items() if getattr(self, kind)]
 
 
@@ -54,6 +60,8 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
         return LiveSink(choice.live, choice.map_world, choice.sensors)
     if kind == "csv":
         return CsvSink(out / "labels.csv", keep)
+    if kind == "lights_csv":
+        return CsvSink(out / "traffic_lights.csv", keep, signals=True)
     if kind == "kitti":
         return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego, choice.kitti_native_types)
     if kind == "resume":
@@ -79,7 +87,7 @@ class SinkGroup(ClosedOnExit):
     def open(cls, choice: SinkChoice, clock: StageClock = NO_CLOCK, announce: bool = True) -> SinkGroup:
         """Open the chosen sinks; if one cannot be opened, those already open are aborted.
         With ``announce``, their notices go to stderr."""
-        kinds = [k for k in ("mcap", "csv", "kitti", "yolo", "live", "resume") if getattr(choice, k)]
+        kinds = [k for k in ("mcap", "csv", "lights_csv", "kitti", "yolo", "live", "resume") if getattr(choice, k)]
         group = cls([], clock)
         try:
             for kind in kinds:

@@ -39,6 +39,7 @@ from mcap_protobuf.schema import build_file_descriptor_set
 
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
+from gtgen.signals import SIGNAL_COLUMNS, signal_table
 from gtgen.sinks import foxglove as fx
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.layout import layout_for
@@ -58,6 +59,7 @@ LABELS_SCHEMA = {
         "timestamp_ns": {"type": "integer"},
         "scene_cut": {"type": "boolean"},
         "objects": {"type": "array", "items": {"type": "object", "properties": {c: {} for c in COLUMNS}}},
+        "traffic_lights": {"type": "array", "items": {"type": "object", "properties": {c: {} for c in SIGNAL_COLUMNS}}},
     },
 }
 
@@ -136,7 +138,7 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
         out += [(f"{base}/{kind}", m) for kind, m in fx.camera_messages(ns, camera, images, index).items()]
         out.append((f"{base}/calibration", fx.calibration(ns, camera)))
         out.append((f"{base}/annotations", fx.image_annotations(ns, record.labels, cam_labels)))
-    out.append(("/gt/boxes", fx.box_update(ns, record.labels)))
+    out.append(("/gt/boxes", fx.box_update(ns, record.labels, record.signals.state_of())))
     out.append((LABELS_TOPIC, labels_json(record)))
     return out
 
@@ -154,12 +156,17 @@ def planned_topics(sensors: tuple[tuple[str, str], ...], with_map: bool) -> list
     return [*topics, ("/gt/boxes", SceneUpdate), (LABELS_TOPIC, None)]
 
 
-def labels_json(record: FrameRecord) -> dict[str, Any]:
-    table = label_table(record.labels)
+def _json_rows(table: dict[str, npt.NDArray[np.generic]]) -> list[dict[str, Any]]:
     columns = [json_column(values) for values in table.values()]
-    objects = [dict(zip(table, row, strict=True)) for row in zip(*columns, strict=True)]
+    return [dict(zip(table, row, strict=True)) for row in zip(*columns, strict=True)]
+
+
+def labels_json(record: FrameRecord) -> dict[str, Any]:
+    """The frame's label table, and its traffic lights' states (``traffic_lights``)."""
+    objects = _json_rows(label_table(record.labels))
+    lights = _json_rows(signal_table(record.labels, record.signals))
     return {"frame": record.frame_index, "timestamp_ns": record.timestamp_ns, "scene_cut": record.scene_cut,
-            "objects": objects}  # fmt: skip
+            "objects": objects, "traffic_lights": lights}  # fmt: skip
 
 
 def readable_records(path: Path) -> Iterator[Schema | Channel | Message]:

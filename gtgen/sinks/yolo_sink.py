@@ -16,12 +16,17 @@ from gtgen.frame import FrameRecord
 from gtgen.sinks.folder import PartialFolder
 from gtgen.sinks.images import JPEG_QUALITY, FrameImages
 from networks.classes import SemanticClass
+from networks.street import STATES
 
 YOLO_CLASSES = (SemanticClass.CAR, SemanticClass.TRUCK, SemanticClass.BUS, SemanticClass.MOTORCYCLE,
                 SemanticClass.BICYCLE, SemanticClass.PEDESTRIAN)  # fmt: skip
 _INDEX = np.full(256, -1, np.int64)
 for _i, _c in enumerate(YOLO_CLASSES):
     _INDEX[int(_c)] = _i
+# Traffic lights by the state they show, after the road users: traffic_light_red is 6, and so on.
+LIGHT_CLASSES = {state: len(YOLO_CLASSES) + k for k, state in enumerate(STATES)}
+YOLO_NAMES = {**{i: c.label for i, c in enumerate(YOLO_CLASSES)},
+              **{i: f"traffic_light_{state}" for state, i in LIGHT_CLASSES.items()}}  # fmt: skip
 
 
 class YoloSink:
@@ -35,7 +40,11 @@ class YoloSink:
             raise SinkError("the YOLO layout needs at least one camera in the rig")
         name = f"{record.frame_index:06d}"
         camera, cam = record.cameras[0], record.labels.cameras[0]
-        cls = _INDEX[record.labels.objects.semantic_class]
+        objects = record.labels.objects
+        cls = _INDEX[objects.semantic_class]
+        states = record.signals.state_of()
+        for i in np.flatnonzero(objects.semantic_class == SemanticClass.TRAFFIC_LIGHT):
+            cls[i] = LIGHT_CLASSES[states[int(objects.track_id[i])]]
         keep = (cam.visibility.visible_px >= self._min_visible_px) & (cls >= 0)
         box = cam.visibility.modal_px[keep]
         w, h = float(camera.spec.width_px), float(camera.spec.height_px)
@@ -53,7 +62,7 @@ class YoloSink:
 
     def close(self) -> None:
         # No "path": YOLO tools then read "images" relative to this file's folder, wherever it is moved.
-        data = {"train": "images", "val": "images", "names": {i: c.label for i, c in enumerate(YOLO_CLASSES)}}
+        data = {"train": "images", "val": "images", "names": YOLO_NAMES}
         (self._folder.partial / "data.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
         self._folder.commit()
 

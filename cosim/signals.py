@@ -1,0 +1,88 @@
+"""Traffic lights in the frame loop: the signal heads join each frame's agents (so they are
+cast, labelled and counted like any object), the state each one shows comes from the traffic
+light's libsumo state at that step, and the cameras draw their lit lamps."""
+
+from __future__ import annotations
+
+from dataclasses import fields, replace
+
+import numpy as np
+
+from cosim.state import WorldState
+from gtgen.labels import FrameLabels
+from gtgen.signals import SignalLabels
+from networks.classes import SemanticClass
+from networks.geometry import SE3
+from networks.street import HEAD_ID_BASE, HEAD_LWH_M, SignalHead
+from sensors.agents import Agents
+from sensors.camera import CameraOutput
+from sensors.sensor import SensorOutput
+from sensors.shading import LIT_LAMPS, Lamps
+
+
+class SignalHeads:
+    """The network's signal heads, placed into frames."""
+
+    def __init__(self, heads: tuple[SignalHead, ...]) -> None:
+        self.heads = heads
+        n = len(heads)
+        self._centres = np.array([h.centre_map_m for h in heads], np.float64).reshape(n, 3)
+        self._yaws = np.array([h.yaw_map_rad for h in heads], np.float64)
+        self._ids = np.array([h.head_id for h in heads], np.uint32)
+
+    def head(self, head_id: int) -> SignalHead:
+        return self.heads[head_id - HEAD_ID_BASE]
+
+    def join(self, state: WorldState, radius_m: float) -> WorldState:
+        """``state`` with the heads within ``radius_m`` of the ego among its agents."""
+        if not self.heads:
+            return state
+        near = np.flatnonzero(np.linalg.norm(self._centres[:, :2] - state.ego.center_map_m[:2], axis=1) <= radius_m)
+        if near.size == 0:
+            return state
+        n = near.size
+        heads = Agents(
+            self._ids[near], np.full(n, SemanticClass.TRAFFIC_LIGHT, np.uint8), self._centres[near],
+            np.tile(np.asarray(HEAD_LWH_M, np.float64), (n, 1)), self._yaws[near], np.zeros(n), np.zeros((n, 3)),
+            np.zeros(n, np.bool_),
+        )  # fmt: skip
+        a = state.agents
+        joined = Agents(*(np.concatenate([getattr(a, f.name), getattr(heads, f.name)]) for f in fields(Agents)))
+        return replace(state, agents=joined)
+
+    def labels(self, labels: FrameLabels, state: WorldState) -> SignalLabels:
+        """The state, lanes and ego-lane flag of every head among the labelled objects."""
+        o = labels.objects
+        ids = o.track_id[o.semantic_class == SemanticClass.TRAFFIC_LIGHT]
+        heads = [self.head(int(i)) for i in ids]
+        return SignalLabels(
+            ids.astype(np.uint32), tuple(h.tls_id for h in heads), tuple(h.state(state.signal_states) for h in heads),
+            tuple(" ".join(h.lanes) for h in heads), np.array([state.ego_lane in h.lanes for h in heads], np.bool_),
+        )  # fmt: skip
+
+    def light_cameras(
+        self, outputs: tuple[SensorOutput, ...], agents: Agents, state: WorldState, map_SE3_ego: SE3
+    ) -> tuple[SensorOutput, ...]:
+        """The outputs with each camera told where the heads in the scene are and which of
+        their lamps are lit (its image draws them)."""
+        mine = np.flatnonzero(agents.semantic_class == SemanticClass.TRAFFIC_LIGHT)
+        if mine.size == 0:
+            return outputs
+        heads = [self.head(int(i)) for i in agents.instance_id[mine]]
+        lit = np.zeros((len(heads), 3), np.bool_)
+        for k, h in enumerate(heads):
+            lit[k, list(LIT_LAMPS[h.state(state.signal_states)])] = True
+        yaw = agents.yaw_map_rad[mine]
+        front_map = np.column_stack([np.cos(yaw), np.sin(yaw), np.zeros_like(yaw)])
+        out: list[SensorOutput] = []
+        for o in outputs:
+            if isinstance(o, CameraOutput):
+                cam_SE3_map = map_SE3_ego.compose(o.spec.ego_SE3_sensor).inverse()
+                r = cam_SE3_map.rotation
+                centre = cam_SE3_map.transform_from(agents.center_map_m[mine]).astype(np.float32)
+                up = np.tile(r[:, 2], (len(heads), 1)).astype(np.float32)  # the map's z axis in the camera frame
+                lamps = Lamps(agents.instance_id[mine], centre, (front_map @ r.T).astype(np.float32), up, lit,
+                              HEAD_LWH_M[0] / 2.0)  # fmt: skip
+                o = replace(o, frame=replace(o.frame, shading=replace(o.frame.shading, lamps=lamps)))
+            out.append(o)
+        return tuple(out)

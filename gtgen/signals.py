@@ -1,0 +1,73 @@
+"""Traffic-light labels: the state each signal head shows in a frame, which lanes it governs
+and whether the ego's lane is one of them. Row-aligned with the heads among the frame's
+labelled objects (class traffic_light); their boxes and visibility are in the label table."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from gtgen.labels import FrameLabels
+from networks.records import check_arrays
+
+SIGNAL_COLUMNS = [
+    "frame", "timestamp", "id", "junction", "state", "governs_ego_lane", "lanes", "distance", "camera_visible_px",
+    "visible_fraction", "seen",
+]  # fmt: skip
+
+# Box colours by state (RGB 0..1), in /gt/boxes and the summary pictures.
+STATE_RGB = {"red": (1.0, 0.1, 0.1), "yellow": (1.0, 0.85, 0.0), "green": (0.1, 1.0, 0.3),
+             "red_yellow": (1.0, 0.5, 0.0), "off": (0.5, 0.5, 0.5)}  # fmt: skip
+
+
+@dataclass(frozen=True, slots=True)
+class SignalLabels:
+    """``track_id: (N,) uint32`` the heads' ids; per head its junction (SUMO traffic light id),
+    the state shown (red, yellow, green, red_yellow, off), the lanes it governs (SUMO lane ids,
+    space-separated) and ``governs_ego_lane: (N,) bool``."""
+
+    track_id: npt.NDArray[np.uint32]
+    junction: tuple[str, ...]
+    state: tuple[str, ...]
+    lanes: tuple[str, ...]
+    governs_ego_lane: npt.NDArray[np.bool_]
+
+    def __post_init__(self) -> None:
+        n = check_arrays(self, track_id=(np.uint32, ("N",)), governs_ego_lane=(np.bool_, ("N",))).get("N", 0)
+        if not len(self.junction) == len(self.state) == len(self.lanes) == n:
+            raise ValueError("SignalLabels: junction, state and lanes need one entry per head")
+
+    def __len__(self) -> int:
+        return int(self.track_id.shape[0])
+
+    @classmethod
+    def empty(cls) -> SignalLabels:
+        return cls(np.zeros(0, np.uint32), (), (), (), np.zeros(0, np.bool_))
+
+    def state_of(self) -> dict[int, str]:
+        """Head id -> the state it shows."""
+        return {int(i): s for i, s in zip(self.track_id.tolist(), self.state, strict=True)}
+
+
+def signal_table(labels: FrameLabels, signals: SignalLabels) -> dict[str, npt.NDArray[np.generic]]:
+    """The columns of :data:`SIGNAL_COLUMNS` for one frame (camera columns from the first camera)."""
+    o = labels.objects
+    order = np.argsort(o.track_id, kind="stable")
+    rows = order[np.searchsorted(o.track_id[order], signals.track_id)] if len(signals) else np.zeros(0, np.intp)
+    n = len(signals)
+    if labels.cameras:
+        vis = labels.cameras[0].visibility
+        visible_px, fraction = vis.visible_px[rows], vis.fraction[rows]
+    else:
+        visible_px, fraction = np.full(n, np.nan), np.full(n, np.nan)
+    return {
+        "frame": np.full(n, labels.frame_index), "timestamp": np.full(n, labels.timestamp_ns / 1e9),
+        "id": signals.track_id, "junction": np.asarray(signals.junction, dtype=object).astype(str),
+        "state": np.asarray(signals.state, dtype=object).astype(str),
+        "governs_ego_lane": signals.governs_ego_lane.astype(np.int8),
+        "lanes": np.asarray(signals.lanes, dtype=object).astype(str),
+        "distance": labels.distance_m[rows], "camera_visible_px": visible_px, "visible_fraction": fraction,
+        "seen": labels.seen[rows].astype(np.int8),
+    }  # fmt: skip
