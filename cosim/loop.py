@@ -23,7 +23,7 @@ from cosim.errors import CosimError, RunStoppedError, Terminated, TrafficError
 from cosim.resume import ResumePoint, begin, finish, resume_point
 from cosim.rig import Rig, build_rig
 from cosim.scenario import Scenario
-from cosim.signals import SignalHeads
+from cosim.signals import StreetObjects
 from cosim.state import WorldState
 from cosim.traffic_feed import TrafficFeed, TrafficInline, TrafficProcess
 from cosim.world_setup import prepare_network
@@ -37,7 +37,7 @@ from gtgen.timing import NO_CLOCK, NoClock, StageClock
 from networks.classes import SemanticClass
 from networks.geometry import SE3
 from networks.markings import is_left_hand
-from networks.street import signal_heads
+from networks.street import street_objects
 from sensors.engine import Scene
 from sensors.scene import StaticCrop
 
@@ -125,7 +125,7 @@ def sense_and_label(
     rig: Rig,
     rng: np.random.Generator,
     probe: FrameProbe = NO_PROBE,
-    signals: SignalHeads | None = None,
+    signals: StreetObjects | None = None,
 ) -> FrameRecord:
     """Cast every sensor into one scene of this frame, then label what the rays saw (the
     traffic lights' heads among the objects, with ``signals``)."""
@@ -178,7 +178,7 @@ def sink_choice(
     return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address,
                       sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first,
                       kitti_native_types=o.kitti_types == "native",
-                      traffic_lights=scenario.street.traffic_lights)  # fmt: skip
+                      traffic_lights=scenario.street.traffic_lights or scenario.street.signs)  # fmt: skip
 
 
 def open_sinks(choice: SinkChoice, one_process: bool = False, clock: StageClock = NO_CLOCK) -> FrameSink:
@@ -234,8 +234,10 @@ def run(
         summary, start = RunSummary.from_dict(point.checkpoint["summary"]), point.frames
     choice = sink_choice(scenario, out_dir, prepared.world.path, point)
     signals = None
-    if scenario.street.traffic_lights:
-        signals = SignalHeads(signal_heads(prepared.net, is_left_hand(prepared.net_path)))
+    street = scenario.street
+    if street.traffic_lights or street.signs:
+        objects = street_objects(prepared.net, is_left_hand(prepared.net_path), street.traffic_lights, street.signs)
+        signals = StreetObjects(objects)
     loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, summary, out_dir, progress, one_process, probe,
                      signals)  # fmt: skip
     stopped: BaseException | None = None
@@ -296,7 +298,7 @@ class FrameLoop:
     progress: bool
     one_process: bool
     probe: FrameProbe
-    signals: SignalHeads | None = None
+    signals: StreetObjects | None = None
 
     def frames(self, start: int, sinks: FrameSink, started: Callable[[], None]) -> None:
         """Frames ``start`` .. the last: the traffic (simulated up to ``start`` first), sensed,

@@ -78,6 +78,7 @@ class StreetConfig:
 
     markings: bool = True  # lane, edge, stop and give-way lines, zebra stripes
     traffic_lights: bool = True  # a pole and a labelled signal head per signalised approach, live states
+    signs: bool = True  # stop, give-way and speed-limit signs on poles, labelled
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,6 +1,6 @@
-"""Traffic lights in the frame loop: the signal heads join each frame's agents (so they are
-cast, labelled and counted like any object), the state each one shows comes from the traffic
-light's libsumo state at that step, and the cameras draw their lit lamps."""
+"""Traffic lights and signs in the frame loop: the heads and plates join each frame's agents
+(so they are cast, labelled and counted like any object), each head's state comes from its
+traffic light's libsumo state at that step, and the cameras draw the heads' lit lamps."""
 
 from __future__ import annotations
 
@@ -13,51 +13,51 @@ from gtgen.labels import FrameLabels
 from gtgen.signals import SignalLabels
 from networks.classes import SemanticClass
 from networks.geometry import SE3
-from networks.street import HEAD_ID_BASE, HEAD_LWH_M, SignalHead
+from networks.street import HEAD_LWH_M, STREET_ID_BASE, StreetObject
 from sensors.agents import Agents
 from sensors.camera import CameraOutput
 from sensors.sensor import SensorOutput
 from sensors.shading import LIT_LAMPS, Lamps
 
 
-class SignalHeads:
-    """The network's signal heads, placed into frames."""
+class StreetObjects:
+    """The network's signal heads and sign plates, placed into frames."""
 
-    def __init__(self, heads: tuple[SignalHead, ...]) -> None:
-        self.heads = heads
-        n = len(heads)
-        self._centres = np.array([h.centre_map_m for h in heads], np.float64).reshape(n, 3)
-        self._yaws = np.array([h.yaw_map_rad for h in heads], np.float64)
-        self._ids = np.array([h.head_id for h in heads], np.uint32)
+    def __init__(self, objects: tuple[StreetObject, ...]) -> None:
+        self.objects = objects
+        n = len(objects)
+        self._centres = np.array([o.centre_map_m for o in objects], np.float64).reshape(n, 3)
+        self._yaws = np.array([o.yaw_map_rad for o in objects], np.float64)
+        self._lwh = np.array([o.lwh_m for o in objects], np.float64).reshape(n, 3)
+        self._ids = np.array([o.object_id for o in objects], np.uint32)
+        self._classes = np.array([o.semantic_class for o in objects], np.uint8)
 
-    def head(self, head_id: int) -> SignalHead:
-        return self.heads[head_id - HEAD_ID_BASE]
+    def get(self, object_id: int) -> StreetObject:
+        return self.objects[object_id - STREET_ID_BASE]
 
     def join(self, state: WorldState, radius_m: float) -> WorldState:
-        """``state`` with the heads within ``radius_m`` of the ego among its agents."""
-        if not self.heads:
+        """``state`` with the heads and plates within ``radius_m`` of the ego among its agents."""
+        if not self.objects:
             return state
         near = np.flatnonzero(np.linalg.norm(self._centres[:, :2] - state.ego.center_map_m[:2], axis=1) <= radius_m)
         if near.size == 0:
             return state
         n = near.size
-        heads = Agents(
-            self._ids[near], np.full(n, SemanticClass.TRAFFIC_LIGHT, np.uint8), self._centres[near],
-            np.tile(np.asarray(HEAD_LWH_M, np.float64), (n, 1)), self._yaws[near], np.zeros(n), np.zeros((n, 3)),
-            np.zeros(n, np.bool_),
-        )  # fmt: skip
+        mine = Agents(self._ids[near], self._classes[near], self._centres[near], self._lwh[near], self._yaws[near],
+                      np.zeros(n), np.zeros((n, 3)), np.zeros(n, np.bool_))  # fmt: skip
         a = state.agents
-        joined = Agents(*(np.concatenate([getattr(a, f.name), getattr(heads, f.name)]) for f in fields(Agents)))
+        joined = Agents(*(np.concatenate([getattr(a, f.name), getattr(mine, f.name)]) for f in fields(Agents)))
         return replace(state, agents=joined)
 
     def labels(self, labels: FrameLabels, state: WorldState) -> SignalLabels:
-        """The state, lanes and ego-lane flag of every head among the labelled objects."""
+        """Subtype, state, lanes and ego-lane flag of every head and plate among the labelled objects."""
         o = labels.objects
-        ids = o.track_id[o.semantic_class == SemanticClass.TRAFFIC_LIGHT]
-        heads = [self.head(int(i)) for i in ids]
+        ids = o.track_id[np.isin(o.semantic_class, [SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN])]
+        mine = [self.get(int(i)) for i in ids]
         return SignalLabels(
-            ids.astype(np.uint32), tuple(h.tls_id for h in heads), tuple(h.state(state.signal_states) for h in heads),
-            tuple(" ".join(h.lanes) for h in heads), np.array([state.ego_lane in h.lanes for h in heads], np.bool_),
+            ids.astype(np.uint32), tuple(m.subtype for m in mine), tuple(m.tls_id for m in mine),
+            tuple(m.state(state.signal_states) for m in mine), tuple(" ".join(m.lanes) for m in mine),
+            np.array([state.ego_lane in m.lanes for m in mine], np.bool_),
         )  # fmt: skip
 
     def light_cameras(
@@ -68,7 +68,7 @@ class SignalHeads:
         mine = np.flatnonzero(agents.semantic_class == SemanticClass.TRAFFIC_LIGHT)
         if mine.size == 0:
             return outputs
-        heads = [self.head(int(i)) for i in agents.instance_id[mine]]
+        heads = [self.get(int(i)) for i in agents.instance_id[mine]]
         lit = np.zeros((len(heads), 3), np.bool_)
         for k, h in enumerate(heads):
             lit[k, list(LIT_LAMPS[h.state(state.signal_states)])] = True

@@ -1,6 +1,8 @@
-"""Traffic-light labels: the state each signal head shows in a frame, which lanes it governs
-and whether the ego's lane is one of them. Row-aligned with the heads among the frame's
-labelled objects (class traffic_light); their boxes and visibility are in the label table."""
+"""Labels of traffic lights and signs: each one's subtype (signal_head, stop, yield,
+speed_limit_<km/h>), the state a signal head shows in a frame, which lanes it governs and
+whether the ego's lane is one of them. Row-aligned with the heads and plates among the frame's
+labelled objects (classes traffic_light, traffic_sign); their boxes and visibility are in the
+label table."""
 
 from __future__ import annotations
 
@@ -10,11 +12,12 @@ import numpy as np
 import numpy.typing as npt
 
 from gtgen.labels import FrameLabels
+from gtgen.table import CLASS_NAMES
 from networks.records import check_arrays
 
 SIGNAL_COLUMNS = [
-    "frame", "timestamp", "id", "junction", "state", "governs_ego_lane", "lanes", "distance", "camera_visible_px",
-    "visible_fraction", "seen",
+    "frame", "timestamp", "id", "type", "subtype", "junction", "state", "governs_ego_lane", "lanes", "distance",
+    "camera_visible_px", "visible_fraction", "seen",
 ]  # fmt: skip
 
 # Box colours by state (RGB 0..1), in /gt/boxes and the summary pictures.
@@ -24,11 +27,13 @@ STATE_RGB = {"red": (1.0, 0.1, 0.1), "yellow": (1.0, 0.85, 0.0), "green": (0.1, 
 
 @dataclass(frozen=True, slots=True)
 class SignalLabels:
-    """``track_id: (N,) uint32`` the heads' ids; per head its junction (SUMO traffic light id),
-    the state shown (red, yellow, green, red_yellow, off), the lanes it governs (SUMO lane ids,
-    space-separated) and ``governs_ego_lane: (N,) bool``."""
+    """``track_id: (N,) uint32`` the objects' ids; per object its subtype, its junction (SUMO
+    traffic light id; '' for a sign), the state shown (red, yellow, green, red_yellow, off; ''
+    for a sign), the lanes it governs (SUMO lane ids, space-separated) and ``governs_ego_lane:
+    (N,) bool``."""
 
     track_id: npt.NDArray[np.uint32]
+    subtype: tuple[str, ...]
     junction: tuple[str, ...]
     state: tuple[str, ...]
     lanes: tuple[str, ...]
@@ -36,19 +41,19 @@ class SignalLabels:
 
     def __post_init__(self) -> None:
         n = check_arrays(self, track_id=(np.uint32, ("N",)), governs_ego_lane=(np.bool_, ("N",))).get("N", 0)
-        if not len(self.junction) == len(self.state) == len(self.lanes) == n:
-            raise ValueError("SignalLabels: junction, state and lanes need one entry per head")
+        if not len(self.subtype) == len(self.junction) == len(self.state) == len(self.lanes) == n:
+            raise ValueError("SignalLabels: subtype, junction, state and lanes need one entry per object")
 
     def __len__(self) -> int:
         return int(self.track_id.shape[0])
 
     @classmethod
     def empty(cls) -> SignalLabels:
-        return cls(np.zeros(0, np.uint32), (), (), (), np.zeros(0, np.bool_))
+        return cls(np.zeros(0, np.uint32), (), (), (), (), np.zeros(0, np.bool_))
 
     def state_of(self) -> dict[int, str]:
-        """Head id -> the state it shows."""
-        return {int(i): s for i, s in zip(self.track_id.tolist(), self.state, strict=True)}
+        """Head id -> the state it shows (signal heads only)."""
+        return {int(i): s for i, s in zip(self.track_id.tolist(), self.state, strict=True) if s}
 
 
 def signal_table(labels: FrameLabels, signals: SignalLabels) -> dict[str, npt.NDArray[np.generic]]:
@@ -64,7 +69,9 @@ def signal_table(labels: FrameLabels, signals: SignalLabels) -> dict[str, npt.ND
         visible_px, fraction = np.full(n, np.nan), np.full(n, np.nan)
     return {
         "frame": np.full(n, labels.frame_index), "timestamp": np.full(n, labels.timestamp_ns / 1e9),
-        "id": signals.track_id, "junction": np.asarray(signals.junction, dtype=object).astype(str),
+        "id": signals.track_id, "type": CLASS_NAMES[o.semantic_class[rows]],
+        "subtype": np.asarray(signals.subtype, dtype=object).astype(str),
+        "junction": np.asarray(signals.junction, dtype=object).astype(str),
         "state": np.asarray(signals.state, dtype=object).astype(str),
         "governs_ego_lane": signals.governs_ego_lane.astype(np.int8),
         "lanes": np.asarray(signals.lanes, dtype=object).astype(str),

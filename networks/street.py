@@ -1,13 +1,23 @@
-"""Traffic lights along the streets: one signal head per signalised approach, on a pole by the
-stop line, on the right of the road (the left in left-hand traffic).
+"""Traffic lights and signs along the streets, each on a pole by the road, on the right (the
+left in left-hand traffic).
 
-Every SUMO traffic light (``tlLogic``) controls links from incoming lanes; the lanes of one
-incoming edge that it controls form an approach and get one head: a housing 0.35 m wide, 1 m
-tall and 0.3 m deep whose centre stands 3 m above the road, facing the traffic, with three
-lamps (red on top, yellow, green). A head shows the state of the link straight ahead from its
-lanes (the first controlled link where none goes straight). The pole is part of the static
-world (class POLE); the head is a labelled object (class TRAFFIC_LIGHT) with an id of its own
-from :data:`HEAD_ID_BASE` on, stable for the network.
+Traffic lights: every SUMO traffic light (``tlLogic``) controls links from incoming lanes; the
+lanes of one incoming edge that it controls form an approach and get one signal head by the
+stop line: a housing 0.35 m wide, 1 m tall and 0.3 m deep whose centre stands 3 m above the
+road, facing the traffic, with three lamps (red on top, yellow, green). A head shows the state
+of the link straight ahead from its lanes (the first controlled link where none goes straight).
+
+Signs, from the junction rules and lane speeds: a stop sign (0.75 m octagon, Vienna
+Convention B2) at an approach whose links must stop (SUMO link states ``s``, ``w``); a give-way
+sign (0.9 m triangle, B1) at an approach all of whose links yield (``m``: the minor road of a
+priority junction, a roundabout entry); a speed-limit sign (0.6 m disc, C14) where a road's
+speed differs from that of every road leading into it, with the new limit rounded to 10 km/h.
+Plates stand 2.2 m high (centre), 5 m into the road for speed limits, by the stop line
+otherwise.
+
+Poles are part of the static world (class POLE); heads and plates are labelled objects
+(TRAFFIC_LIGHT, TRAFFIC_SIGN) with ids of their own from :data:`STREET_ID_BASE` on, stable for
+the network.
 """
 
 from __future__ import annotations
@@ -21,71 +31,148 @@ from shapely.geometry import Point
 from networks.classes import SemanticClass
 from networks.mesh import ClassedMesh, merge, prism
 
-STREET_VERSION = "1"  # part of the world cache key: change it when poles move
-HEAD_ID_BASE = 61440  # 0xF000: head ids fit the 16-bit instance ids of PNG masks and SemanticKITTI labels
-HEAD_LWH_M = (0.3, 0.35, 1.0)  # depth, width, height of the housing
+STREET_VERSION = "2"  # part of the world cache key: change it when poles move
+STREET_ID_BASE = 61440  # 0xF000: ids fit the 16-bit instance ids of PNG masks and SemanticKITTI labels
+HEAD_LWH_M = (0.3, 0.35, 1.0)  # depth, width, height of a signal head's housing
 HEAD_CENTRE_HEIGHT_M = 3.0  # above the road at the stop line
+SIGN_LWH_M = {"stop": (0.05, 0.75, 0.75), "yield": (0.05, 0.9, 0.8), "speed_limit": (0.05, 0.6, 0.6)}
+SIGN_CENTRE_HEIGHT_M = 2.2
 POLE_RADIUS_M = 0.08
-POLE_HEIGHT_M = 3.6
 POLE_FROM_KERB_M = 0.6  # on the sidewalk, this far from the kerb
-POLE_OFF_ROAD_M = 0.8  # beyond the road's edge where the approach has no sidewalk
-HEAD_TOWARDS_ROAD_M = 0.25  # the head hangs on the pole's road side
+POLE_OFF_ROAD_M = 0.8  # beyond the road's edge where there is no sidewalk
+HANG_TOWARDS_ROAD_M = 0.25  # heads and plates hang on the pole's road side
 BACK_FROM_LANE_END_M = 1.0
+SPEED_SIGN_INTO_ROAD_M = 5.0
 
 # SUMO signal state letters (libsumo.trafficlight.getRedYellowGreenState) -> the lamp shown.
 STATE_NAMES = {"r": "red", "y": "yellow", "G": "green", "g": "green", "s": "green", "u": "red_yellow",
                "o": "off", "O": "off"}  # fmt: skip
 STATES = ("red", "yellow", "green", "red_yellow", "off")
+_STOP_STATES = frozenset("sw")
 
 
 @dataclass(frozen=True, slots=True)
-class SignalHead:
-    head_id: int
-    tls_id: str
+class StreetObject:
+    """A signal head or a sign plate: ``subtype`` is ``signal_head``, ``stop``, ``yield`` or
+    ``speed_limit_<km/h>``; ``tls_id`` and ``shown_link`` (the index into the traffic light's
+    state string) only for heads; ``lanes``: the vehicle lanes it governs."""
+
+    object_id: int
+    semantic_class: SemanticClass
+    subtype: str
     edge_id: str
-    lanes: tuple[str, ...]  # the vehicle lanes of the approach it governs
-    shown_link: int  # index into the traffic light's state string
+    lanes: tuple[str, ...]
     centre_map_m: tuple[float, float, float]
-    yaw_map_rad: float  # the housing's front (+x) faces the approaching traffic
+    yaw_map_rad: float  # the front (+x) faces the approaching traffic
+    lwh_m: tuple[float, float, float]
     pole_xyz_m: tuple[float, float, float]  # the pole's foot
+    pole_height_m: float
+    tls_id: str = ""
+    shown_link: int = -1
+
+    @property
+    def is_light(self) -> bool:
+        return self.semantic_class == SemanticClass.TRAFFIC_LIGHT
 
     def state(self, signal_states: dict[str, str]) -> str:
-        """The lamp this head shows, from its traffic light's state string ('off' if unknown)."""
+        """The lamp a head shows, from its traffic light's state string ('off' if unknown; ''
+        for a sign)."""
+        if not self.is_light:
+            return ""
         text = signal_states.get(self.tls_id, "")
-        return STATE_NAMES.get(text[self.shown_link], "off") if self.shown_link < len(text) else "off"
+        return STATE_NAMES.get(text[self.shown_link], "off") if 0 <= self.shown_link < len(text) else "off"
 
 
-def signal_heads(net: sumolib.net.Net, left_hand: bool) -> tuple[SignalHead, ...]:
-    """One head per signalised approach of the network, in a stable order."""
-    approaches: dict[tuple[str, str], list[sumolib.net.connection.Connection]] = {}
+def street_objects(
+    net: sumolib.net.Net, left_hand: bool, lights: bool = True, signs: bool = True
+) -> tuple[StreetObject, ...]:
+    """The network's signal heads (with ``lights``) and signs (with ``signs``), ids in a
+    stable order: heads first."""
+    found: list[tuple[SemanticClass, str, str, tuple[str, ...], float, str, int]] = []
+    approaches = _approaches(net)
+    if lights:
+        for (edge_id, tls), links in sorted(approaches.items()):
+            if not tls:
+                continue
+            straight = [c for c in links if c.getDirection() == "s"] or sorted(links, key=lambda c: c.getTLLinkIndex())
+            found.append((SemanticClass.TRAFFIC_LIGHT, "signal_head", edge_id, _lanes(links), -1.0, tls,
+                          int(straight[0].getTLLinkIndex())))  # fmt: skip
+    if signs:
+        for (edge_id, tls), links in sorted(approaches.items()):
+            states = {c.getState() for c in links}
+            if tls:
+                continue
+            if states & _STOP_STATES:
+                found.append((SemanticClass.TRAFFIC_SIGN, "stop", edge_id, _lanes(links), -1.0, "", -1))
+            elif states == {"m"}:
+                found.append((SemanticClass.TRAFFIC_SIGN, "yield", edge_id, _lanes(links), -1.0, "", -1))
+        for edge_id, kmh in _speed_changes(net):
+            lanes = tuple(sorted(lane.getID() for lane in net.getEdge(edge_id).getLanes() if _drives(lane)))
+            found.append((SemanticClass.TRAFFIC_SIGN, f"speed_limit_{kmh}", edge_id, lanes, SPEED_SIGN_INTO_ROAD_M,
+                          "", -1))  # fmt: skip
+    out = []
+    for k, (cls, subtype, edge_id, lanes, from_start, tls, link) in enumerate(found):
+        light = cls == SemanticClass.TRAFFIC_LIGHT
+        lwh = HEAD_LWH_M if light else SIGN_LWH_M[subtype.rsplit("_", 1)[0] if subtype.startswith("speed") else subtype]
+        height = HEAD_CENTRE_HEIGHT_M if light else SIGN_CENTRE_HEIGHT_M
+        centre, yaw, foot = _placement(net.getEdge(edge_id), left_hand, from_start, height)
+        out.append(StreetObject(STREET_ID_BASE + k, cls, subtype, edge_id, lanes, centre, yaw, lwh, foot,
+                                height + lwh[2] / 2.0 + 0.1, tls, link))  # fmt: skip
+    return tuple(out)
+
+
+def _drives(lane: sumolib.net.lane.Lane) -> bool:
+    return bool(lane.getPermissions() - {"pedestrian"})
+
+
+def _lanes(links: list[sumolib.net.connection.Connection]) -> tuple[str, ...]:
+    return tuple(sorted({c.getFromLane().getID() for c in links}))
+
+
+def _approaches(net: sumolib.net.Net) -> dict[tuple[str, str], list[sumolib.net.connection.Connection]]:
+    """The vehicle links into each junction, by (incoming edge, traffic light id or '')."""
+    out: dict[tuple[str, str], list[sumolib.net.connection.Connection]] = {}
     for edge in net.getEdges(withInternal=False):
         if edge.getFunction():
             continue
         for lane in edge.getLanes():
-            if not lane.getPermissions() - {"pedestrian"}:
+            if not _drives(lane):
                 continue
             for link in lane.getOutgoing():
-                if link.getTLSID() and link.getTLLinkIndex() >= 0:
-                    approaches.setdefault((link.getTLSID(), edge.getID()), []).append(link)
-    heads = []
-    for k, ((tls, edge_id), links) in enumerate(sorted(approaches.items())):
-        edge = net.getEdge(edge_id)
-        straight = [c for c in links if c.getDirection() == "s"] or sorted(links, key=lambda c: c.getTLLinkIndex())
-        lanes = tuple(sorted({c.getFromLane().getID() for c in links}))
-        centre, yaw, foot = _placement(edge, left_hand)
-        heads.append(SignalHead(HEAD_ID_BASE + k, tls, edge_id, lanes, int(straight[0].getTLLinkIndex()),
-                                centre, yaw, foot))  # fmt: skip
-    return tuple(heads)
+                if link.getToLane() is None or link.getToLane().getEdge().getFunction():
+                    continue
+                tls = link.getTLSID() if link.getTLLinkIndex() >= 0 else ""
+                out.setdefault((edge.getID(), tls), []).append(link)
+    return out
+
+
+def _speed_changes(net: sumolib.net.Net) -> list[tuple[str, int]]:
+    """Roads whose speed limit (rounded to 10 km/h) differs from that of every road leading
+    into them, with the new limit."""
+
+    def limit(edge: sumolib.net.edge.Edge) -> int:
+        speeds = [lane.getSpeed() for lane in edge.getLanes() if _drives(lane)]
+        return int(round(max(speeds) * 3.6 / 10.0) * 10) if speeds else 0
+
+    out = []
+    for edge in sorted(net.getEdges(withInternal=False), key=lambda e: e.getID()):
+        if edge.getFunction() or not limit(edge) or edge.getLength() < 2 * SPEED_SIGN_INTO_ROAD_M:
+            continue
+        before = {limit(e) for e in edge.getIncoming() if not e.getFunction()}
+        if before and limit(edge) not in before:
+            out.append((edge.getID(), limit(edge)))
+    return out
 
 
 def _placement(
-    edge: sumolib.net.edge.Edge, left_hand: bool
+    edge: sumolib.net.edge.Edge, left_hand: bool, from_start_m: float, height_m: float
 ) -> tuple[tuple[float, float, float], float, tuple[float, float, float]]:
-    """The head's centre and yaw and the pole's foot, by the end of the edge's outermost lane."""
+    """The object's centre and yaw and its pole's foot, beside the edge's outermost lane:
+    ``from_start_m`` into the edge, or (negative) by its end."""
     outer_lane = min(edge.getLanes(), key=lambda lane: lane.getIndex())
     shape = np.asarray(outer_lane.getShape3D(), np.float64)
     along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1))]
-    s = max(float(along[-1]) - BACK_FROM_LANE_END_M, 0.0)
+    s = from_start_m if from_start_m >= 0 else max(float(along[-1]) - BACK_FROM_LANE_END_M, 0.0)
     x, y, z = (float(np.interp(s, along, shape[:, k])) for k in range(3))
     i = int(np.clip(np.searchsorted(along, s) - 1, 0, len(shape) - 2))
     heading = shape[i + 1, :2] - shape[i, :2]
@@ -95,33 +182,15 @@ def _placement(
     on_sidewalk = outer_lane.getPermissions() == {"pedestrian"}  # then near the kerb, its inner side
     offset = -half + POLE_FROM_KERB_M if on_sidewalk else half + POLE_OFF_ROAD_M
     foot = np.array([x, y]) + outward * offset
-    head_xy = foot - outward * HEAD_TOWARDS_ROAD_M
+    hung = foot - outward * HANG_TOWARDS_ROAD_M
     yaw = float(np.arctan2(-heading[1], -heading[0]))
-    return (float(head_xy[0]), float(head_xy[1]), z + HEAD_CENTRE_HEIGHT_M), yaw, (float(foot[0]), float(foot[1]), z)
+    return (float(hung[0]), float(hung[1]), z + height_m), yaw, (float(foot[0]), float(foot[1]), z)
 
 
-def pole_mesh(heads: tuple[SignalHead, ...]) -> ClassedMesh:
-    """The heads' poles (class POLE), from a little below the road to above the housing."""
+def pole_mesh(objects: tuple[StreetObject, ...]) -> ClassedMesh:
+    """The objects' poles (class POLE), from a little below the road to above the head or plate."""
     return merge([
-        prism(Point(h.pole_xyz_m[0], h.pole_xyz_m[1]).buffer(POLE_RADIUS_M, quad_segs=2), h.pole_xyz_m[2] - 0.2,
-              POLE_HEIGHT_M + 0.2, SemanticClass.POLE)
-        for h in heads
+        prism(Point(o.pole_xyz_m[0], o.pole_xyz_m[1]).buffer(POLE_RADIUS_M, quad_segs=2), o.pole_xyz_m[2] - 0.2,
+              o.pole_height_m + 0.2, SemanticClass.POLE)
+        for o in objects
     ])  # fmt: skip
-
-
-@dataclass(frozen=True, slots=True)
-class SignalTable:
-    """The heads as arrays (row k = head ``HEAD_ID_BASE + k``), for placing them every frame."""
-
-    heads: tuple[SignalHead, ...]
-
-    @property
-    def centres_m(self) -> np.ndarray:
-        return np.array([h.centre_map_m for h in self.heads], np.float64).reshape(-1, 3)
-
-    @property
-    def yaws_rad(self) -> np.ndarray:
-        return np.array([h.yaw_map_rad for h in self.heads], np.float64)
-
-    def head(self, head_id: int) -> SignalHead:
-        return self.heads[head_id - HEAD_ID_BASE]

@@ -26,7 +26,7 @@ from networks.classes import SemanticClass
 from networks.errors import NetworkError
 from networks.markings import MARKINGS_VERSION, is_left_hand, marking_mesh, read_road_marks
 from networks.mesh import ClassedMesh, box_mesh, draped_polygon, flat_polygon, merge, prism, raised_polygon, ribbon
-from networks.street import STREET_VERSION, pole_mesh, signal_heads
+from networks.street import STREET_VERSION, pole_mesh, street_objects
 
 WORLD_VERSION = "11"
 CURB_HEIGHT_M = 0.15
@@ -79,16 +79,16 @@ def load_net(net_path: Path) -> sumolib.net.Net:
 
 def build_world(
     net_path: Path, seed: int = 0, props: bool = True, markings: bool = True, xodr_path: Path | None = None,
-    traffic_lights: bool = True,
+    traffic_lights: bool = True, signs: bool = True,
 ) -> StaticWorld:  # fmt: skip
     """Build (or load from the cache) the static world of a SUMO network; ``props`` adds
     street lights and trees along the sidewalks, ``markings`` the road markings (from the
     ``roadMark`` records of ``xodr_path``, the OpenDRIVE file the network was converted from,
-    where it has them; see :mod:`networks.markings`), ``traffic_lights`` the poles of the
-    signal heads (:mod:`networks.street`)."""
+    where it has them; see :mod:`networks.markings`), ``traffic_lights`` and ``signs`` the poles
+    of the signal heads and signs (:mod:`networks.street`)."""
     source = xodr_path.read_bytes() if markings and xodr_path is not None else b""
     key = digest(WORLD_VERSION, net_path.read_bytes(), str(seed), str(props), str(markings), MARKINGS_VERSION, source,
-                 str(traffic_lights), STREET_VERSION)  # fmt: skip
+                 str(traffic_lights), str(signs), STREET_VERSION)  # fmt: skip
     folder = cache_dir("worlds", key)
     cached = folder / "world.npz"
     if intact(cached):
@@ -96,8 +96,8 @@ def build_world(
         return dataclasses.replace(read_world(cached), notice=notice.read_text() if notice.exists() else "")
     net = load_net(net_path)
     world = _build(net, seed, props)
-    if traffic_lights:
-        poles = pole_mesh(signal_heads(net, is_left_hand(net_path)))
+    if traffic_lights or signs:
+        poles = pole_mesh(street_objects(net, is_left_hand(net_path), traffic_lights, signs))
         world = dataclasses.replace(world, mesh=merge([world.mesh, poles]))
     if markings:
         marks = read_road_marks(xodr_path)

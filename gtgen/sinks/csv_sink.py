@@ -27,7 +27,7 @@ def rows_of_frames(text: str, keep_frames: int) -> tuple[str, bool]:
 
 
 class CsvSink:
-    """``labels.csv``; with ``signals``, ``traffic_lights.csv`` (columns in :mod:`gtgen.signals`)."""
+    """``labels.csv``; with ``signals``, ``lights_and_signs.csv`` (columns in :mod:`gtgen.signals`)."""
 
     def __init__(self, path: Path, keep_frames: int = 0, signals: bool = False) -> None:
         self._signals = signals

@@ -37,7 +37,7 @@ class SinkChoice:
     keep_frames: int = 0  # continue an earlier run: keep its first frames
     first_map_SE3_ego: SE3 | None = None  # the earlier run's ego pose at frame 0 (for KITTI's poses)
     kitti_native_types: bool = False  # KITTI labels with the simulator's class names
-    traffic_lights: bool = False  # traffic_lights.csv beside labels.csv (with csv)
+    traffic_lights: bool = False  # lights_and_signs.csv beside labels.csv (with csv)
 
     @property
     def lights_csv(self) -> bool:
@@ -45,7 +45,7 @@ class SinkChoice:
 
     def partial_paths(self) -> list[Path]:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
-        names = {"mcap": "run.mcap", "csv": "labels.csv", "lights_csv": "traffic_lights.csv", "kitti": "kitti",
+        names = {"mcap": "run.mcap", "csv": "labels.csv", "lights_csv": "lights_and_signs.csv", "kitti": "kitti",
                  "yolo": "yolo"}  # fmt: skip
         return [self.out_dir / f"{name}.partial" for kind, name in names.items() if getattr(self, kind)]
 
@@ -61,7 +61,7 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
     if kind == "csv":
         return CsvSink(out / "labels.csv", keep)
     if kind == "lights_csv":
-        return CsvSink(out / "traffic_lights.csv", keep, signals=True)
+        return CsvSink(out / "lights_and_signs.csv", keep, signals=True)
     if kind == "kitti":
         return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego, choice.kitti_native_types)
     if kind == "resume":

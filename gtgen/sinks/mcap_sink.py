@@ -59,7 +59,10 @@ LABELS_SCHEMA = {
         "timestamp_ns": {"type": "integer"},
         "scene_cut": {"type": "boolean"},
         "objects": {"type": "array", "items": {"type": "object", "properties": {c: {} for c in COLUMNS}}},
-        "traffic_lights": {"type": "array", "items": {"type": "object", "properties": {c: {} for c in SIGNAL_COLUMNS}}},
+        "lights_and_signs": {
+            "type": "array",
+            "items": {"type": "object", "properties": {c: {} for c in SIGNAL_COLUMNS}},
+        },
     },
 }
 
@@ -162,11 +165,11 @@ def _json_rows(table: dict[str, npt.NDArray[np.generic]]) -> list[dict[str, Any]
 
 
 def labels_json(record: FrameRecord) -> dict[str, Any]:
-    """The frame's label table, and its traffic lights' states (``traffic_lights``)."""
+    """The frame's label table, and its traffic lights and signs (``lights_and_signs``)."""
     objects = _json_rows(label_table(record.labels))
     lights = _json_rows(signal_table(record.labels, record.signals))
     return {"frame": record.frame_index, "timestamp_ns": record.timestamp_ns, "scene_cut": record.scene_cut,
-            "objects": objects, "traffic_lights": lights}  # fmt: skip
+            "objects": objects, "lights_and_signs": lights}  # fmt: skip
 
 
 def readable_records(path: Path) -> Iterator[Schema | Channel | Message]:

@@ -23,10 +23,20 @@ YOLO_CLASSES = (SemanticClass.CAR, SemanticClass.TRUCK, SemanticClass.BUS, Seman
 _INDEX = np.full(256, -1, np.int64)
 for _i, _c in enumerate(YOLO_CLASSES):
     _INDEX[int(_c)] = _i
-# Traffic lights by the state they show, after the road users: traffic_light_red is 6, and so on.
+# After the road users: traffic lights by the state they show (traffic_light_red is 6, ...),
+# then signs by kind (traffic_sign_stop is 11, traffic_sign_yield 12, traffic_sign_speed_limit 13).
 LIGHT_CLASSES = {state: len(YOLO_CLASSES) + k for k, state in enumerate(STATES)}
+SIGN_CLASSES = {kind: len(YOLO_CLASSES) + len(STATES) + k for k, kind in enumerate(("stop", "yield", "speed_limit"))}
 YOLO_NAMES = {**{i: c.label for i, c in enumerate(YOLO_CLASSES)},
-              **{i: f"traffic_light_{state}" for state, i in LIGHT_CLASSES.items()}}  # fmt: skip
+              **{i: f"traffic_light_{state}" for state, i in LIGHT_CLASSES.items()},
+              **{i: f"traffic_sign_{kind}" for kind, i in SIGN_CLASSES.items()}}  # fmt: skip
+
+
+def _street_class(subtype: str, state: str) -> int:
+    """The YOLO class of a signal head (by ``state``) or a sign (by ``subtype``)."""
+    if state:
+        return LIGHT_CLASSES[state]
+    return SIGN_CLASSES["speed_limit" if subtype.startswith("speed_limit") else subtype]
 
 
 class YoloSink:
@@ -42,9 +52,11 @@ class YoloSink:
         camera, cam = record.cameras[0], record.labels.cameras[0]
         objects = record.labels.objects
         cls = _INDEX[objects.semantic_class]
-        states = record.signals.state_of()
-        for i in np.flatnonzero(objects.semantic_class == SemanticClass.TRAFFIC_LIGHT):
-            cls[i] = LIGHT_CLASSES[states[int(objects.track_id[i])]]
+        signals = record.signals
+        street = {int(i): _street_class(t, st) for i, t, st in zip(signals.track_id.tolist(), signals.subtype,
+                                                                   signals.state, strict=True)}  # fmt: skip
+        for i in np.flatnonzero(cls < 0):
+            cls[i] = street.get(int(objects.track_id[i]), -1)
         keep = (cam.visibility.visible_px >= self._min_visible_px) & (cls >= 0)
         box = cam.visibility.modal_px[keep]
         w, h = float(camera.spec.width_px), float(camera.spec.height_px)

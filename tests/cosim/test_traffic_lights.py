@@ -43,7 +43,11 @@ def signalised_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict
 
 def test_every_heads_state_is_libsumos_at_every_frame(signalised_run):
     out, seen = signalised_run
-    lights = pd.read_csv(out / "traffic_lights.csv", keep_default_na=False)
+    table = pd.read_csv(out / "lights_and_signs.csv", keep_default_na=False)
+    lights = table[table["type"] == "traffic_light"]
+    assert (lights["subtype"] == "signal_head").all() and (
+        table.loc[table["type"] != "traffic_light", "state"] == ""
+    ).all()
     assert lights["frame"].nunique() >= 300  # heads in range in most frames
     assert {"red", "green"} <= set(lights["state"]) and "yellow" in set(lights["state"])
     net = prepare_network(load_scenario(str(DATA / "tiny.yaml"))).net
@@ -66,7 +70,8 @@ LAMP_BGR = {"red": (40, 40, 255), "yellow": (0, 200, 255), "green": (90, 255, 60
 
 def test_each_visible_head_shows_the_lamp_of_its_state(signalised_run):
     out, _ = signalised_run
-    lights = pd.read_csv(out / "traffic_lights.csv", keep_default_na=False)
+    lights = pd.read_csv(out / "lights_and_signs.csv", keep_default_na=False)
+    lights = lights[lights["type"] == "traffic_light"]
     labels = load_labels(out / "labels.csv").set_index(["frame", "id"])
     checked = 0
     for row in lights[(lights["camera_visible_px"] >= 60) & lights["state"].isin(list(LAMP_BGR))].itertuples():

@@ -28,3 +28,33 @@ def test_a_drive_on_a_users_map_writes_labelled_frames(name, tmp_path, capsys):
                     for _, _, m in iter_messages(tmp_path / "out" / "run.mcap", ["/tf"])])  # fmt: skip
     assert ego.shape == (60, 2)
     assert np.linalg.norm(ego[-1] - ego[0]) > 5.0  # the ego drove
+
+
+def test_a_users_roadmarks_reach_the_lidar_bright_and_classed(tmp_path):
+    """A CARLA-style file (yellow double centre lines): paint points in every frame, yellow
+    ones among them, at least twice as intense as the road at the same range."""
+    import re
+
+    from gtgen.load import lidar_points
+    from networks.classes import SemanticClass
+    from networks.towns import town_opendrive
+
+    text = town_opendrive("skeleton").read_text()
+    double_yellow = '<roadMark sOffset="0" type="solid solid" weight="standard" color="yellow" width="0.15"/>'
+    text = re.sub(r"<center>.*?</center>", lambda m: re.sub(r"<roadMark [^>]*/>", double_yellow, m.group(0)), text,
+                  flags=re.DOTALL)  # fmt: skip
+    xodr = tmp_path / "carla_style.xodr"
+    xodr.write_text(text)
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(f"network: {xodr}\nframes: 40\nwarmup_s: 20\ntraffic: {{vehicles: 20, pedestrians: 5}}\n")
+    run(load_scenario(str(scene), list(LIGHT_RIG)), tmp_path / "out", progress=False)
+    frames_with_yellow = 0
+    for _, _, cloud in iter_messages(tmp_path / "out" / "run.mcap", ["/lidar"]):
+        p = lidar_points(cloud)
+        paint = np.isin(p["class"], [SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW])
+        assert paint.sum() > 50
+        frames_with_yellow += int(np.any(p["class"] == SemanticClass.LANE_MARKING_YELLOW))
+        near = np.hypot(p["x"], p["y"]) < 15.0
+        road = near & (p["class"] == SemanticClass.ROAD)
+        assert p["intensity"][near & paint].mean() >= 2.0 * p["intensity"][road].mean()
+    assert frames_with_yellow >= 20
