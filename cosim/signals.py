@@ -1,6 +1,7 @@
 """Traffic lights and signs in the frame loop: the heads and plates join each frame's agents
 (so they are cast, labelled and counted like any object), each head's state comes from its
-traffic light's libsumo state at that step, and the cameras draw the heads' lit lamps."""
+traffic light's libsumo state at that step, and the cameras draw the heads' lamps and the
+signs' faces."""
 
 from __future__ import annotations
 
@@ -13,11 +14,11 @@ from gtgen.labels import FrameLabels
 from gtgen.signals import SignalLabels
 from networks.classes import SemanticClass
 from networks.geometry import SE3
-from networks.street import HEAD_LWH_M, STREET_ID_BASE, StreetObject
+from networks.street import STREET_ID_BASE, StreetObject
 from sensors.agents import Agents
 from sensors.camera import CameraOutput
 from sensors.sensor import SensorOutput
-from sensors.shading import LIT_LAMPS, Lamps
+from sensors.shading import LIT_LAMPS, SIGN_KINDS, StreetFaces
 
 
 class StreetObjects:
@@ -63,26 +64,32 @@ class StreetObjects:
     def light_cameras(
         self, outputs: tuple[SensorOutput, ...], agents: Agents, state: WorldState, map_SE3_ego: SE3
     ) -> tuple[SensorOutput, ...]:
-        """The outputs with each camera told where the heads in the scene are and which of
-        their lamps are lit (its image draws them)."""
-        mine = np.flatnonzero(agents.semantic_class == SemanticClass.TRAFFIC_LIGHT)
+        """The outputs with each camera told where the heads and plates in the scene are, which
+        lamps are lit and what each sign shows (its image draws them)."""
+        street = np.isin(agents.semantic_class, [SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN])
+        mine = np.flatnonzero(street)
         if mine.size == 0:
             return outputs
-        heads = [self.get(int(i)) for i in agents.instance_id[mine]]
-        lit = np.zeros((len(heads), 3), np.bool_)
-        for k, h in enumerate(heads):
-            lit[k, list(LIT_LAMPS[h.state(state.signal_states)])] = True
+        objects = [self.get(int(i)) for i in agents.instance_id[mine]]
+        lit = np.zeros((len(objects), 3), np.bool_)
+        sign = np.full(len(objects), -1, np.int8)
+        for k, obj in enumerate(objects):
+            if obj.is_light:
+                lit[k, list(LIT_LAMPS[obj.state(state.signal_states)])] = True
+            else:
+                sign[k] = SIGN_KINDS.index("speed_limit" if obj.subtype.startswith("speed_limit") else obj.subtype)
         yaw = agents.yaw_map_rad[mine]
         front_map = np.column_stack([np.cos(yaw), np.sin(yaw), np.zeros_like(yaw)])
+        size = agents.lwh_m[mine].astype(np.float32)
         out: list[SensorOutput] = []
         for o in outputs:
             if isinstance(o, CameraOutput):
                 cam_SE3_map = map_SE3_ego.compose(o.spec.ego_SE3_sensor).inverse()
                 r = cam_SE3_map.rotation
                 centre = cam_SE3_map.transform_from(agents.center_map_m[mine]).astype(np.float32)
-                up = np.tile(r[:, 2], (len(heads), 1)).astype(np.float32)  # the map's z axis in the camera frame
-                lamps = Lamps(agents.instance_id[mine], centre, (front_map @ r.T).astype(np.float32), up, lit,
-                              HEAD_LWH_M[0] / 2.0)  # fmt: skip
-                o = replace(o, frame=replace(o.frame, shading=replace(o.frame.shading, lamps=lamps)))
+                up = np.tile(r[:, 2], (len(objects), 1)).astype(np.float32)  # the map's z axis in the camera frame
+                faces = StreetFaces(agents.instance_id[mine], centre, (front_map @ r.T).astype(np.float32), up, size,
+                                    lit, sign)  # fmt: skip
+                o = replace(o, frame=replace(o.frame, shading=replace(o.frame.shading, faces=faces)))
             out.append(o)
         return tuple(out)

@@ -31,7 +31,7 @@ from shapely.geometry import Point
 from networks.classes import SemanticClass
 from networks.mesh import ClassedMesh, merge, prism
 
-STREET_VERSION = "2"  # part of the world cache key: change it when poles move
+STREET_VERSION = "3"  # part of the world cache key: change it when poles move
 STREET_ID_BASE = 61440  # 0xF000: ids fit the 16-bit instance ids of PNG masks and SemanticKITTI labels
 HEAD_LWH_M = (0.3, 0.35, 1.0)  # depth, width, height of a signal head's housing
 HEAD_CENTRE_HEIGHT_M = 3.0  # above the road at the stop line
@@ -40,7 +40,6 @@ SIGN_CENTRE_HEIGHT_M = 2.2
 POLE_RADIUS_M = 0.08
 POLE_FROM_KERB_M = 0.6  # on the sidewalk, this far from the kerb
 POLE_OFF_ROAD_M = 0.8  # beyond the road's edge where there is no sidewalk
-HANG_TOWARDS_ROAD_M = 0.25  # heads and plates hang on the pole's road side
 BACK_FROM_LANE_END_M = 1.0
 SPEED_SIGN_INTO_ROAD_M = 5.0
 
@@ -115,7 +114,7 @@ def street_objects(
         light = cls == SemanticClass.TRAFFIC_LIGHT
         lwh = HEAD_LWH_M if light else SIGN_LWH_M[subtype.rsplit("_", 1)[0] if subtype.startswith("speed") else subtype]
         height = HEAD_CENTRE_HEIGHT_M if light else SIGN_CENTRE_HEIGHT_M
-        centre, yaw, foot = _placement(net.getEdge(edge_id), left_hand, from_start, height)
+        centre, yaw, foot = _placement(net.getEdge(edge_id), left_hand, from_start, height, lwh[0])
         out.append(StreetObject(STREET_ID_BASE + k, cls, subtype, edge_id, lanes, centre, yaw, lwh, foot,
                                 height + lwh[2] / 2.0 + 0.1, tls, link))  # fmt: skip
     return tuple(out)
@@ -165,10 +164,11 @@ def _speed_changes(net: sumolib.net.Net) -> list[tuple[str, int]]:
 
 
 def _placement(
-    edge: sumolib.net.edge.Edge, left_hand: bool, from_start_m: float, height_m: float
+    edge: sumolib.net.edge.Edge, left_hand: bool, from_start_m: float, height_m: float, depth_m: float
 ) -> tuple[tuple[float, float, float], float, tuple[float, float, float]]:
     """The object's centre and yaw and its pole's foot, beside the edge's outermost lane:
-    ``from_start_m`` into the edge, or (negative) by its end."""
+    ``from_start_m`` into the edge, or (negative) by its end. The object is centred on its
+    pole, on the side the traffic comes from."""
     outer_lane = min(edge.getLanes(), key=lambda lane: lane.getIndex())
     shape = np.asarray(outer_lane.getShape3D(), np.float64)
     along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1))]
@@ -182,7 +182,7 @@ def _placement(
     on_sidewalk = outer_lane.getPermissions() == {"pedestrian"}  # then near the kerb, its inner side
     offset = -half + POLE_FROM_KERB_M if on_sidewalk else half + POLE_OFF_ROAD_M
     foot = np.array([x, y]) + outward * offset
-    hung = foot - outward * HANG_TOWARDS_ROAD_M
+    hung = foot - heading * (POLE_RADIUS_M + depth_m / 2.0 + 0.01)
     yaw = float(np.arctan2(-heading[1], -heading[0]))
     return (float(hung[0]), float(hung[1]), z + height_m), yaw, (float(foot[0]), float(foot[1]), z)
 

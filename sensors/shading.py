@@ -35,47 +35,63 @@ UNLIT_LAMP_BGR = np.array([35, 35, 35], np.float32)
 LAMP_UP_M = np.array([0.3, 0.0, -0.3], np.float32)  # each lamp's centre above the housing's centre
 LAMP_RADIUS_M = 0.11
 LIT_LAMPS = {"red": (0,), "yellow": (1,), "green": (2,), "red_yellow": (0, 1), "off": ()}
+# Sign faces (Vienna Convention colours, BGR 0..1): the field, the rim and the rim's width in metres.
+SIGN_FACES = {"stop": ((0.12, 0.1, 0.75), (0.9, 0.9, 0.9), 0.03), "yield": ((0.9, 0.9, 0.9), (0.12, 0.1, 0.75), 0.1),
+              "speed_limit": ((0.9, 0.9, 0.9), (0.12, 0.1, 0.75), 0.07)}  # fmt: skip
+SIGN_KINDS = tuple(SIGN_FACES)
 
 
 @dataclass(frozen=True, slots=True)
-class Lamps:
-    """Signal heads the camera may see, whose lamps it draws (lit ones emissive, in their
-    colour, by day and night): ``instance_id: (K,) uint32``, the housing's ``centre_cam``,
-    its ``front_cam`` (towards the traffic) and ``up_cam`` axes, ``(K, 3) float32`` in the
-    camera's optical frame, ``half_depth_m`` of the housing, and ``lit: (K, 3) bool`` (red,
-    yellow, green)."""
+class StreetFaces:
+    """Signal heads and sign plates the camera may see, whose fronts it draws: a head's lamps
+    (lit ones emissive, in their colour, by day and night), a sign's coloured field and rim.
+    Per object: ``instance_id: (K,) uint32``; the ``centre_cam``, the ``front_cam`` (towards
+    the traffic) and ``up_cam`` axes, ``(K, 3) float32`` in the camera's optical frame;
+    ``size_m: (K, 3) float32`` depth, width, height; ``lit: (K, 3) bool`` the lit lamps (red,
+    yellow, green) of a head; ``sign: (K,) int8`` the index of a sign's kind in
+    :data:`SIGN_KINDS` (-1: a signal head)."""
 
     instance_id: npt.NDArray[np.uint32]
     centre_cam: npt.NDArray[np.float32]
     front_cam: npt.NDArray[np.float32]
     up_cam: npt.NDArray[np.float32]
+    size_m: npt.NDArray[np.float32]
     lit: npt.NDArray[np.bool_]
-    half_depth_m: float
+    sign: npt.NDArray[np.int8]
 
     def __post_init__(self) -> None:
         check_arrays(self, instance_id=(np.uint32, ("K",)), centre_cam=(np.float32, ("K", 3)),
                      front_cam=(np.float32, ("K", 3)), up_cam=(np.float32, ("K", 3)),
-                     lit=(np.bool_, ("K", 3)))  # fmt: skip
+                     size_m=(np.float32, ("K", 3)), lit=(np.bool_, ("K", 3)), sign=(np.int8, ("K",)))  # fmt: skip
 
     def paint(self, image: npt.NDArray[np.uint8], points_cam: npt.NDArray[np.float32],
               instance_id: npt.NDArray[np.uint32], pixels: npt.NDArray[np.intp], exposure: float) -> None:  # fmt: skip
-        """Draw the lamps into ``image`` (``(H * W, 3)``) at ``pixels``, the housings' pixels,
-        whose surface points are ``points_cam`` and ids ``instance_id``."""
+        """Draw the fronts into ``image`` (``(H * W, 3)``, shaded) at ``pixels``, the objects'
+        pixels, whose surface points are ``points_cam`` and ids ``instance_id``."""
+        if len(self.instance_id) == 0 or len(pixels) == 0:
+            return
         order = np.argsort(self.instance_id)
         pos = np.minimum(np.searchsorted(self.instance_id[order], instance_id), len(order) - 1)
         found = self.instance_id[order][pos] == instance_id
-        k = order[pos[found]]
+        k, at = order[pos[found]], pixels[found]
         d = points_cam[found] - self.centre_cam[k]
         forward = np.einsum("ij,ij->i", d, self.front_cam[k])
         up = np.einsum("ij,ij->i", d, self.up_cam[k])
-        side2 = np.einsum("ij,ij->i", d, d) - forward**2 - up**2
-        front = forward > np.float32(self.half_depth_m - 0.03)
+        side = np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - forward**2 - up**2, 0.0))
+        front = forward > self.size_m[k, 0] / 2 - np.float32(0.02)
+        head = self.sign[k] < 0
         for lamp in range(3):
-            inside = front & (side2 + (up - LAMP_UP_M[lamp]) ** 2 < np.float32(LAMP_RADIUS_M**2))
+            inside = head & front & (side**2 + (up - LAMP_UP_M[lamp]) ** 2 < np.float32(LAMP_RADIUS_M**2))
             lit = inside & self.lit[k, lamp]
-            at = pixels[found]
             image[at[inside & ~lit]] = to_uint8(UNLIT_LAMP_BGR[None, :] * np.float32(exposure))
             image[at[lit]] = to_uint8(LAMP_BGR[lamp][None, :])
+        grey = ALBEDO_BGR_BY_CLASS[int(SemanticClass.TRAFFIC_SIGN)]
+        for kind, (field, rim, rim_m) in enumerate(SIGN_FACES.values()):
+            mine = front & (self.sign[k] == kind)
+            edge = np.maximum(side - self.size_m[k, 1] / 2 + rim_m, np.abs(up) - self.size_m[k, 2] / 2 + rim_m) > 0
+            for colour, where in ((field, mine & ~edge), (rim, mine & edge)):
+                ratio = np.asarray(colour, np.float32) / grey  # the shaded grey plate, recoloured
+                image[at[where]] = to_uint8(image[at[where]].astype(np.float32) * ratio[None, :])
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,7 +106,7 @@ class Shading:
     normal: npt.NDArray[np.float32]
     weather: Weather
     noise_seed: int | None
-    lamps: Lamps | None = None  # signal heads' lamps to draw (None: none in view)
+    faces: StreetFaces | None = None  # signal heads and signs whose fronts it draws (None: none in view)
 
     def __post_init__(self) -> None:
         pixels = self.pinhole.width_px * self.pinhole.height_px
@@ -115,10 +131,11 @@ def shade_frame(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         if noise is not None:
             shaded += noise[part, None]
         image[part] = to_uint8(shaded)
-    if sh.lamps is not None and len(sh.lamps.instance_id):
-        pixels = np.flatnonzero((classes == SemanticClass.TRAFFIC_LIGHT) & hit)
+    if sh.faces is not None:
+        street = (classes == SemanticClass.TRAFFIC_LIGHT) | (classes == SemanticClass.TRAFFIC_SIGN)
+        pixels = np.flatnonzero(street & hit)
         points = dirs_cam[pixels] * range_m[pixels, None]
-        sh.lamps.paint(image, points, instances[pixels], pixels, sh.weather.exposure)
+        sh.faces.paint(image, points, instances[pixels], pixels, sh.weather.exposure)
     return image.reshape(*frame.depth_m.shape, 3)
 
 
