@@ -31,14 +31,14 @@ from shapely.geometry import Point
 from networks.classes import SemanticClass
 from networks.mesh import ClassedMesh, merge, prism
 
-STREET_VERSION = "3"  # part of the world cache key: change it when poles move
+STREET_VERSION = "4"  # part of the world cache key: change it when poles move
 STREET_ID_BASE = 61440  # 0xF000: ids fit the 16-bit instance ids of PNG masks and SemanticKITTI labels
 HEAD_LWH_M = (0.3, 0.35, 1.0)  # depth, width, height of a signal head's housing
 HEAD_CENTRE_HEIGHT_M = 3.0  # above the road at the stop line
 SIGN_LWH_M = {"stop": (0.05, 0.75, 0.75), "yield": (0.05, 0.9, 0.8), "speed_limit": (0.05, 0.6, 0.6)}
 SIGN_CENTRE_HEIGHT_M = 2.2
 POLE_RADIUS_M = 0.08
-POLE_FROM_KERB_M = 0.6  # on the sidewalk, this far from the kerb
+POLE_BEHIND_SIDEWALK_M = 0.3  # beyond the sidewalk's outer edge: pedestrians walk the whole sidewalk
 POLE_OFF_ROAD_M = 0.8  # beyond the road's edge where there is no sidewalk
 BACK_FROM_LANE_END_M = 1.0
 SPEED_SIGN_INTO_ROAD_M = 5.0
@@ -179,8 +179,8 @@ def _placement(
     heading /= max(float(np.linalg.norm(heading)), 1e-9)
     outward = np.array([-heading[1], heading[0]]) if left_hand else np.array([heading[1], -heading[0]])
     half = outer_lane.getWidth() / 2.0
-    on_sidewalk = outer_lane.getPermissions() == {"pedestrian"}  # then near the kerb, its inner side
-    offset = -half + POLE_FROM_KERB_M if on_sidewalk else half + POLE_OFF_ROAD_M
+    on_sidewalk = outer_lane.getPermissions() == {"pedestrian"}
+    offset = half + (POLE_BEHIND_SIDEWALK_M if on_sidewalk else POLE_OFF_ROAD_M)
     foot = np.array([x, y]) + outward * offset
     hung = foot - heading * (POLE_RADIUS_M + depth_m / 2.0 + 0.01)
     yaw = float(np.arctan2(-heading[1], -heading[0]))

@@ -142,7 +142,7 @@ def test_yolo_boxes_are_normalised_and_name_known_classes(dataset):
     lines = [line.split() for f in (yolo / "labels").glob("*.txt") for line in f.read_text().splitlines()]
     assert len(list((yolo / "images").glob("*.jpg"))) == 20
     for cls, *box in lines:
-        assert 0 <= int(cls) <= 5
+        assert 0 <= int(cls) <= 13  # road users 0-5, traffic lights by state 6-10, signs 11-13
         cx, cy, w, h = map(float, box)
         assert 0 < w <= 1 and 0 < h <= 1
         assert min(cx - w / 2, cy - h / 2) >= -1e-6 and max(cx + w / 2, cy + h / 2) <= 1 + 1e-6
@@ -301,6 +301,7 @@ def test_kitti_boxes_hold_exactly_each_objects_lidar_points_under_a_strict_test(
                                                 [0, 0, 0, 1]]) @ tr)  # fmt: skip
         points = np.fromfile(kitti / "velodyne" / f"{label_file.stem}.bin", dtype="<f4").reshape(-1, 4)[:, :3]
         rows = labels[(labels["frame"] == frame) & labels["left"].notna() & (labels["seen"] == 1)]
+        rows = rows[~rows["type"].isin(["traffic_light", "traffic_sign"])]  # not in KITTI's labels
         for line, (_, row) in zip(label_file.read_text().splitlines(), rows.iterrows(), strict=True):
             v = line.split()
             h, w, length, ry = float(v[8]), float(v[9]), float(v[10]), float(v[14])
