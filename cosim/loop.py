@@ -236,7 +236,8 @@ def run(
     signals = None
     street = scenario.street
     if street.traffic_lights or street.signs:
-        objects = street_objects(prepared.net, is_left_hand(prepared.net_path), street.traffic_lights, street.signs)
+        left_hand = is_left_hand(prepared.net_path)
+        objects = street_objects(prepared.net, left_hand, street.traffic_lights, street.signs, prepared.xodr_path)
         signals = StreetObjects(objects)
     loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, summary, out_dir, progress, one_process, probe,
                      signals)  # fmt: skip

@@ -22,7 +22,10 @@ the network.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
 import sumolib
@@ -83,12 +86,16 @@ class StreetObject:
 
 
 def street_objects(
-    net: sumolib.net.Net, left_hand: bool, lights: bool = True, signs: bool = True
+    net: sumolib.net.Net, left_hand: bool, lights: bool = True, signs: bool = True, xodr_path: Path | None = None
 ) -> tuple[StreetObject, ...]:
-    """The network's signal heads (with ``lights``) and signs (with ``signs``), ids in a
-    stable order: heads first."""
+    """The network's signal heads (with ``lights``) and signs (with ``signs``: the static
+    stop, give-way and speed-limit ``signal`` records of ``xodr_path``, the OpenDRIVE file the
+    network was converted from, where it has any; else from the rules), ids in a stable
+    order: heads first."""
     found: list[tuple[SemanticClass, str, str, tuple[str, ...], float, str, int]] = []
     approaches = _approaches(net)
+    from_file = read_signs(xodr_path).signs if signs and xodr_path is not None else ()
+    placed = [_file_sign(net, sign, left_hand) for sign in from_file]
     if lights:
         for (edge_id, tls), links in sorted(approaches.items()):
             if not tls:
@@ -96,7 +103,7 @@ def street_objects(
             straight = [c for c in links if c.getDirection() == "s"] or sorted(links, key=lambda c: c.getTLLinkIndex())
             found.append((SemanticClass.TRAFFIC_LIGHT, "signal_head", edge_id, _lanes(links), -1.0, tls,
                           int(straight[0].getTLLinkIndex())))  # fmt: skip
-    if signs:
+    if signs and not from_file:
         for (edge_id, tls), links in sorted(approaches.items()):
             states = {c.getState() for c in links}
             if tls:
@@ -117,6 +124,9 @@ def street_objects(
         centre, yaw, foot = _placement(net.getEdge(edge_id), left_hand, from_start, height, lwh[0])
         out.append(StreetObject(STREET_ID_BASE + k, cls, subtype, edge_id, lanes, centre, yaw, lwh, foot,
                                 height + lwh[2] / 2.0 + 0.1, tls, link))  # fmt: skip
+    for obj in placed:
+        if obj is not None:
+            out.append(replace(obj, object_id=STREET_ID_BASE + len(out)))
     return tuple(out)
 
 
@@ -194,3 +204,134 @@ def pole_mesh(objects: tuple[StreetObject, ...]) -> ClassedMesh:
               o.pole_height_m + 0.2, SemanticClass.POLE)
         for o in objects
     ])  # fmt: skip
+
+
+# OpenDRIVE static signal types (German StVO catalogue numbers, US MUTCD codes) -> our subtypes.
+_FILE_SIGN_TYPES = {"206": "stop", "R1-1": "stop", "205": "yield", "R1-2": "yield", "274": "speed_limit",
+                    "R2-1": "speed_limit"}  # fmt: skip
+MPH_TO_KMH = 1.609344
+
+
+@dataclass(frozen=True, slots=True)
+class FileSign:
+    """A static ``signal`` record of a known kind: its road, ``s`` and ``t`` on the road's
+    reference line, the height of its bottom above the road, whether it faces traffic driving
+    along ``s`` (orientation ``+``), its subtype, and the lane section holding it."""
+
+    road_id: str
+    s_m: float
+    t_m: float
+    z_offset_m: float
+    along_s: bool
+    subtype: str
+    section_s_m: float
+    section_length_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class FileSigns:
+    signs: tuple[FileSign, ...]
+    problem: str = ""  # the records left out as unreadable, and the first of them ('' if none)
+
+
+def read_signs(xodr_path: Path | None) -> FileSigns:
+    """The static stop, give-way and speed-limit ``signal`` records of an OpenDRIVE file
+    (dynamic signals are traffic lights, taken from SUMO; other types are left out)."""
+    if xodr_path is None:
+        return FileSigns(())
+    try:
+        root = ElementTree.parse(xodr_path).getroot()
+    except (ElementTree.ParseError, OSError):
+        return FileSigns(())  # the markings' notice names an unreadable file
+    signs, bad = [], []
+    for road in root.iter("road"):
+        starts = sorted(_float(sec.get("s"), 0.0) for sec in road.findall("lanes/laneSection")) or [0.0]
+        length = _float(road.get("length"), 0.0)
+        for record in road.findall("signals/signal"):
+            kind = _FILE_SIGN_TYPES.get((record.get("type") or "").strip())
+            if kind is None or (record.get("dynamic") or "no").lower() == "yes":
+                continue
+            s, t = _float(record.get("s"), math.nan), _float(record.get("t"), math.nan)
+            if not (math.isfinite(s) and math.isfinite(t)):
+                bad.append(f"road {road.get('id')}: signal {record.get('id')!r} has no readable s and t")
+                continue
+            if kind == "speed_limit":
+                value = _float(record.get("value"), math.nan)
+                if not math.isfinite(value) or value <= 0:
+                    value = _float(record.get("subtype"), math.nan)  # some files keep the limit there
+                if not math.isfinite(value) or value <= 0:
+                    bad.append(f"road {road.get('id')}: speed-limit signal {record.get('id')!r} has no value")
+                    continue
+                kmh = value * MPH_TO_KMH if (record.get("unit") or "").lower() == "mph" else value
+                kind = f"speed_limit_{round(kmh)}"
+            start = max([v for v in starts if v <= s + 1e-6] or [0.0])
+            end = min([v for v in starts if v > start + 1e-6] or [length])
+            signs.append(FileSign(road.get("id", ""), s, t, _float(record.get("zOffset"), 0.0),
+                                  (record.get("orientation") or "+").strip() != "-", kind, start,
+                                  max(end - start, 1e-6)))  # fmt: skip
+    problem = f"{xodr_path}: {len(bad)} signal record(s) left out (first: {bad[0]})" if bad else ""
+    return FileSigns(tuple(signs), problem)
+
+
+def _float(text: str | None, default: float) -> float:
+    if text is None or not text.strip():
+        return default
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
+def _file_sign(net: sumolib.net.Net, sign: FileSign, left_hand: bool) -> StreetObject | None:
+    """A file's sign placed by the SUMO lanes of its road: the reference line is the inner
+    side of the innermost lane of the road's lanes on either side."""
+    sides: dict[bool, sumolib.net.edge.Edge] = {}  # True: the lanes that drive along s
+    for edge in net.getEdges(withInternal=False):
+        road, _, lane_id = (edge.getLanes()[0].getParam("origId", "") or "").rpartition("_")
+        if (
+            road != sign.road_id
+            or edge.getFunction()
+            or abs(_section_start(edge.getID(), road) - sign.section_s_m) > 0.01
+        ):
+            continue
+        try:
+            sides[(int(lane_id) < 0) != left_hand] = edge
+        except ValueError:
+            continue
+    edge = sides.get(sign.along_s) or next(iter(sides.values()), None)
+    if edge is None:
+        return None
+    along = edge is sides.get(True)
+    inner = max(edge.getLanes(), key=lambda lane: lane.getIndex())
+    shape = np.asarray(inner.getShape3D(), np.float64)
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1))]
+    fraction = min(max((sign.s_m - sign.section_s_m) / sign.section_length_m, 0.0), 1.0)
+    at = (fraction if along else 1.0 - fraction) * float(arc[-1])
+    x, y, z = (float(np.interp(at, arc, shape[:, k])) for k in range(3))
+    i = int(np.clip(np.searchsorted(arc, at) - 1, 0, len(shape) - 2))
+    lane_dir = shape[i + 1, :2] - shape[i, :2]
+    lane_dir /= max(float(np.linalg.norm(lane_dir)), 1e-9)
+    lane_left = np.array([-lane_dir[1], lane_dir[0]])
+    reference = np.array([x, y]) + (-lane_left if left_hand else lane_left) * inner.getWidth() / 2.0
+    road_dir = lane_dir if along else -lane_dir
+    xy = reference + np.array([-road_dir[1], road_dir[0]]) * sign.t_m
+    facing = -road_dir if sign.along_s else road_dir  # towards the traffic the sign is for
+    lwh = SIGN_LWH_M["speed_limit" if sign.subtype.startswith("speed_limit") else sign.subtype]
+    height = sign.z_offset_m + lwh[2] / 2.0 if sign.z_offset_m >= 1.0 else SIGN_CENTRE_HEIGHT_M
+    foot = xy - facing * (POLE_RADIUS_M + lwh[0] / 2.0 + 0.01)
+    lanes = tuple(sorted(lane.getID() for lane in edge.getLanes() if _drives(lane)))
+    return StreetObject(0, SemanticClass.TRAFFIC_SIGN, sign.subtype, edge.getID(), lanes,
+                        (float(xy[0]), float(xy[1]), z + height), float(np.arctan2(facing[1], facing[0])), lwh,
+                        (float(foot[0]), float(foot[1]), z), height + lwh[2] / 2.0 + 0.1)  # fmt: skip
+
+
+def _section_start(edge_id: str, road_id: str) -> float:
+    """Where the lane section of a SUMO edge converted from road ``road_id`` starts (netconvert
+    names further sections ``<road>.<s>``)."""
+    rest = edge_id.lstrip("-")
+    if rest.startswith(road_id + "."):
+        try:
+            return float(rest[len(road_id) + 1 :])
+        except ValueError:
+            return 0.0
+    return 0.0

@@ -26,7 +26,7 @@ from networks.classes import SemanticClass
 from networks.errors import NetworkError
 from networks.markings import MARKINGS_VERSION, is_left_hand, marking_mesh, read_road_marks
 from networks.mesh import ClassedMesh, box_mesh, draped_polygon, flat_polygon, merge, prism, raised_polygon, ribbon
-from networks.street import STREET_VERSION, pole_mesh, street_objects
+from networks.street import STREET_VERSION, pole_mesh, read_signs, street_objects
 
 WORLD_VERSION = "11"
 CURB_HEIGHT_M = 0.15
@@ -86,7 +86,7 @@ def build_world(
     ``roadMark`` records of ``xodr_path``, the OpenDRIVE file the network was converted from,
     where it has them; see :mod:`networks.markings`), ``traffic_lights`` and ``signs`` the poles
     of the signal heads and signs (:mod:`networks.street`)."""
-    source = xodr_path.read_bytes() if markings and xodr_path is not None else b""
+    source = xodr_path.read_bytes() if (markings or signs) and xodr_path is not None else b""
     key = digest(WORLD_VERSION, net_path.read_bytes(), str(seed), str(props), str(markings), MARKINGS_VERSION, source,
                  str(traffic_lights), str(signs), STREET_VERSION)  # fmt: skip
     folder = cache_dir("worlds", key)
@@ -96,15 +96,20 @@ def build_world(
         return dataclasses.replace(read_world(cached), notice=notice.read_text() if notice.exists() else "")
     net = load_net(net_path)
     world = _build(net, seed, props)
+    problems = []
     if traffic_lights or signs:
-        poles = pole_mesh(street_objects(net, is_left_hand(net_path), traffic_lights, signs))
+        poles = pole_mesh(street_objects(net, is_left_hand(net_path), traffic_lights, signs, xodr_path))
         world = dataclasses.replace(world, mesh=merge([world.mesh, poles]))
+        problems.append(read_signs(xodr_path).problem if signs else "")
     if markings:
         marks = read_road_marks(xodr_path)
         paint = marking_mesh(net, marks, is_left_hand(net_path))
-        world = dataclasses.replace(world, mesh=merge([world.mesh, paint]), notice=_notice_line(marks.problem))
-        if marks.problem:
-            (folder / "notice.txt").write_text(world.notice)
+        world = dataclasses.replace(world, mesh=merge([world.mesh, paint]))
+        problems.append(marks.problem)
+    lines = "\n".join(_notice_line(p) for p in problems if p)
+    if lines:
+        world = dataclasses.replace(world, notice=lines)
+        (folder / "notice.txt").write_text(lines)
     tmp = cached.with_suffix(f".{os.getpid()}.partial.npz")  # one per process: others may write it too
     np.savez_compressed(
         tmp,
