@@ -29,7 +29,7 @@ import sumolib
 from networks.classes import SemanticClass
 from networks.mesh import ClassedMesh, merge, ribbon
 
-MARKINGS_VERSION = "2"  # part of the world cache key: change it when the markings change
+MARKINGS_VERSION = "3"  # part of the world cache key: change it when the markings change
 PAINT_HEIGHT_M = 0.005  # above the lane surface
 CROSSING_PAINT_HEIGHT_M = 0.013  # 3 mm above the crossing's own strip (1 cm above the road)
 LINE_WIDTH_M = {"standard": 0.12, "bold": 0.25}
@@ -169,17 +169,32 @@ class _Line:
     kind: str
     yellow: bool
     width_m: float
+    role: str = "divider"  # "divider" between lanes (of one direction or of both), "edge" at the road's edge
 
 
-def marking_mesh(net: sumolib.net.Net, marks: RoadMarks, left_hand: bool) -> ClassedMesh:
-    """All markings of a network: lane and edge lines, stop and give-way lines, zebra stripes."""
-    parts: list[ClassedMesh] = []
+@dataclass(frozen=True, slots=True)
+class PaintedLine:
+    """One painted line, as the map knows it: ``role`` (``divider``: between lanes, of one
+    direction or of both; ``edge``: the road's edge line; ``stop`` or ``give_way``: across a
+    lane's end), ``pattern`` (``solid``, ``broken``, ``botts dots``), colour, width, the
+    ``(K, 3)`` polyline of its middle (a double line is two lines), the SUMO lane it belongs to
+    and, for a broken line, its dash and gap lengths along the polyline from its start."""
+
+    role: str
+    pattern: str
+    yellow: bool
+    width_m: float
+    polyline_m: npt.NDArray[np.float64]
+    lane_id: str
+    dash_m: tuple[float, float] | None
+
+
+def painted_lines(net: sumolib.net.Net, marks: RoadMarks, left_hand: bool) -> list[PaintedLine]:
+    """Every lane, edge, stop and give-way line of a network, in a stable order."""
+    out: list[PaintedLine] = []
     centre_lines_seen: set[tuple[tuple[float, float], ...]] = set()
     outer = 1.0 if left_hand else -1.0  # the side of a lane away from the road's centre (left is +)
-    for edge in sorted(net.getEdges(withInternal=True), key=lambda e: e.getID()):
-        if edge.getFunction() == "crossing":
-            parts += [_zebra(lane) for lane in edge.getLanes()]
-            continue
+    for edge in sorted(net.getEdges(withInternal=False), key=lambda e: e.getID()):
         if edge.getFunction():
             continue
         lanes = sorted(edge.getLanes(), key=lambda lane: lane.getIndex())
@@ -187,9 +202,36 @@ def marking_mesh(net: sumolib.net.Net, marks: RoadMarks, left_hand: bool) -> Cla
             if not _paved_for_vehicles(lane) or len(lane.getShape()) < 2:
                 continue
             for line in _lines_of(edge, lanes, lane, marks, outer, centre_lines_seen):
-                parts.append(_paint_line(lane, line, outer))
-            parts.append(_stop_line(net, lane))
-    return merge(parts)
+                out += _single_lines(lane, line, outer)
+            stop = _stop_line(lane)
+            if stop is not None:
+                out.append(stop)
+    return out
+
+
+def crossing_lanes(net: sumolib.net.Net) -> list[sumolib.net.lane.Lane]:
+    """The network's pedestrian crossings (painted as zebras), in a stable order."""
+    edges = [e for e in net.getEdges(withInternal=True) if e.getFunction() == "crossing"]
+    edges.sort(key=lambda e: e.getID())
+    return [lane for edge in edges for lane in edge.getLanes()]
+
+
+def marking_mesh(net: sumolib.net.Net, marks: RoadMarks, left_hand: bool) -> ClassedMesh:
+    """All markings of a network: lane and edge lines, stop and give-way lines, zebra stripes."""
+    parts = [_paint(line) for line in painted_lines(net, marks, left_hand)]
+    return merge(parts + [_zebra(lane) for lane in crossing_lanes(net)])
+
+
+def _paint(line: PaintedLine) -> ClassedMesh:
+    """The strips of one painted line (its dashes, if broken)."""
+    cls = SemanticClass.LANE_MARKING_YELLOW if line.yellow else SemanticClass.LANE_MARKING
+    p = line.polyline_m
+    length = float(np.sum(np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1)))
+    if line.dash_m is None:
+        return ribbon(p, line.width_m, cls, PAINT_HEIGHT_M)
+    on, off = line.dash_m
+    return merge([ribbon(_cut(p, a, min(a + on, length)), line.width_m, cls, PAINT_HEIGHT_M)
+                  for a in np.arange(0.0, length - 0.05, on + off)])  # fmt: skip
 
 
 def _paved_for_vehicles(lane: sumolib.net.lane.Lane) -> bool:
@@ -208,25 +250,27 @@ def _lines_of(
     if neighbour is None or _paved_for_vehicles(neighbour):  # beside a sidewalk: a kerb, no paint
         at_edge = neighbour is None
         for mark in _outer_marks(edge, lane, neighbour, marks):
-            lines.append(_placed(mark, outer * width / 2.0, at_edge, outer))
+            lines.append(_placed(mark, outer * width / 2.0, at_edge, outer, "edge" if at_edge else "divider"))
     if i == len(lanes) - 1:
         key = _centre_key(lane, outer)
         if key not in centre_lines_seen:
             centre_lines_seen.add(key)
             for mark in _centre_marks(edge, lane, marks):
-                lines.append(_placed(mark, -outer * width / 2.0, _is_edge(edge), -outer))
+                one_way = _is_edge(edge)
+                lines.append(_placed(mark, -outer * width / 2.0, one_way, -outer, "edge" if one_way else "divider"))
     return [_clipped(line, length) for line in lines]
 
 
 def _clipped(line: _Line, length_m: float) -> _Line:
     """``line`` with its span clipped to the lane's length."""
-    return _Line(line.offset_m, max(line.s0_m, 0.0), min(line.s1_m, length_m), line.kind, line.yellow, line.width_m)
+    return _Line(line.offset_m, max(line.s0_m, 0.0), min(line.s1_m, length_m), line.kind, line.yellow, line.width_m,
+                 line.role)  # fmt: skip
 
 
-def _placed(mark: _Line, boundary_m: float, at_edge: bool, side: float) -> _Line:
+def _placed(mark: _Line, boundary_m: float, at_edge: bool, side: float, role: str) -> _Line:
     """A line on the lane boundary at ``boundary_m``; at the road's edge moved inside it."""
     offset = boundary_m - side * (_painted_width(mark) / 2.0 + EDGE_INSET_M) if at_edge else boundary_m
-    return _Line(offset, mark.s0_m, mark.s1_m, mark.kind, mark.yellow, mark.width_m)
+    return _Line(offset, mark.s0_m, mark.s1_m, mark.kind, mark.yellow, mark.width_m, role)
 
 
 def _painted_width(line: _Line) -> float:
@@ -348,61 +392,52 @@ def _cut(shape: npt.NDArray[np.float64], s0: float, s1: float) -> npt.NDArray[np
     return np.vstack([ends[0], inside, ends[1]])
 
 
-def _paint_line(lane: sumolib.net.lane.Lane, line: _Line, outer: float) -> ClassedMesh:
-    """The strips of one line along ``lane``."""
+def _single_lines(lane: sumolib.net.lane.Lane, line: _Line, outer: float) -> list[PaintedLine]:
+    """A lane's line as single painted lines (two for a double line), cut to its span."""
     shape = _clean(np.asarray(lane.getShape3D(), np.float64))
     if shape.shape[0] < 2 or line.s1_m - line.s0_m < 0.05:
-        return ClassedMesh.empty()
-    cls = SemanticClass.LANE_MARKING_YELLOW if line.yellow else SemanticClass.LANE_MARKING
+        return []
     kinds = line.kind.split() if line.kind != "botts dots" else ["botts dots"]
     half_gap = (line.width_m + DOUBLE_GAP_M) / 2.0  # of a double line: the first type nearer the road's centre
     offsets = [line.offset_m]
     if len(kinds) == 2:
         offsets = [line.offset_m - outer * half_gap, line.offset_m + outer * half_gap]
     dash = DASH_M["fast" if lane.getSpeed() > FAST_SPEED_MPS else "town"]
-    parts = []
+    out = []
     for kind, offset in zip(kinds, offsets, strict=True):
         moved = shape.copy()
         moved[:, :2] += _unit_left(shape) * offset
-        if kind == "solid":
-            pieces = [(line.s0_m, line.s1_m)]
-        else:
-            on, off = BOTTS_DOTS_M if kind == "botts dots" else dash
-            pieces = [(a, min(a + on, line.s1_m)) for a in np.arange(line.s0_m, line.s1_m - 0.05, on + off)]
-        for a, b in pieces:
-            parts.append(ribbon(_cut(moved, a, b), line.width_m, cls, PAINT_HEIGHT_M))
-    return merge(parts)
+        pattern_dash = None if kind == "solid" else (BOTTS_DOTS_M if kind == "botts dots" else dash)
+        out.append(PaintedLine(line.role, kind, line.yellow, line.width_m, _cut(moved, line.s0_m, line.s1_m),
+                               lane.getID(), pattern_dash))  # fmt: skip
+    return out
 
 
-def _stop_line(net: sumolib.net.Net, lane: sumolib.net.lane.Lane) -> ClassedMesh:
+def _stop_line(lane: sumolib.net.lane.Lane) -> PaintedLine | None:
     """A solid stop line across the lane's end under a traffic light or a stop rule, a broken
     give-way line where its links must yield; nothing where it has right of way."""
     links = [c for c in lane.getOutgoing() if c.getToLane() is not None]
     if not links or not _drives(lane):
-        return ClassedMesh.empty()
+        return None
     states = {c.getState() for c in links}
     signalled = any(c.getTLSID() for c in links)
     if signalled or states & _STOP_STATES:
-        width, dashes = STOP_LINE_WIDTH_M, None
+        role, width, dashes = "stop", STOP_LINE_WIDTH_M, None
     elif states & _YIELD_STATES:
-        width, dashes = GIVE_WAY_WIDTH_M, GIVE_WAY_DASH_M
+        role, width, dashes = "give_way", GIVE_WAY_WIDTH_M, GIVE_WAY_DASH_M
     else:
-        return ClassedMesh.empty()
+        return None
     shape = _clean(np.asarray(lane.getShape3D(), np.float64))
     length = float(np.sum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1)))
     if shape.shape[0] < 2 or length < width + LINE_BACK_M + 0.5:
-        return ClassedMesh.empty()
+        return None
     s = length - LINE_BACK_M - width / 2.0
     centre = _cut(shape, s - 0.01, s + 0.01)
     c, heading = centre[0], centre[-1, :2] - centre[0, :2]
     left = np.array([-heading[1], heading[0]]) / max(float(np.linalg.norm(heading)), 1e-9)
     half = lane.getWidth() / 2.0 - 0.05
     across = np.array([[*(c[:2] + left * half), c[2]], [*(c[:2] - left * half), c[2]]])
-    if dashes is None:
-        return ribbon(across, width, SemanticClass.LANE_MARKING, PAINT_HEIGHT_M)
-    on, off = dashes
-    return merge([ribbon(_cut(across, a, min(a + on, 2 * half)), width, SemanticClass.LANE_MARKING, PAINT_HEIGHT_M)
-                  for a in np.arange(0.0, 2 * half - 0.1, on + off)])  # fmt: skip
+    return PaintedLine(role, "solid" if dashes is None else "broken", False, width, across, lane.getID(), dashes)
 
 
 def _zebra(lane: sumolib.net.lane.Lane) -> ClassedMesh:
