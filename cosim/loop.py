@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import os
 import shutil
 import signal
 import sys
@@ -26,16 +27,19 @@ from cosim.scenario import Scenario
 from cosim.signals import StreetObjects
 from cosim.state import WorldState
 from cosim.traffic_feed import TrafficFeed, TrafficInline, TrafficProcess
-from cosim.world_setup import prepare_network
+from cosim.world_setup import PreparedNetwork, prepare_network
 from gtgen.frame import FrameRecord
 from gtgen.labels import FrameLabels, label_frame
+from gtgen.mapgt import MapRange, map_frame
 from gtgen.signals import SignalLabels
 from gtgen.sinks.background import BackgroundSinks
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.sinks.resume_sink import RESUME_DIR
 from gtgen.timing import NO_CLOCK, NoClock, StageClock
+from networks.cache import cache_dir, digest, intact, seal
 from networks.classes import SemanticClass
 from networks.geometry import SE3
+from networks.hdmap import MAP_VERSION, HdMap, build_map
 from networks.markings import is_left_hand
 from networks.street import street_objects
 from sensors.engine import Scene
@@ -148,6 +152,19 @@ def sense_and_label(
     return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut, signals=lights)
 
 
+def prepare_map(prepared: PreparedNetwork) -> tuple[HdMap, Path]:
+    """The network's HD map, and its whole-map JSON in the cache (written on first use)."""
+    hdmap = build_map(prepared.net, prepared.xodr_path, is_left_hand(prepared.net_path))
+    key = digest(MAP_VERSION, prepared.net_path.read_bytes(), prepared.xodr_path.read_bytes())
+    path = cache_dir("maps", key) / "map.json"
+    if not intact(path):
+        partial = path.with_suffix(f".{os.getpid()}.partial")
+        partial.write_text(json.dumps(hdmap.static_json(), separators=(",", ":")))
+        partial.replace(path)
+        seal(path)
+    return hdmap, path
+
+
 PERSON_STEP_UP_M = 0.5  # a pedestrian stands on the highest static surface this far above its lane
 
 
@@ -168,8 +185,9 @@ def on_raised_surfaces(state: WorldState, crop: StaticCrop) -> WorldState:
 
 
 def sink_choice(
-    scenario: Scenario, out_dir: Path, map_world: Path | None = None, point: ResumePoint | None = None
-) -> SinkChoice:
+    scenario: Scenario, out_dir: Path, map_world: Path | None = None, point: ResumePoint | None = None,
+    map_json: Path | None = None,
+) -> SinkChoice:  # fmt: skip
     """The run's outputs; with ``point``, those of a run that continues an earlier one."""
     o, rig = scenario.outputs, scenario.sensors
     keep, first = (0, None) if point is None else (point.frames, point.first_map_SE3_ego)
@@ -178,7 +196,8 @@ def sink_choice(
     return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address,
                       sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first,
                       kitti_native_types=o.kitti_types == "native",
-                      traffic_lights=scenario.street.traffic_lights or scenario.street.signs)  # fmt: skip
+                      traffic_lights=scenario.street.traffic_lights or scenario.street.signs,
+                      map_json=map_json)  # fmt: skip
 
 
 def open_sinks(choice: SinkChoice, one_process: bool = False, clock: StageClock = NO_CLOCK) -> FrameSink:
@@ -232,7 +251,8 @@ def run(
         rng.bit_generator.state = point.checkpoint["rng"]
         crop.restore(point.checkpoint["crop_center_xy_m"])
         summary, start = RunSummary.from_dict(point.checkpoint["summary"]), point.frames
-    choice = sink_choice(scenario, out_dir, prepared.world.path, point)
+    hdmap, map_json = prepare_map(prepared) if scenario.outputs.map else (None, None)
+    choice = sink_choice(scenario, out_dir, prepared.world.path, point, map_json)
     signals = None
     street = scenario.street
     if street.traffic_lights or street.signs:
@@ -240,7 +260,7 @@ def run(
         objects = street_objects(prepared.net, left_hand, street.traffic_lights, street.signs, prepared.xodr_path)
         signals = StreetObjects(objects)
     loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, summary, out_dir, progress, one_process, probe,
-                     signals)  # fmt: skip
+                     signals, hdmap)  # fmt: skip
     stopped: BaseException | None = None
     held: Handlers = {}
 
@@ -300,6 +320,7 @@ class FrameLoop:
     one_process: bool
     probe: FrameProbe
     signals: StreetObjects | None = None
+    hdmap: HdMap | None = None
 
     def frames(self, start: int, sinks: FrameSink, started: Callable[[], None]) -> None:
         """Frames ``start`` .. the last: the traffic (simulated up to ``start`` first), sensed,
@@ -322,6 +343,21 @@ class FrameLoop:
             for frame_index in bar:
                 state = traffic.next()
                 record = sense_and_label(frame_index, state, self.crop, self.rig, self.rng, probe, self.signals)
+                if self.hdmap is not None:
+                    with probe.stage("map"):
+                        o = scenario.outputs
+                        extent = MapRange(o.map_range_m[0], o.map_range_m[1], o.map_resolution_m)
+                        ground_truth = map_frame(
+                            self.hdmap,
+                            frame_index,
+                            record.timestamp_ns,
+                            record.map_SE3_ego,
+                            record.labels.objects,
+                            state.ego_lane,
+                            state.ego_route_ahead,
+                            extent,
+                        )
+                        record = replace(record, map=ground_truth)
                 self.summary.add(record.labels, record.scene_cut)
                 sinks.write(replace(record, checkpoint=self.checkpoint()))
                 probe.frame_done(frame_index)

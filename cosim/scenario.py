@@ -90,8 +90,16 @@ class OutputsConfig:
     yolo_min_visible_px: int = 25  # objects with fewer visible camera pixels get no YOLO box
     kitti_types: Literal["kitti", "native"] = "kitti"  # KITTI's own type names, or the simulator's
     live: str | int = ""  # serve a live view on PORT, HOST:PORT or HOST ("" = none)
+    map: bool = True  # map ground truth under map/ and on /map/vectors
+    map_range_m: tuple[float, float] = (30.0, 15.0)  # half extents ahead/behind and left/right of the ego
+    map_resolution_m: float = 0.5  # of the rasters
 
     def __post_init__(self) -> None:
+        rx, ry = self.map_range_m
+        _check(0 < rx <= 200 and 0 < ry <= 200, "map_range_m", "two half extents in metres, each in (0, 200]",
+               self.map_range_m)  # fmt: skip
+        _check(0.05 <= self.map_resolution_m <= 5.0, "map_resolution_m", "metres per pixel in [0.05, 5]",
+               self.map_resolution_m)  # fmt: skip
         _check(self.yolo_min_visible_px >= 1, "yolo_min_visible_px", "a whole number >= 1", self.yolo_min_visible_px)
         if self.live != "":
             try:

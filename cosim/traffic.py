@@ -469,7 +469,9 @@ class Traffic:
         ego = EgoState(center[e], lwh[e], float(yaw[e]), float(pitch[e]), velocity[e])
         signals = {tls: libsumo.trafficlight.getRedYellowGreenState(tls) for tls in self._signals}
         lane = str(libsumo.vehicle.getLaneID(self._ego))
-        return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut, signals, lane)
+        route = libsumo.vehicle.getRoute(self._ego)
+        ahead = tuple(route[max(int(libsumo.vehicle.getRouteIndex(self._ego)), 0) :])
+        return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut, signals, lane, ahead)
 
     @staticmethod
     def _time() -> float:

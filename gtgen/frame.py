@@ -6,6 +6,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from gtgen.labels import FrameLabels
+from gtgen.mapgt import MapFrame
 from gtgen.signals import SignalLabels
 from networks.geometry import SE3
 from sensors.camera import CameraOutput
@@ -21,7 +22,8 @@ class FrameRecord:
     ``scene_cut``: the ego was put back at the start of a route before this frame (it ran
     out of road): this frame starts a new scene. ``checkpoint``: what the frame loop needs to
     continue after this frame (plain JSON data, kept by the run's resume file). ``signals``:
-    the traffic lights' states, for the heads among the labelled objects."""
+    the traffic lights' states, for the heads among the labelled objects. ``map``: the map
+    ground truth of the frame."""
 
     frame_index: int
     timestamp_ns: int
@@ -31,6 +33,7 @@ class FrameRecord:
     scene_cut: bool = False
     checkpoint: Mapping[str, object] = field(default_factory=dict)
     signals: SignalLabels = field(default_factory=SignalLabels.empty)
+    map: MapFrame | None = None  # the map ground truth around the ego (None: not asked for)
 
     @property
     def lidars(self) -> tuple[LidarOutput, ...]:

@@ -14,6 +14,7 @@ from mcap.decoder import DecoderFactory as McapDecoderFactory
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
+from gtgen.mapgt import load_map_frame
 from gtgen.objects import ObjectBoxes
 from gtgen.sinks.foxglove import LIDAR_POINT_DTYPE, RADAR_POINT_DTYPE
 
@@ -64,3 +65,6 @@ def objects_from_table(rows: pd.DataFrame) -> tuple[ObjectBoxes, npt.NDArray[np.
         rows["parked"].to_numpy().astype(bool),
     )
     return boxes, rows["seen"].to_numpy().astype(bool)
+
+
+__all__ = ["iter_messages", "lidar_points", "load_labels", "load_map_frame", "objects_from_table", "radar_points"]

@@ -17,8 +17,8 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from gtgen.bev import bev_image
-from gtgen.load import iter_messages, lidar_points, load_labels, objects_from_table
+from gtgen.bev import bev_image, map_bev_image
+from gtgen.load import iter_messages, lidar_points, load_labels, load_map_frame, objects_from_table
 from networks.geometry import SE3, rotation_from_quaternion_xyzw
 
 matplotlib.use("Agg")
@@ -115,6 +115,11 @@ def frame_pictures(mcap_path: Path, labels: pd.DataFrame, frames: list[int], fol
             xyz_ego = _ego_SE3(tf[frame], msg.frame_id).transform_from(xyz) if frame in tf else xyz
             objects, seen = objects_from_table(rows)
             cv2.imwrite(str(folder / f"bev_{frame:06d}.png"), bev_image(xyz_ego, pts["class"], objects, seen))
+            run_dir = mcap_path.parent
+            if (run_dir / "map" / "vectors" / f"{frame:06d}.json").exists():
+                vectors, layers = load_map_frame(run_dir, frame)
+                picture = map_bev_image(vectors, layers, xyz_ego, pts["class"], objects, seen)
+                cv2.imwrite(str(folder / f"map_{frame:06d}.png"), picture)
         else:
             image = np.asarray(cv2.imdecode(np.frombuffer(msg.data, np.uint8), cv2.IMREAD_COLOR), dtype=np.uint8)
             cv2.imwrite(str(folder / f"camera_{frame:06d}.png"), draw_camera_boxes(image, rows))

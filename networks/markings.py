@@ -29,7 +29,7 @@ import sumolib
 from networks.classes import SemanticClass
 from networks.mesh import ClassedMesh, merge, ribbon
 
-MARKINGS_VERSION = "3"  # part of the world cache key: change it when the markings change
+MARKINGS_VERSION = "4"  # part of the world cache key: change it when the markings change
 PAINT_HEIGHT_M = 0.005  # above the lane surface
 CROSSING_PAINT_HEIGHT_M = 0.013  # 3 mm above the crossing's own strip (1 cm above the road)
 LINE_WIDTH_M = {"standard": 0.12, "bold": 0.25}
@@ -38,7 +38,7 @@ EDGE_INSET_M = 0.1  # an edge line's outer side this far inside the road's edge
 DASH_M = {"town": (3.0, 6.0), "fast": (6.0, 12.0)}  # dash and gap of broken lines (RMS 1980, Germany)
 FAST_SPEED_MPS = 70.0 / 3.6
 BOTTS_DOTS_M = (0.15, 1.0)
-STOP_LINE_WIDTH_M = 0.4  # along the lane (Germany: 0.5, US MUTCD: 12-24 in)
+STOP_LINE_WIDTH_M = 0.3  # along the lane (UK 0.3 m; US MUTCD 12-24 in)
 GIVE_WAY_WIDTH_M = 0.3
 GIVE_WAY_DASH_M = (0.5, 0.25)
 LINE_BACK_M = 0.3  # a stop line's far side this far before the lane's end

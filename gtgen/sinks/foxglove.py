@@ -13,8 +13,10 @@ from foxglove_schemas_protobuf.CubePrimitive_pb2 import CubePrimitive
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
+from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
 from foxglove_schemas_protobuf.PackedElementField_pb2 import PackedElementField
 from foxglove_schemas_protobuf.Point2_pb2 import Point2
+from foxglove_schemas_protobuf.Point3_pb2 import Point3
 from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
 from foxglove_schemas_protobuf.PointsAnnotation_pb2 import PointsAnnotation
 from foxglove_schemas_protobuf.Pose_pb2 import Pose
@@ -126,6 +128,32 @@ def box_update(ns: int, labels: FrameLabels, signal_states: dict[int, str] | Non
         ))  # fmt: skip
     deletion = SceneEntityDeletion(timestamp=timestamp(ns), type=SceneEntityDeletion.ALL)
     return SceneUpdate(deletions=[deletion], entities=entities)
+
+
+# Map elements' colours (RGBA): dividers white or yellow, edge lines and boundaries red, crossings
+# light grey, stop lines white, lane centres faint blue.
+_ELEMENT_RGBA = {"edge_line": (1.0, 0.3, 0.3, 1.0), "road_boundary": (1.0, 0.1, 0.1, 1.0),
+                 "stop_line": (1.0, 1.0, 1.0, 1.0), "crossing": (0.8, 0.8, 0.8, 1.0),
+                 "lane_centre": (0.3, 0.5, 1.0, 0.5)}  # fmt: skip
+_IDENTITY = Pose(position=Vector3(x=0.0, y=0.0, z=0.0), orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0))
+
+
+def map_lines(ns: int, elements: list[dict[str, Any]]) -> SceneUpdate:
+    """The frame's map elements as line strips in the ego frame (one entity, replaced each frame)."""
+    lines = []
+    for e in elements:
+        if e["type"] == "lane_divider":
+            rgba = (1.0, 0.85, 0.1, 1.0) if e.get("colour") == "yellow" else (1.0, 1.0, 1.0, 1.0)
+        else:
+            rgba = _ELEMENT_RGBA[e["type"]]
+        points = [Point3(x=float(x), y=float(y), z=0.05) for x, y in e["points"]]
+        colour = Color(r=rgba[0], g=rgba[1], b=rgba[2], a=rgba[3])
+        thickness = 1.0 if e["type"] == "lane_centre" else 2.0
+        lines.append(LinePrimitive(type=LinePrimitive.LINE_STRIP, pose=_IDENTITY, thickness=thickness,
+                                   scale_invariant=True, points=points, color=colour))  # fmt: skip
+    entity = SceneEntity(timestamp=timestamp(ns), frame_id="ego", id="map_vectors", lines=lines)
+    deletion = SceneEntityDeletion(timestamp=timestamp(ns), type=SceneEntityDeletion.ALL)
+    return SceneUpdate(deletions=[deletion], entities=[entity])
 
 
 def _compressed(ns: int, frame_id: str, fmt: str, data: bytes) -> CompressedImage:

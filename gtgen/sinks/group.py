@@ -8,6 +8,7 @@ from pathlib import Path
 
 from gtgen.frame import FrameRecord
 from gtgen.lifetime import ClosedOnExit
+from gtgen.mapgt import MapSink
 from gtgen.sinks import Sink
 from gtgen.sinks.csv_sink import CsvSink
 from gtgen.sinks.images import FrameImages
@@ -38,6 +39,11 @@ class SinkChoice:
     first_map_SE3_ego: SE3 | None = None  # the earlier run's ego pose at frame 0 (for KITTI's poses)
     kitti_native_types: bool = False  # KITTI labels with the simulator's class names
     traffic_lights: bool = False  # lights_and_signs.csv beside labels.csv (with csv)
+    map_json: Path | None = None  # the whole map (networks.hdmap): map/ is written (frames carry their part)
+
+    @property
+    def map(self) -> bool:
+        return self.map_json is not None
 
     @property
     def lights_csv(self) -> bool:
@@ -46,7 +52,7 @@ class SinkChoice:
     def partial_paths(self) -> list[Path]:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
         names = {"mcap": "run.mcap", "csv": "labels.csv", "lights_csv": "lights_and_signs.csv", "kitti": "kitti",
-                 "yolo": "yolo"}  # fmt: skip
+                 "yolo": "yolo", "map": "map"}  # fmt: skip
         return [self.out_dir / f"{name}.partial" for kind, name in names.items() if getattr(self, kind)]
 
 
@@ -64,6 +70,8 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
         return CsvSink(out / "lights_and_signs.csv", keep, signals=True)
     if kind == "kitti":
         return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego, choice.kitti_native_types)
+    if kind == "map" and choice.map_json is not None:
+        return MapSink(out / "map", choice.map_json, keep)
     if kind == "resume":
         return ResumeSink(out, keep)
     return YoloSink(out / "yolo", choice.yolo_min_visible_px, keep)
@@ -87,7 +95,9 @@ class SinkGroup(ClosedOnExit):
     def open(cls, choice: SinkChoice, clock: StageClock = NO_CLOCK, announce: bool = True) -> SinkGroup:
         """Open the chosen sinks; if one cannot be opened, those already open are aborted.
         With ``announce``, their notices go to stderr."""
-        kinds = [k for k in ("mcap", "csv", "lights_csv", "kitti", "yolo", "live", "resume") if getattr(choice, k)]
+        kinds = [
+            k for k in ("mcap", "csv", "lights_csv", "kitti", "yolo", "map", "live", "resume") if getattr(choice, k)
+        ]
         group = cls([], clock)
         try:
             for kind in kinds:

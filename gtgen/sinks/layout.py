@@ -29,7 +29,7 @@ from gtgen.frame import FrameRecord
 RADAR_COLOUR = "#ff40ff"
 
 
-def foxglove_layout(lidars: list[str], cameras: list[str], radars: list[str]) -> str:
+def foxglove_layout(lidars: list[str], cameras: list[str], radars: list[str], map_vectors: bool = False) -> str:
     """The layout as JSON, for a rig with these sensor names (topics as in ``run.mcap``)."""
     topics: dict[str, BaseRendererTopicSettings] = {
         f"/{name}": BaseRendererPointCloudTopicSettings(
@@ -47,6 +47,8 @@ def foxglove_layout(lidars: list[str], cameras: list[str], radars: list[str]) ->
         "/gt/boxes": BaseRendererSceneUpdateTopicSettings(visible=True, show_outlines=True),
         "/map": BaseRendererSceneUpdateTopicSettings(visible=True),
     }
+    if map_vectors:
+        topics["/map/vectors"] = BaseRendererSceneUpdateTopicSettings(visible=True)
     scene = ThreeDeePanel(
         title="drive", config=ThreeDeeConfig(topics=topics, follow_tf="ego", follow_mode="follow-pose")
     )
@@ -76,4 +78,4 @@ def layout_for(record: FrameRecord) -> str:
     """The layout for the rig of a frame record."""
     names = ([o.spec.name for o in record.lidars], [c.spec.name for c in record.cameras],
              [o.spec.name for o in record.radars])  # fmt: skip
-    return foxglove_layout(*names)
+    return foxglove_layout(*names, map_vectors=record.map is not None)

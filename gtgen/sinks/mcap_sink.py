@@ -50,6 +50,7 @@ from sensors.sensor import SensorOutput
 
 MAP_TOPIC = "/map"
 LABELS_TOPIC = "/gt/labels"
+MAP_VECTORS_TOPIC = "/map/vectors"
 LAYOUT_FILE = "foxglove_layout.json"
 
 LABELS_SCHEMA = {
@@ -142,6 +143,8 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
         out.append((f"{base}/calibration", fx.calibration(ns, camera)))
         out.append((f"{base}/annotations", fx.image_annotations(ns, record.labels, cam_labels)))
     out.append(("/gt/boxes", fx.box_update(ns, record.labels, record.signals.state_of())))
+    if record.map is not None:
+        out.append((MAP_VECTORS_TOPIC, fx.map_lines(ns, record.map.vectors["elements"])))
     out.append((LABELS_TOPIC, labels_json(record)))
     return out
 

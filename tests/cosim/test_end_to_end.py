@@ -44,7 +44,7 @@ def test_every_frame_has_transforms_a_point_cloud_and_boxes(dataset):
     for topic, log_time, _ in iter_messages(dataset / "run.mcap"):
         topics_per_time[log_time].add(topic)
     assert len(topics_per_time) == 20
-    expected = {"/tf", "/lidar", "/radar", "/gt/boxes", "/gt/labels"} | {
+    expected = {"/tf", "/lidar", "/radar", "/gt/boxes", "/gt/labels", "/map/vectors"} | {
         f"/camera/{k}" for k in ("image", "depth", "instance", "class", "calibration", "annotations")
     }
     first, *rest = (topics_per_time[t] for t in sorted(topics_per_time))

@@ -78,7 +78,7 @@ def test_lanes_entering_a_signalised_junction_end_at_a_stop_line(town05):
                 continue
             shape = np.asarray(lane.getShape(), np.float64)
             end, heading = shape[-1], (shape[-1] - shape[-2]) / np.linalg.norm(shape[-1] - shape[-2])
-            before = end - heading * np.linspace(0.35, 0.65, 5)[:, None]  # the line's 0.4 m, 0.3 m before the end
+            before = end - heading * np.linspace(0.33, 0.57, 5)[:, None]  # the line: 0.3 m wide, 0.3 m before the end
             assert np.all(np.isin(_down(world, before), PAINT)), lane.getID()
             checked += 1
     assert checked > 50
