@@ -7,7 +7,7 @@ import pytest
 
 from cosim.loop import run
 from cosim.scenario import load_scenario
-from gtgen.load import iter_messages, load_labels
+from gtgen.load import iter_messages, load_labels, load_map_frame
 
 pytestmark = pytest.mark.slow
 XODR = Path(__file__).resolve().parents[1] / "data" / "xodr"
@@ -28,6 +28,9 @@ def test_a_drive_on_a_users_map_writes_labelled_frames(name, tmp_path, capsys):
                     for _, _, m in iter_messages(tmp_path / "out" / "run.mcap", ["/tf"])])  # fmt: skip
     assert ego.shape == (60, 2)
     assert np.linalg.norm(ego[-1] - ego[0]) > 5.0  # the ego drove
+    vectors, layers = load_map_frame(tmp_path / "out", 59)  # map ground truth on a user's map too
+    kinds = {e["type"] for e in vectors["elements"]}
+    assert {"road_boundary", "lane_centre"} <= kinds and vectors["ego_lane"] and layers["drivable"].any()
 
 
 def test_a_users_roadmarks_reach_the_lidar_bright_and_classed(tmp_path):
