@@ -13,6 +13,7 @@ from typing import Any, Literal
 
 from cosim.config import build, read_yaml, set_override
 from cosim.errors import ScenarioError
+from cosim.rigs import with_rig
 from gtgen.sinks.live import LiveAddress, parse_live_address
 from sensors.camera import CameraSpec
 from sensors.lidar import LidarSpec
@@ -124,6 +125,7 @@ class Scenario:
     ego: EgoConfig = field(default_factory=EgoConfig)
     weather: Literal["day", "night", "rain", "fog"] = "day"
     engine: Literal["auto", "open3d", "mitsuba"] = "auto"  # the ray engine (see sensors/engine.py)
+    rig: Literal["default", "kitti"] = "default"  # a sensor rig preset (cosim/rigs.py) under `sensors`
     street: StreetConfig = field(default_factory=StreetConfig)
     sensors: SensorsConfig = field(default_factory=SensorsConfig)
     outputs: OutputsConfig = field(default_factory=OutputsConfig)
@@ -183,7 +185,7 @@ def load_scenario(spec: str, overrides: list[str] | tuple[str, ...] = ()) -> Sce
     for reserved in ("name", "source_dir"):
         if reserved in data:
             raise ScenarioError(f"{path}: {reserved}: unknown key (it is set from the file's name and folder)")
-    data = {**data, "name": path.stem, "source_dir": str(path.resolve().parent)}
+    data = {**with_rig(data), "name": path.stem, "source_dir": str(path.resolve().parent)}
     scenario = build(Scenario, data, str(path))
     network = scenario.network_path()
     if network is not None and not network.is_file():

@@ -34,6 +34,13 @@ def iter_messages(path: Path, topics: list[str] | None = None) -> Iterator[tuple
             yield channel.topic, message.log_time, decoded
 
 
+def topics(path: Path) -> list[str]:
+    """The topics of an MCAP file, in the order of their channels."""
+    with path.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    return [c.topic for c in summary.channels.values()] if summary is not None else []
+
+
 def lidar_points(cloud: Any) -> npt.NDArray[np.void]:
     """A ``foxglove.PointCloud`` written by the MCAP sink as a structured array
     with fields x, y, z, intensity, ring, class, instance."""
@@ -67,4 +74,12 @@ def objects_from_table(rows: pd.DataFrame) -> tuple[ObjectBoxes, npt.NDArray[np.
     return boxes, rows["seen"].to_numpy().astype(bool)
 
 
-__all__ = ["iter_messages", "lidar_points", "load_labels", "load_map_frame", "objects_from_table", "radar_points"]
+__all__ = [
+    "iter_messages",
+    "lidar_points",
+    "load_labels",
+    "load_map_frame",
+    "objects_from_table",
+    "radar_points",
+    "topics",
+]

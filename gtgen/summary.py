@@ -18,7 +18,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from gtgen.bev import bev_image, map_bev_image
-from gtgen.load import iter_messages, lidar_points, load_labels, load_map_frame, objects_from_table
+from gtgen.load import iter_messages, lidar_points, load_labels, load_map_frame, objects_from_table, topics
 from networks.geometry import SE3, rotation_from_quaternion_xyzw
 
 matplotlib.use("Agg")
@@ -102,14 +102,20 @@ def frame_pictures(mcap_path: Path, labels: pd.DataFrame, frames: list[int], fol
     wanted = set(frames)
     index_of_time: dict[int, int] = {}
     tf: dict[int, Any] = {}
-    for topic, log_time, msg in iter_messages(mcap_path, topics=["/tf", "/lidar", "/camera/image"]):
+    names = topics(mcap_path)
+    camera = next((t for t in names if t.endswith("/image")), "/camera/image")  # the rig's first camera
+    clouds = [t for t in names if t.count("/") == 1 and t not in ("/tf", "/map")]  # LiDARs and radars
+    lidar = ""  # the first topic whose clouds have rings
+    for topic, log_time, msg in iter_messages(mcap_path, topics=["/tf", camera, *clouds]):
+        if topic in clouds and not lidar and any(f.name == "ring" for f in msg.fields):
+            lidar = topic
         frame = index_of_time.setdefault(log_time, len(index_of_time))
         if frame not in wanted:
             continue
         rows = labels[labels["frame"] == frame]
         if topic == "/tf":
             tf[frame] = msg
-        elif topic == "/lidar":
+        elif topic == lidar:
             pts = lidar_points(msg)
             xyz = np.column_stack([pts["x"], pts["y"], pts["z"]]).astype(np.float64)
             xyz_ego = _ego_SE3(tf[frame], msg.frame_id).transform_from(xyz) if frame in tf else xyz
@@ -120,7 +126,7 @@ def frame_pictures(mcap_path: Path, labels: pd.DataFrame, frames: list[int], fol
                 vectors, layers = load_map_frame(run_dir, frame)
                 picture = map_bev_image(vectors, layers, xyz_ego, pts["class"], objects, seen)
                 cv2.imwrite(str(folder / f"map_{frame:06d}.png"), picture)
-        else:
+        elif topic == camera:
             image = np.asarray(cv2.imdecode(np.frombuffer(msg.data, np.uint8), cv2.IMREAD_COLOR), dtype=np.uint8)
             cv2.imwrite(str(folder / f"camera_{frame:06d}.png"), draw_camera_boxes(image, rows))
 

@@ -8,6 +8,7 @@ returns and adds near spurious ones; day and night change nothing.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, ClassVar
 
@@ -47,8 +48,14 @@ class LidarSpec:
     mount_rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
     range_noise_m: float = 0.0
     dropout: float = 0.0
+    elevations_deg: tuple[float, ...] = ()  # each beam's elevation, lowest first (instead of an even spread)
 
     def __post_init__(self) -> None:
+        if self.elevations_deg:
+            e = self.elevations_deg
+            if len(e) != self.beams or any(b <= a for a, b in itertools.pairwise(e)) or not -90 <= e[0] <= e[-1] <= 90:
+                raise SensorConfigError(f"lidar {self.name}: elevations_deg must hold `beams` ({self.beams}) angles, "
+                                        "rising, within -90..90")  # fmt: skip
         if not 1 <= self.beams <= 512:
             raise SensorConfigError(f"lidar {self.name}: beams must be 1..512, got {self.beams}")
         if not 8 <= self.azimuth_steps <= 16384:
@@ -68,7 +75,8 @@ class LidarSpec:
     def directions(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint16]]:
         """Unit ray directions ``(beams * azimuth_steps, 3)`` in the lidar frame and the ring
         of each (ring 0 is the lowest beam); azimuth starts at +x and turns counter-clockwise."""
-        elevation = np.radians(np.linspace(self.vertical_min_deg, self.vertical_max_deg, self.beams))
+        spread = np.linspace(self.vertical_min_deg, self.vertical_max_deg, self.beams)
+        elevation = np.radians(np.asarray(self.elevations_deg, np.float64) if self.elevations_deg else spread)
         azimuth = np.arange(self.azimuth_steps) * (2.0 * np.pi / self.azimuth_steps)
         el, az = np.meshgrid(elevation, azimuth, indexing="ij")
         dirs = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=-1).reshape(-1, 3)

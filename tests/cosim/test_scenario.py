@@ -147,3 +147,33 @@ def test_kitti_and_yolo_without_a_camera_say_what_to_change(tmp_path):
         load_scenario(str(path))
     with pytest.raises(ScenarioError, match=r"outputs\.yolo: needs a rig with a camera.*set outputs\.yolo=false"):
         load_scenario(str(path), ["outputs.kitti=false"])
+
+
+def test_the_kitti_rig_preset_is_kittis_car_and_stays_editable(tmp_path):
+    from cosim.rigs import HDL64E_ELEVATIONS_DEG
+
+    rig = load_scenario("town05_crowded", ["rig=kitti"]).sensors
+    (lidar,) = rig.lidars
+    assert lidar.elevations_deg == HDL64E_ELEVATIONS_DEG and len(lidar.elevations_deg) == 64
+    assert lidar.elevations_deg[0] == -24.33 and lidar.elevations_deg[-1] == 2.0 and lidar.mount_xyz_m[2] == 1.73
+    steps = sorted(b - a for a, b in zip(lidar.elevations_deg, lidar.elevations_deg[1:], strict=False))
+    assert steps[0] == pytest.approx(1 / 3, abs=0.01) and steps[-1] == pytest.approx(0.5, abs=0.01)
+    assert [(c.name, c.width_px, c.height_px) for c in rig.cameras] == [("cam2", 1242, 375), ("cam3", 1242, 375)]
+    assert rig.cameras[0].pinhole.K[0, 0] == pytest.approx(721.5377, abs=0.01) and rig.radars == ()
+    edited = load_scenario(str(write(tmp_path, "network: skeleton\nrig: kitti\nsensors: {radars: [{}]}\n"))).sensors
+    assert len(edited.radars) == 1 and edited.cameras == rig.cameras  # the rest of the preset stays
+    with pytest.raises(ScenarioError, match=r"rig: expected one of 'default', 'kitti', got 'carla'"):
+        load_scenario("town05_crowded", ["rig=carla"])
+
+
+def test_a_lidar_with_explicit_beam_elevations_casts_them_and_checks_them():
+    import numpy as np
+
+    from sensors.errors import SensorConfigError
+    from sensors.lidar import LidarSpec
+
+    spec = LidarSpec(beams=3, elevations_deg=(-10.0, -2.0, 1.0), azimuth_steps=8)
+    dirs, ring = spec.directions()
+    np.testing.assert_allclose(np.degrees(np.arcsin(dirs[ring == 1, 2])), -2.0)
+    with pytest.raises(SensorConfigError, match="elevations_deg"):
+        LidarSpec(beams=3, elevations_deg=(1.0, -2.0, 3.0))
