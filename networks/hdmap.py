@@ -21,6 +21,7 @@ the drivable area, the walkways (sidewalks and walking areas), the crossings and
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from pathlib import Path
 from typing import Any
 
 import cv2
@@ -31,7 +32,7 @@ import sumolib
 from shapely.geometry import LineString, Polygon
 
 from networks.geometry import SE3
-from networks.markings import PaintedLine, crossing_lanes, painted_lines
+from networks.markings import PaintedLine, crossing_lanes, painted_lines, read_road_marks
 
 MAP_VERSION = "1"  # part of the cache key of a network's map.json
 ELEMENT_TYPES = ("lane_divider", "edge_line", "stop_line", "road_boundary", "crossing", "lane_centre")
@@ -112,7 +113,7 @@ class HdMap:
     def static_json(self) -> dict[str, Any]:
         """The whole map in the map frame (``map/map.json``)."""
         return {
-            "elements": [_element_json(e, e.points_m) for e in self.elements],
+            "elements": [element_json(e, e.points_m) for e in self.elements],
             "lanes": [{f.name: getattr(r, f.name) for f in fields(r)} for r in self.lanes],
             "junctions": [{"id": jid, "outline": _round(np.asarray(p.exterior.coords))} for jid, p in self.junctions],
         }  # fmt: skip
@@ -185,18 +186,14 @@ def _round(points: npt.NDArray[np.float64]) -> list[list[float]]:
     return np.round(points, 3).tolist()  # type: ignore[no-any-return]
 
 
-def _element_json(element: MapElement, points: npt.NDArray[np.float64]) -> dict[str, Any]:
+def element_json(element: MapElement, points: npt.NDArray[np.float64]) -> dict[str, Any]:
+    """An element as JSON: id, type, points (rounded to mm) and its attributes."""
     out: dict[str, Any] = {"id": element.element_id, "type": element.kind, "points": _round(points)}
     for key in ("pattern", "colour", "lane"):
         value = getattr(element, key)
         if value:
             out[key] = value
     return out
-
-
-def element_json(element: MapElement, points: npt.NDArray[np.float64]) -> dict[str, Any]:
-    """An element as JSON: id, type, points (rounded to mm) and its attributes."""
-    return _element_json(element, points)
 
 
 def _rings(area: shapely.Geometry) -> list[npt.NDArray[np.float64]]:
@@ -267,11 +264,6 @@ def _lane_graph(net: sumolib.net.Net, left_hand: bool) -> list[LaneRecord]:
     return out
 
 
-def build_map(net: sumolib.net.Net, xodr_path: object, left_hand: bool) -> HdMap:
+def build_map(net: sumolib.net.Net, xodr_path: Path | None, left_hand: bool) -> HdMap:
     """The map of a network converted from ``xodr_path`` (its roadMarks, as the world's paint)."""
-    from pathlib import Path
-
-    from networks.markings import read_road_marks
-
-    marks = read_road_marks(Path(str(xodr_path)) if xodr_path is not None else None)
-    return HdMap(net, painted_lines(net, marks, left_hand), left_hand)
+    return HdMap(net, painted_lines(net, read_road_marks(xodr_path), left_hand), left_hand)
