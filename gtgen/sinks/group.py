@@ -63,7 +63,7 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
     if kind == "live":
         if choice.live is None:
             raise ValueError("SinkChoice: no live address")
-        return LiveSink(choice.live, choice.map_world, choice.sensors)
+        return LiveSink(choice.live, choice.map_world, choice.sensors, choice.map)
     if kind == "csv":
         return CsvSink(out / "labels.csv", keep)
     if kind == "lights_csv":

@@ -41,6 +41,7 @@ SUBPROTOCOLS = ("foxglove.sdk.v1", "foxglove.websocket.v1")  # one protocol, two
 QUEUE_MESSAGES = 256  # per viewer; the oldest are dropped beyond this
 STALL_S = 5.0  # a viewer that takes longer than this to take one message is disconnected
 CLOSE_S = 2.0
+DRAIN_S = 1.0  # at close, how long viewers may take to receive what is queued for them (the last frame)
 MESSAGE_DATA = 1  # binary opcode: subscription id (uint32), log time (uint64), payload
 
 
@@ -115,9 +116,10 @@ class FoxgloveServer:
         self._loop.call_soon_threadsafe(self._publish, channel_id, log_time_ns, payload, latch)
 
     def close(self) -> None:
-        """Disconnect every viewer (waiting at most ``CLOSE_S`` seconds) and stop."""
+        """Disconnect every viewer once it has what was published (waiting at most ``DRAIN_S`` for
+        that, then ``CLOSE_S`` for the disconnection) and stop."""
         with contextlib.suppress(TimeoutError, RuntimeError):  # a viewer that will not close is left behind
-            asyncio.run_coroutine_threadsafe(self._close(), self._loop).result(CLOSE_S + 1.0)
+            asyncio.run_coroutine_threadsafe(self._close(), self._loop).result(DRAIN_S + CLOSE_S + 1.0)
         self._stop_loop()
 
     def _stop_loop(self) -> None:
@@ -191,6 +193,9 @@ class FoxgloveServer:
                     return
 
     async def _close(self) -> None:
+        deadline = asyncio.get_running_loop().time() + DRAIN_S
+        while any(v.data or v.control for v in self._viewers) and asyncio.get_running_loop().time() < deadline:
+            await asyncio.sleep(0.01)  # the frames already published reach the viewers that read
         self._server.close()
         for viewer in list(self._viewers):
             viewer.connection.transport.abort()
@@ -202,8 +207,9 @@ class LiveSink:
     pairs of the rig) name the channels it advertises before the first frame."""
 
     def __init__(
-        self, address: LiveAddress, map_world: Path | None = None, sensors: tuple[tuple[str, str], ...] = ()
-    ) -> None:
+        self, address: LiveAddress, map_world: Path | None = None, sensors: tuple[tuple[str, str], ...] = (),
+        map_vectors: bool = False,
+    ) -> None:  # fmt: skip
         try:
             self._server = FoxgloveServer(address.host, address.port)
         except OSError as err:
@@ -212,7 +218,7 @@ class LiveSink:
         self.host, self.port = address.host, self._server.port
         self._map_world = map_world
         self._channels: dict[str, int] = {}
-        for topic, proto in planned_topics(sensors, map_world is not None) if sensors else []:
+        for topic, proto in planned_topics(sensors, map_world is not None, map_vectors) if sensors else []:
             self._channel(topic, proto)
 
     def _channel(self, topic: str, proto: type | None) -> int:

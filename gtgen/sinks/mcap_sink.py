@@ -149,9 +149,12 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
     return out
 
 
-def planned_topics(sensors: tuple[tuple[str, str], ...], with_map: bool) -> list[tuple[str, type | None]]:
+def planned_topics(
+    sensors: tuple[tuple[str, str], ...], with_map: bool, with_map_vectors: bool = False
+) -> list[tuple[str, type | None]]:
     """Every topic a run of a rig writes, with its protobuf class (None: JSON), known before its
-    first frame. ``sensors``: (kind, name) pairs of the rig. The same topics as :func:`frame_messages`."""
+    first frame. ``sensors``: (kind, name) pairs of the rig; ``with_map_vectors``: the run writes
+    map ground truth. The same topics as :func:`frame_messages`."""
     topics: list[tuple[str, type | None]] = [(MAP_TOPIC, SceneUpdate)] if with_map else []
     topics.append(("/tf", FrameTransforms))
     topics += [(f"/{name}", PointCloud) for kind, name in sensors if kind == "lidar"]
@@ -159,7 +162,8 @@ def planned_topics(sensors: tuple[tuple[str, str], ...], with_map: bool) -> list
     for name in (name for kind, name in sensors if kind == "camera"):
         topics += [(f"/{name}/{k}", CompressedImage) for k in ("image", "depth", "instance", "class")]
         topics += [(f"/{name}/calibration", CameraCalibration), (f"/{name}/annotations", ImageAnnotations)]
-    return [*topics, ("/gt/boxes", SceneUpdate), (LABELS_TOPIC, None)]
+    topics += [("/gt/boxes", SceneUpdate)] + ([(MAP_VECTORS_TOPIC, SceneUpdate)] if with_map_vectors else [])
+    return [*topics, (LABELS_TOPIC, None)]
 
 
 def _json_rows(table: dict[str, npt.NDArray[np.generic]]) -> list[dict[str, Any]]:

@@ -3,6 +3,7 @@ first frame sees every channel, receives frame 0 on every topic and the static m
 same payloads as ``run.mcap``; a viewer that never reads cannot hold the run up; a bad
 address or a busy port is one clear error."""
 
+import contextlib
 import json
 import struct
 import time
@@ -143,3 +144,33 @@ def _payloads(path: Path) -> dict[str, list[tuple[int, bytes]]]:
         for _, channel, message in make_reader(stream).iter_messages(log_time_order=False):
             out.setdefault(channel.topic, []).append((message.log_time, message.data))
     return out
+
+
+def test_a_viewer_that_reads_gets_the_last_frame_on_every_topic_when_the_run_closes(records):
+    import threading
+
+    live = LiveSink(LiveAddress("127.0.0.1", 0), None, RIG)
+    last: dict[str, int] = {}
+    with connect(f"ws://127.0.0.1:{live.port}", subprotocols=["foxglove.websocket.v1"], open_timeout=5) as ws:
+        topics = _advertised(ws, count=len(planned_topics(RIG, with_map=False)))
+        by_subscription = dict(enumerate(topics))
+        subscriptions = [{"id": i, "channelId": topics[t]["id"]} for i, t in by_subscription.items()]
+        ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
+        time.sleep(0.3)
+
+        def read() -> None:
+            with contextlib.suppress(Exception):  # the server closes the connection at the end
+                while True:
+                    data = ws.recv(timeout=5)
+                    if isinstance(data, bytes) and data[0] == MESSAGE_DATA:
+                        subscription, log_time = struct.unpack_from("<IQ", data, 1)
+                        last[by_subscription[subscription]] = log_time
+
+        reader = threading.Thread(target=read)
+        reader.start()
+        for record in records:
+            live.write(live.encode(record, FrameImages(record.cameras)))
+        live.close()  # right after the last frame, as a run ends
+        reader.join(10)
+    assert set(last) == set(topics)
+    assert all(t == records[-1].timestamp_ns for t in last.values())
