@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import json
 import os
 import shutil
@@ -36,7 +35,7 @@ from gtgen.sinks.background import BackgroundSinks
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.sinks.resume_sink import RESUME_DIR
 from gtgen.timing import NO_CLOCK, NoClock, StageClock
-from networks.cache import cache_dir, digest, intact, seal
+from networks.cache import cache_dir, digest, file_sha256, intact, seal
 from networks.classes import SemanticClass
 from networks.geometry import SE3
 from networks.hdmap import MAP_VERSION, HdMap, build_map
@@ -442,14 +441,6 @@ def remove_partials(out_dir: Path) -> None:
             partial.unlink(missing_ok=True)
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with path.open("rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr: Path, complete: bool = True) -> None:
     """``manifest.json``: the run's scenario, versions, counts and file hashes; ``complete``:
     whether the run wrote all its frames (false: it stopped early and kept ``frames``)."""
@@ -460,7 +451,7 @@ def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr:
         except metadata.PackageNotFoundError:
             versions[dist] = "unknown"
     files = {
-        str(p.relative_to(out_dir)): _sha256(p)
+        str(p.relative_to(out_dir)): file_sha256(p)
         for p in sorted(out_dir.rglob("*"))
         if p.is_file()
         and p.name != "manifest.json"
@@ -472,7 +463,7 @@ def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr:
     manifest = {
         "scenario": scenario_data,
         "seed": scenario.seed,
-        "network_sha256": _sha256(xodr),  # the OpenDRIVE file driven (the town's, or the user's)
+        "network_sha256": file_sha256(xodr),  # the OpenDRIVE file driven (the town's, or the user's)
         "complete": complete,
         "frames": summary.frames,
         "objects_per_frame": summary.objects / max(summary.frames, 1),

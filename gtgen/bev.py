@@ -44,11 +44,7 @@ def bev_image(
     inside = (row >= 0) & (row < size) & (col >= 0) & (col < size)
     img[row[inside], col[inside]] = _CLASS_LUT[point_class[inside]]
     o = objects
-    for i in range(len(o)):
-        c, s = np.cos(o.yaw_ego_rad[i]), np.sin(o.yaw_ego_rad[i])
-        hl, hw = o.lwh_m[i, 0] / 2, o.lwh_m[i, 1] / 2
-        local = np.array([[hl, hw], [hl, -hw], [-hl, -hw], [-hl, hw]])
-        xy = local @ np.array([[c, s], [-s, c]]) + o.center_ego_m[i, :2]
+    for i, xy in enumerate(o.footprints_xy()):
         r, k = to_px(xy[:, 0], xy[:, 1])
         colour = class_bgr255(int(o.semantic_class[i]), (255, 255, 255)) if seen[i] else (80, 80, 80)
         poly = np.stack([k, r], axis=1).astype(np.int32)
@@ -95,13 +91,7 @@ def map_bev_image(
         else:
             bgr = _ELEMENT_BGR[e["type"]]
         cv2.polylines(img, [to_px(np.asarray(e["points"], np.float64))], False, bgr, 1, cv2.LINE_AA)
-    for i in range(len(objects)):
-        c, s = np.cos(objects.yaw_ego_rad[i]), np.sin(objects.yaw_ego_rad[i])
-        hl, hw = objects.lwh_m[i, 0] / 2, objects.lwh_m[i, 1] / 2
-        xy = (
-            np.array([[hl, hw], [hl, -hw], [-hl, -hw], [-hl, hw]]) @ np.array([[c, s], [-s, c]])
-            + objects.center_ego_m[i, :2]
-        )
+    for i, xy in enumerate(objects.footprints_xy()):
         colour = class_bgr255(int(objects.semantic_class[i]), (255, 255, 255)) if seen[i] else (90, 90, 90)
         cv2.polylines(img, [to_px(xy)], True, colour, 1, cv2.LINE_AA)
     ego = to_px(np.array([[2.4, 0.95], [2.4, -0.95], [-2.4, -0.95], [-2.4, 0.95]]))

@@ -29,7 +29,7 @@ from gtgen.errors import SinkError
 from gtgen.objects import ObjectBoxes
 from networks.classes import SemanticClass
 from networks.geometry import SE3
-from networks.hdmap import RASTER_LAYERS, HdMap, element_json
+from networks.hdmap import RASTER_LAYERS, HdMap, element_json, raster_px
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,17 +67,11 @@ def map_frame(
 
 
 def _footprints(raster: npt.NDArray[np.uint8], objects: ObjectBoxes, rng: MapRange) -> None:
-    for i in range(len(objects)):
+    for i, xy in enumerate(objects.footprints_xy()):
         cls = SemanticClass(int(objects.semantic_class[i]))
         if not cls.is_agent:
             continue
-        c, s = np.cos(objects.yaw_ego_rad[i]), np.sin(objects.yaw_ego_rad[i])
-        hl, hw = objects.lwh_m[i, 0] / 2, objects.lwh_m[i, 1] / 2
-        local = np.array([[hl, hw], [hl, -hw], [-hl, -hw], [-hl, hw]]) @ np.array([[c, s], [-s, c]])
-        xy = local + objects.center_ego_m[i, :2]
-        col = (rng.half_y_m - xy[:, 1]) / rng.resolution_m - 0.5
-        row = (rng.half_x_m - xy[:, 0]) / rng.resolution_m - 0.5
-        pts = np.round(np.column_stack([col, row]) * 8).astype(np.int32)
+        pts = raster_px(xy, rng.half_x_m, rng.half_y_m, rng.resolution_m)
         cv2.fillPoly(raster[RASTER_LAYERS.index(cls.label)], [pts], 1, cv2.LINE_8, 3)
 
 

@@ -39,6 +39,18 @@ class ObjectBoxes:
             parked=(np.bool_, ("N",)),
         )  # fmt: skip
 
+    def footprints_xy(self) -> npt.NDArray[np.float64]:
+        """``(N, 4, 2)`` each box's footprint corners in the ego frame: front-left, front-right,
+        rear-right, rear-left."""
+        c, s = np.cos(self.yaw_ego_rad), np.sin(self.yaw_ego_rad)
+        hl, hw = self.lwh_m[:, 0] / 2, self.lwh_m[:, 1] / 2
+        local = np.stack(
+            [np.stack([hl, hw], 1), np.stack([hl, -hw], 1), np.stack([-hl, -hw], 1), np.stack([-hl, hw], 1)], 1
+        )
+        x = local[..., 0] * c[:, None] - local[..., 1] * s[:, None]
+        y = local[..., 0] * s[:, None] + local[..., 1] * c[:, None]
+        return np.stack([x, y], -1) + self.center_ego_m[:, None, :2]
+
     @classmethod
     def seen_from(cls, ego: EgoState, agents: Agents) -> ObjectBoxes:
         """The agents as the ego sees them: boxes in its frame (yaw only), velocities relative to it."""

@@ -157,3 +157,20 @@ def rotation_from_quaternion_xyzw(x: float, y: float, z: float, w: float) -> Flo
             [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
         ]
     )
+
+
+def arc_lengths(polyline: npt.ArrayLike) -> FloatArray:
+    """``(K,)`` distance along a ``(K, 2+)`` polyline (in the plane) to each of its points."""
+    p = np.asarray(polyline, np.float64)
+    return np.asarray(np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1))], np.float64)
+
+
+def point_and_heading(polyline: npt.ArrayLike, s_m: float) -> tuple[FloatArray, FloatArray]:
+    """The ``(3,)`` point ``s_m`` along a ``(K, 3)`` polyline (in the plane; z interpolated) and
+    the ``(2,)`` unit direction of the segment it lies on."""
+    p = np.asarray(polyline, np.float64)
+    along = arc_lengths(p)
+    point = np.array([float(np.interp(s_m, along, p[:, k])) for k in range(3)])
+    i = int(np.clip(np.searchsorted(along, s_m) - 1, 0, len(p) - 2))
+    heading = p[i + 1, :2] - p[i, :2]
+    return point, heading / max(float(np.linalg.norm(heading)), 1e-9)

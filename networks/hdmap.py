@@ -124,9 +124,7 @@ class HdMap:
         """The elements within the range ``|x| <= half_x_m``, ``|y| <= half_y_m`` of the ego,
         each with its ``(K, 2)`` points in the ego frame, clipped to the range (an element the
         range cuts in two gives two pieces)."""
-        corners = np.array([[half_x_m, half_y_m], [half_x_m, -half_y_m], [-half_x_m, -half_y_m], [-half_x_m, half_y_m]])
-        around = map_SE3_ego.transform_from(np.column_stack([corners, np.zeros(4)]))[:, :2]
-        hits = self._tree.query(Polygon(around), predicate="intersects")
+        hits = self._tree.query(_range_in_map(map_SE3_ego, half_x_m, half_y_m), predicate="intersects")
         ego_SE3_map = map_SE3_ego.inverse()
         r, t = ego_SE3_map.rotation[:2, :2], ego_SE3_map.translation[:2]
         out = []
@@ -149,17 +147,7 @@ class HdMap:
         covers x in ``half_x - (r + 1) * res .. half_x - r * res`` and likewise y."""
         h, w = round(2 * half_x_m / resolution_m), round(2 * half_y_m / resolution_m)
         layers = np.zeros((len(RASTER_LAYERS), h, w), np.uint8)
-        ego_SE3_map = map_SE3_ego.inverse()
-        r, t = ego_SE3_map.rotation[:2, :2], ego_SE3_map.translation[:2]
-        corners = np.array([[half_x_m, half_y_m], [half_x_m, -half_y_m], [-half_x_m, -half_y_m], [-half_x_m, half_y_m]])
-        reach = Polygon(map_SE3_ego.transform_from(np.column_stack([corners, np.zeros(4)]))[:, :2]).buffer(resolution_m)
-
-        def to_px(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int32]:
-            local = xy @ r.T + t
-            col = (half_y_m - local[:, 1]) / resolution_m - 0.5
-            row = (half_x_m - local[:, 0]) / resolution_m - 0.5
-            return np.round(np.column_stack([col, row]) * 8).astype(np.int32)  # 3 fractional bits for cv2
-
+        reach = _range_in_map(map_SE3_ego, half_x_m, half_y_m).buffer(resolution_m)
         # Area layers: a pixel is set when its centre lies in the area (exact at edges, unlike a
         # polygon fill, which also sets the pixels an edge passes through).
         rows, cols = np.mgrid[0:h, 0:w]
@@ -174,12 +162,24 @@ class HdMap:
         for element, local in view:
             if element.kind not in ("lane_divider", "road_boundary"):
                 continue
-            name = element.kind
-            col = (half_y_m - local[:, 1]) / resolution_m - 0.5
-            row = (half_x_m - local[:, 0]) / resolution_m - 0.5
-            pts = np.round(np.column_stack([col, row]) * 8).astype(np.int32)
-            cv2.polylines(layers[RASTER_LAYERS.index(name)], [pts], False, 1, 1, cv2.LINE_8, 3)
+            pts = raster_px(local, half_x_m, half_y_m, resolution_m)
+            cv2.polylines(layers[RASTER_LAYERS.index(element.kind)], [pts], False, 1, 1, cv2.LINE_8, 3)
         return layers
+
+
+def _range_in_map(map_SE3_ego: SE3, half_x_m: float, half_y_m: float) -> Polygon:
+    """The rectangle ``|x| <= half_x_m``, ``|y| <= half_y_m`` of the ego frame, in the map frame."""
+    corners = np.array([[half_x_m, half_y_m], [half_x_m, -half_y_m], [-half_x_m, -half_y_m], [-half_x_m, half_y_m]])
+    return Polygon(map_SE3_ego.transform_from(np.column_stack([corners, np.zeros(4)]))[:, :2])
+
+
+def raster_px(xy_ego_m: npt.NDArray[np.float64], half_x_m: float, half_y_m: float, resolution_m: float
+              ) -> npt.NDArray[np.int32]:  # fmt: skip
+    """Ego-frame points as raster (column, row) coordinates with 3 fractional bits, as OpenCV's
+    drawing functions take them with ``shift=3`` (row 0 ahead, column 0 on the left)."""
+    col = (half_y_m - xy_ego_m[:, 1]) / resolution_m - 0.5
+    row = (half_x_m - xy_ego_m[:, 0]) / resolution_m - 0.5
+    return np.round(np.column_stack([col, row]) * 8).astype(np.int32)
 
 
 def _round(points: npt.NDArray[np.float64]) -> list[list[float]]:

@@ -27,7 +27,7 @@ import numpy.typing as npt
 import sumolib
 
 from networks.classes import SemanticClass
-from networks.mesh import ClassedMesh, merge, ribbon
+from networks.mesh import ClassedMesh, merge, polyline_normals, ribbon
 
 MARKINGS_VERSION = "4"  # part of the world cache key: change it when the markings change
 PAINT_HEIGHT_M = 0.005  # above the lane surface
@@ -287,7 +287,7 @@ def _is_edge(edge: sumolib.net.edge.Edge) -> bool:
 def _centre_key(lane: sumolib.net.lane.Lane, outer: float) -> tuple[tuple[float, float], ...]:
     """The inner boundary's ends, rounded and unordered: both directions of a road share it."""
     shape = np.asarray(lane.getShape(), np.float64)
-    normals = _unit_left(shape)
+    normals = polyline_normals(shape[:, :2])
     inner = shape + normals * (-outer * lane.getWidth() / 2.0)
     ends = sorted((round(float(p[0]) * 2) / 2, round(float(p[1]) * 2) / 2) for p in (inner[0], inner[-1]))
     return tuple(ends)
@@ -305,18 +305,24 @@ def _od_lane(lane: sumolib.net.lane.Lane, marks: RoadMarks) -> tuple[LaneSection
         lane_id = int(lane_text)
     except ValueError:
         return None
-    s_start = 0.0
-    edge_id = lane.getEdge().getID().lstrip("-")
-    if edge_id.startswith(road_id + "."):
-        try:
-            s_start = float(edge_id[len(road_id) + 1 :])
-        except ValueError:
-            s_start = 0.0
+    s_start = section_start(lane.getEdge().getID(), road_id)
     section = sections[0]
     for candidate in sections:
         if candidate.s_m <= s_start + 1e-3:
             section = candidate
     return section, lane_id
+
+
+def section_start(edge_id: str, road_id: str) -> float:
+    """Where the lane section of a SUMO edge converted from road ``road_id`` starts (netconvert
+    names further sections ``<road>.<s>``; 0 for the first)."""
+    rest = edge_id.lstrip("-")
+    if rest.startswith(road_id + "."):
+        try:
+            return float(rest[len(road_id) + 1 :])
+        except ValueError:
+            return 0.0
+    return 0.0
 
 
 def _spans(records: tuple[RoadMark, ...], section: LaneSection, length_m: float, reversed_: bool) -> list[_Line]:
@@ -364,21 +370,6 @@ def _drives(lane: sumolib.net.lane.Lane) -> bool:
     return bool(lane.getPermissions() - {"pedestrian"})
 
 
-def _unit_left(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """Unit left normals of a ``(K, 2+)`` polyline at its vertices (mitred)."""
-    p = np.asarray(xy, np.float64)[:, :2]
-    seg = np.diff(p, axis=0)
-    seg /= np.maximum(np.linalg.norm(seg, axis=1, keepdims=True), 1e-9)
-    n_seg = np.stack([-seg[:, 1], seg[:, 0]], axis=1)
-    normals = np.empty_like(p)
-    normals[0], normals[-1] = n_seg[0], n_seg[-1]
-    mid = n_seg[:-1] + n_seg[1:]
-    mid /= np.maximum(np.linalg.norm(mid, axis=1, keepdims=True), 1e-9)
-    cos_half = np.sum(mid * n_seg[:-1], axis=1, keepdims=True)
-    normals[1:-1] = mid / np.clip(cos_half, 0.5, 1.0)
-    return normals
-
-
 def _clean(shape: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     keep = np.concatenate([[True], np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1) > 1e-3])
     return np.asarray(shape[keep], np.float64)
@@ -406,7 +397,7 @@ def _single_lines(lane: sumolib.net.lane.Lane, line: _Line, outer: float) -> lis
     out = []
     for kind, offset in zip(kinds, offsets, strict=True):
         moved = shape.copy()
-        moved[:, :2] += _unit_left(shape) * offset
+        moved[:, :2] += polyline_normals(shape[:, :2]) * offset
         pattern_dash = None if kind == "solid" else (BOTTS_DOTS_M if kind == "botts dots" else dash)
         out.append(PaintedLine(line.role, kind, line.yellow, line.width_m, _cut(moved, line.s0_m, line.s1_m),
                                lane.getID(), pattern_dash))  # fmt: skip

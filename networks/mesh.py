@@ -54,7 +54,7 @@ def merge(meshes: list[ClassedMesh]) -> ClassedMesh:
     )
 
 
-def _polyline_normals(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+def polyline_normals(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """Unit left normals at each vertex of an ``(K, 2)`` polyline (mitred, clamped)."""
     seg = np.diff(xy, axis=0)
     seg_len = np.linalg.norm(seg, axis=1, keepdims=True)
@@ -80,7 +80,7 @@ def ribbon(
     p = p[keep]
     if p.shape[0] < 2:
         return ClassedMesh.empty()
-    n = _polyline_normals(p[:, :2]) * (width_m / 2.0)
+    n = polyline_normals(p[:, :2]) * (width_m / 2.0)
     z = p[:, 2] + z_offset_m
     left = np.column_stack([p[:, :2] + n, z])
     right = np.column_stack([p[:, :2] - n, z])

@@ -32,6 +32,8 @@ import sumolib
 from shapely.geometry import Point
 
 from networks.classes import SemanticClass
+from networks.geometry import arc_lengths, point_and_heading
+from networks.markings import section_start
 from networks.mesh import ClassedMesh, merge, prism
 
 STREET_VERSION = "4"  # part of the world cache key: change it when poles move
@@ -181,12 +183,10 @@ def _placement(
     pole, on the side the traffic comes from."""
     outer_lane = min(edge.getLanes(), key=lambda lane: lane.getIndex())
     shape = np.asarray(outer_lane.getShape3D(), np.float64)
-    along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1))]
-    s = from_start_m if from_start_m >= 0 else max(float(along[-1]) - BACK_FROM_LANE_END_M, 0.0)
-    x, y, z = (float(np.interp(s, along, shape[:, k])) for k in range(3))
-    i = int(np.clip(np.searchsorted(along, s) - 1, 0, len(shape) - 2))
-    heading = shape[i + 1, :2] - shape[i, :2]
-    heading /= max(float(np.linalg.norm(heading)), 1e-9)
+    end = float(arc_lengths(shape)[-1])
+    (x, y, z), heading = point_and_heading(
+        shape, from_start_m if from_start_m >= 0 else max(end - BACK_FROM_LANE_END_M, 0.0)
+    )
     outward = np.array([-heading[1], heading[0]]) if left_hand else np.array([heading[1], -heading[0]])
     half = outer_lane.getWidth() / 2.0
     on_sidewalk = outer_lane.getPermissions() == {"pedestrian"}
@@ -291,7 +291,7 @@ def _file_sign(net: sumolib.net.Net, sign: FileSign, left_hand: bool) -> StreetO
         if (
             road != sign.road_id
             or edge.getFunction()
-            or abs(_section_start(edge.getID(), road) - sign.section_s_m) > 0.01
+            or abs(section_start(edge.getID(), road) - sign.section_s_m) > 0.01
         ):
             continue
         try:
@@ -304,13 +304,10 @@ def _file_sign(net: sumolib.net.Net, sign: FileSign, left_hand: bool) -> StreetO
     along = edge is sides.get(True)
     inner = max(edge.getLanes(), key=lambda lane: lane.getIndex())
     shape = np.asarray(inner.getShape3D(), np.float64)
-    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1))]
     fraction = min(max((sign.s_m - sign.section_s_m) / sign.section_length_m, 0.0), 1.0)
-    at = (fraction if along else 1.0 - fraction) * float(arc[-1])
-    x, y, z = (float(np.interp(at, arc, shape[:, k])) for k in range(3))
-    i = int(np.clip(np.searchsorted(arc, at) - 1, 0, len(shape) - 2))
-    lane_dir = shape[i + 1, :2] - shape[i, :2]
-    lane_dir /= max(float(np.linalg.norm(lane_dir)), 1e-9)
+    (x, y, z), lane_dir = point_and_heading(
+        shape, (fraction if along else 1.0 - fraction) * float(arc_lengths(shape)[-1])
+    )
     lane_left = np.array([-lane_dir[1], lane_dir[0]])
     reference = np.array([x, y]) + (-lane_left if left_hand else lane_left) * inner.getWidth() / 2.0
     road_dir = lane_dir if along else -lane_dir
@@ -323,15 +320,3 @@ def _file_sign(net: sumolib.net.Net, sign: FileSign, left_hand: bool) -> StreetO
     return StreetObject(0, SemanticClass.TRAFFIC_SIGN, sign.subtype, edge.getID(), lanes,
                         (float(xy[0]), float(xy[1]), z + height), float(np.arctan2(facing[1], facing[0])), lwh,
                         (float(foot[0]), float(foot[1]), z), height + lwh[2] / 2.0 + 0.1)  # fmt: skip
-
-
-def _section_start(edge_id: str, road_id: str) -> float:
-    """Where the lane section of a SUMO edge converted from road ``road_id`` starts (netconvert
-    names further sections ``<road>.<s>``)."""
-    rest = edge_id.lstrip("-")
-    if rest.startswith(road_id + "."):
-        try:
-            return float(rest[len(road_id) + 1 :])
-        except ValueError:
-            return 0.0
-    return 0.0
