@@ -304,6 +304,25 @@ def release_interrupts(held: Handlers) -> None:
         signal.signal(sig, handler)
 
 
+@contextlib.contextmanager
+def interrupts_after() -> Iterator[None]:
+    """Run the block whole: a SIGINT or SIGTERM that arrives inside it takes effect (with the
+    handler in place before) as the block ends. A frame is counted and handed to the writers
+    together or not at all, so the manifest of a stopped run counts exactly the frames written."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    held: Handlers = {int(sig): signal.signal(sig, lambda s, _frame: caught.append(s))
+                      for sig in (signal.SIGINT, signal.SIGTERM)}  # fmt: skip
+    try:
+        yield
+    finally:
+        release_interrupts(held)
+    if caught:
+        signal.raise_signal(caught[0])
+
+
 @dataclass(slots=True)
 class FrameLoop:
     """What the frames of a run are made with."""
@@ -357,8 +376,9 @@ class FrameLoop:
                             extent,
                         )
                         record = replace(record, map=ground_truth)
-                self.summary.add(record.labels, record.scene_cut)
-                sinks.write(replace(record, checkpoint=self.checkpoint()))
+                with interrupts_after():
+                    self.summary.add(record.labels, record.scene_cut)
+                    sinks.write(replace(record, checkpoint=self.checkpoint()))
                 probe.frame_done(frame_index)
                 if frame_index == disk_check_frame(scenario.frames):
                     check_disk_space(self.out_dir, frame_index + 1, scenario.frames)

@@ -117,3 +117,17 @@ def test_a_busy_live_port_stops_the_run_before_an_earlier_dataset_is_touched(tmp
     assert (tmp_path / "manifest.json").read_text() == '{"complete": true, "frames": 3}\n'
     assert (tmp_path / "labels.csv").read_text() == "frame\n0\n"
     assert not list(tmp_path.glob("*.partial"))
+
+
+def test_an_interrupt_during_a_frames_handoff_takes_effect_after_it():
+    import os
+
+    from cosim.loop import interrupts_after
+
+    done = []
+    with pytest.raises(KeyboardInterrupt), interrupts_after():
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.05)  # the signal arrives while the frame is being handed over
+        done.append("counted and handed over")
+    assert done == ["counted and handed over"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
