@@ -3,6 +3,8 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+NUSC_VENV := .venv-nuscenes
+NUSC_STAMP := $(NUSC_VENV)/.installed
 
 # `make scenario NAME [FRAMES=n] [SEED=s] [OUT=dir] [ARGS="--set key=value ..."]`
 ifeq (scenario,$(firstword $(MAKECMDGOALS)))
@@ -12,7 +14,7 @@ endif
 
 RUN_FLAGS := $(if $(FRAMES),--frames $(FRAMES)) $(if $(SEED),--seed $(SEED)) $(if $(OUT),--out $(OUT))
 
-.PHONY: venv scenario list test test-fast bench lint format clean
+.PHONY: venv nuscenes-devkit scenario list test test-fast bench lint format clean
 
 venv: $(STAMP)
 
@@ -22,6 +24,15 @@ $(STAMP): pyproject.toml constraints.txt
 	$(PY) -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[dev]'
 	@touch $(STAMP)
 
+# The official nuScenes devkit in an environment of its own (it pins numpy below 2): the tests
+# read the nuScenes export with it.
+nuscenes-devkit: $(NUSC_STAMP)
+
+$(NUSC_STAMP): tests/nuscenes-devkit.txt
+	@test -x $(NUSC_VENV)/bin/python || $(PYTHON) -m venv $(NUSC_VENV)
+	$(NUSC_VENV)/bin/python -m pip install --quiet --disable-pip-version-check -r tests/nuscenes-devkit.txt
+	@touch $(NUSC_STAMP)
+
 scenario: $(STAMP)
 	@test -n "$(SCENARIO)" || { echo "usage: make scenario NAME [FRAMES=n SEED=s OUT=dir ARGS=...]; names: make list"; exit 2; }
 	$(PY) -m cosim run $(SCENARIO) $(RUN_FLAGS) $(ARGS)
@@ -29,7 +40,7 @@ scenario: $(STAMP)
 list: $(STAMP)
 	@$(PY) -m cosim list
 
-test: $(STAMP)
+test: $(STAMP) $(NUSC_STAMP)
 	$(PY) -m pytest -q
 
 test-fast: $(STAMP)
@@ -48,4 +59,4 @@ format: $(STAMP)
 	$(PY) -m ruff check --fix cosim gtgen networks sensors tests
 
 clean:
-	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) $(NUSC_VENV) out .pytest_cache .mypy_cache .ruff_cache

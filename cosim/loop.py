@@ -33,6 +33,7 @@ from gtgen.mapgt import MapRange, map_frame
 from gtgen.signals import SignalLabels
 from gtgen.sinks.background import BackgroundSinks
 from gtgen.sinks.group import SinkChoice, SinkGroup
+from gtgen.sinks.nuscenes_sink import NuscenesSetup
 from gtgen.sinks.resume_sink import RESUME_DIR
 from gtgen.timing import NO_CLOCK, NoClock, StageClock
 from networks.cache import cache_dir, digest, file_sha256, intact, seal
@@ -138,17 +139,20 @@ def sense_and_label(
         state = on_raised_surfaces(state, crop)
         if signals is not None:
             state = signals.join(state, rig.label_range_m + AGENT_MARGIN_M)
-        in_view = rig.agents_in_view(state.agents, map_SE3_ego)
+        due = rig.due(frame_index)
+        in_view = rig.agents_in_view(state.agents, map_SE3_ego, due)
         scene = rig.engine.scene(static, in_view)
-    outputs = rig.sense(scene, state.ego, rng, probe)
+    outputs = rig.sense(scene, state.ego, rng, probe, due)
     if signals is not None:
         outputs = signals.light_cameras(outputs, in_view, state, map_SE3_ego)
     probe.scene(frame_index, scene, map_SE3_ego)
     with probe.stage("labels"):
         timestamp_ns = round(state.time_s * 1e9)
-        labels = label_frame(frame_index, timestamp_ns, state.agents, state.ego, outputs, scene, rig.label_range_m)
+        labels = label_frame(frame_index, timestamp_ns, state.agents, state.ego, outputs, scene, rig.label_range_m,
+                             rig.camera_names)  # fmt: skip
         lights = signals.labels(labels, state) if signals is not None else SignalLabels.empty()
-    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut, signals=lights)
+    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut, signals=lights,
+                       ego_velocity_map_mps=state.ego.velocity_map_mps)  # fmt: skip
 
 
 def prepare_map(prepared: PreparedNetwork) -> tuple[HdMap, Path]:
@@ -196,7 +200,20 @@ def sink_choice(
                       sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first,
                       kitti_native_types=o.kitti_types == "native",
                       traffic_lights=scenario.street.traffic_lights or scenario.street.signs,
-                      map_json=map_json)  # fmt: skip
+                      map_json=map_json, nuscenes=nuscenes_setup(scenario, out_dir, map_json))  # fmt: skip
+
+
+def nuscenes_setup(scenario: Scenario, out_dir: Path, map_json: Path | None) -> NuscenesSetup | None:
+    """What the nuScenes export needs of the run (None: not asked for). The run's folder name
+    names its log and scenes."""
+    if not scenario.outputs.nuscenes:
+        return None
+    rig = scenario.sensors
+    sensors = tuple((kind, s.name, s.rate_hz) for kind, specs in (("lidar", rig.lidars), ("camera", rig.cameras),
+                                                                ("radar", rig.radars)) for s in specs)  # fmt: skip
+    path = scenario.network_path()
+    location = scenario.network if path is None else path.stem
+    return NuscenesSetup(out_dir.resolve().name, scenario.step_s, sensors, location, map_json)
 
 
 def open_sinks(choice: SinkChoice, one_process: bool = False, clock: StageClock = NO_CLOCK) -> FrameSink:

@@ -14,7 +14,7 @@ from sensors.camera import Camera
 from sensors.engine import Engine, Scene, open_engine
 from sensors.lidar import Lidar
 from sensors.radar import Radar
-from sensors.sensor import Sensor, SensorOutput
+from sensors.sensor import Sensor, SensorOutput, fires
 from sensors.view import bounding_radius_m
 from sensors.weather import Weather, weather_preset
 
@@ -22,12 +22,22 @@ from sensors.weather import Weather, weather_preset
 @dataclass(frozen=True, slots=True)
 class Rig:
     """``sensors`` in the order they sense each frame (LiDARs, cameras, radars: the order in
-    which they draw from the frame loop's random generator)."""
+    which they draw from the frame loop's random generator). Each fires at its own rate on the
+    simulation clock of frames ``step_s`` apart (0: every sensor every frame)."""
 
     sensors: tuple[Sensor, ...]
     weather: Weather
     engine: Engine
     notice: str = ""  # why the engine asked for is not the one used ('' if it is)
+    step_s: float = 0.0
+
+    def due(self, frame_index: int) -> tuple[Sensor, ...]:
+        """The sensors that fire in this frame, in rig order."""
+        return tuple(s for s in self.sensors if fires(s.spec.rate_hz, self.step_s, frame_index))
+
+    @property
+    def camera_names(self) -> tuple[str, ...]:
+        return tuple(s.spec.name for s in self.of_kind("camera"))
 
     def of_kind(self, kind: str) -> tuple[Sensor, ...]:
         return tuple(s for s in self.sensors if s.kind == kind)
@@ -42,20 +52,23 @@ class Rig:
         """Objects within this distance are labelled even when no ray hit them."""
         return max((s.spec.range_m for s in self.of_kind("lidar")), default=self.reach_m)
 
-    def agents_in_view(self, agents: Agents, map_SE3_ego: SE3) -> Agents:
-        """The agents some sensor's rays may reach; the others cannot change any return."""
+    def agents_in_view(self, agents: Agents, map_SE3_ego: SE3, sensors: tuple[Sensor, ...] | None = None) -> Agents:
+        """The agents the rays of ``sensors`` (default: all) may reach; the others cannot
+        change any return."""
         radius = bounding_radius_m(agents.lwh_m)
         keep = np.zeros(len(agents), np.bool_)
-        for sensor in self.sensors:
+        for sensor in self.sensors if sensors is None else sensors:
             keep |= sensor.reaches(agents.center_map_m, radius, map_SE3_ego)
         return agents.select(keep)
 
     def sense(
-        self, scene: Scene, ego: EgoState, rng: np.random.Generator, clock: StageClock = NO_CLOCK
-    ) -> tuple[SensorOutput, ...]:
-        """Every sensor's output of this frame, in rig order (each timed as its kind)."""
+        self, scene: Scene, ego: EgoState, rng: np.random.Generator, clock: StageClock = NO_CLOCK,
+        sensors: tuple[Sensor, ...] | None = None,
+    ) -> tuple[SensorOutput, ...]:  # fmt: skip
+        """The output of every sensor in ``sensors`` (default: all), in rig order (each timed as
+        its kind)."""
         outputs = []
-        for sensor in self.sensors:
+        for sensor in self.sensors if sensors is None else sensors:
             with clock.stage(sensor.kind):
                 outputs.append(sensor.sense(scene, ego, self.weather, rng))
         return tuple(outputs)
@@ -67,4 +80,4 @@ def build_rig(scenario: Scenario) -> Rig:
     sensors += [Camera(s) for s in spec.cameras]
     sensors += [Radar(s) for s in spec.radars]
     engine, notice = open_engine(scenario.engine)
-    return Rig(tuple(sensors), weather_preset(scenario.weather), engine, notice)
+    return Rig(tuple(sensors), weather_preset(scenario.weather), engine, notice, scenario.step_s)

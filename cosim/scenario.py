@@ -13,7 +13,7 @@ from typing import Any, Literal
 
 from cosim.config import build, read_yaml, set_override
 from cosim.errors import ScenarioError
-from cosim.rigs import with_rig
+from cosim.rigs import NUSCENES_CAMERAS, NUSCENES_IMAGE, nuscenes_hfov_deg, with_rig
 from gtgen.sinks.live import LiveAddress, parse_live_address
 from sensors.camera import CameraSpec
 from sensors.lidar import LidarSpec
@@ -94,6 +94,7 @@ class OutputsConfig:
     map: bool = True  # map ground truth under map/ and on /map/vectors
     map_range_m: tuple[float, float] = (30.0, 15.0)  # half extents ahead/behind and left/right of the ego
     map_resolution_m: float = 0.5  # of the rasters
+    nuscenes: bool = False  # the nuScenes v1.0 layout under nuscenes/ (on with rig: nuscenes)
 
     def __post_init__(self) -> None:
         rx, ry = self.map_range_m
@@ -125,7 +126,7 @@ class Scenario:
     ego: EgoConfig = field(default_factory=EgoConfig)
     weather: Literal["day", "night", "rain", "fog"] = "day"
     engine: Literal["auto", "open3d", "mitsuba"] = "auto"  # the ray engine (see sensors/engine.py)
-    rig: Literal["default", "kitti"] = "default"  # a sensor rig preset (cosim/rigs.py) under `sensors`
+    rig: Literal["default", "kitti", "nuscenes"] = "default"  # a sensor rig preset (cosim/rigs.py) under `sensors`
     street: StreetConfig = field(default_factory=StreetConfig)
     sensors: SensorsConfig = field(default_factory=SensorsConfig)
     outputs: OutputsConfig = field(default_factory=OutputsConfig)
@@ -145,6 +146,45 @@ class Scenario:
                              "set outputs.kitti=false")  # fmt: skip
         if self.outputs.yolo and not rig.cameras:
             raise ValueError("outputs.yolo: needs a rig with a camera, this one has none; set outputs.yolo=false")
+        frame_hz = 1.0 / self.step_s
+        specs: tuple[LidarSpec | CameraSpec | RadarSpec, ...] = (*rig.lidars, *rig.cameras, *rig.radars)
+        for spec in specs:
+            _check(spec.rate_hz <= frame_hz * (1 + 1e-9), f"sensors: {spec.name}: rate_hz",
+                   f"at most the frame rate ({frame_hz:g} Hz, step_s {self.step_s:g}): a sensor fires at most once "
+                   "a frame; lower rate_hz or step_s", spec.rate_hz)  # fmt: skip
+        every_frame = f"every frame ({frame_hz:g} Hz, step_s {self.step_s:g})"
+        if self.outputs.kitti:
+            camera, lidar = rig.cameras[0], rig.lidars[0]
+            if min(camera.rate_hz, lidar.rate_hz) < frame_hz * (1 - 1e-9):
+                raise ValueError(f"outputs.kitti: KITTI pairs each image with a LiDAR sweep, so the first camera "
+                                 f"({camera.name}, {camera.rate_hz:g} Hz) and LiDAR ({lidar.name}, "
+                                 f"{lidar.rate_hz:g} Hz) must fire {every_frame}; set their rate_hz, or "
+                                 "outputs.kitti=false")  # fmt: skip
+        if self.outputs.nuscenes:
+            self._check_nuscenes(frame_hz, every_frame)
+
+    def _check_nuscenes(self, frame_hz: float, every_frame: str) -> None:
+        rig = self.sensors
+        if not rig.lidars:
+            raise ValueError("outputs.nuscenes: needs a LiDAR (nuScenes's keyframes are LiDAR sweeps), this rig has "
+                             "none; add one or set outputs.nuscenes=false")  # fmt: skip
+        lidar = rig.lidars[0]
+        keyframe_steps = 0.5 / self.step_s
+        if lidar.rate_hz < frame_hz * (1 - 1e-9) or abs(keyframe_steps - round(keyframe_steps)) > 1e-6:
+            raise ValueError(f"outputs.nuscenes: keyframes come every 0.5 s from the first LiDAR ({lidar.name}, "
+                             f"{lidar.rate_hz:g} Hz): it must fire {every_frame} and 0.5 s must be a whole number "
+                             "of frames (step_s 0.05 or 0.1)")  # fmt: skip
+        if self.rig == "nuscenes":
+            for camera in rig.cameras:
+                own = NUSCENES_CAMERAS.get(camera.name)
+                if own is not None and ((camera.width_px, camera.height_px) != NUSCENES_IMAGE
+                                        or abs(camera.hfov_deg - nuscenes_hfov_deg(own[2])) > 1e-3):  # fmt: skip
+                    raise ValueError(
+                        f"sensors: {camera.name}: {camera.width_px}x{camera.height_px} px, {camera.hfov_deg:g} deg "
+                        f"conflicts with the nuscenes preset's {camera.name} ({NUSCENES_IMAGE[0]}x"
+                        f"{NUSCENES_IMAGE[1]} px, {nuscenes_hfov_deg(own[2]):g} deg), which the export calibrates as "
+                        "nuScenes's; give a camera of your own another name"
+                    )
 
     def network_path(self) -> Path | None:
         """The user's OpenDRIVE file, resolved against the scenario file; None for a built-in town."""

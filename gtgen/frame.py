@@ -5,6 +5,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+import numpy as np
+import numpy.typing as npt
+
 from gtgen.labels import FrameLabels
 from gtgen.mapgt import MapFrame
 from gtgen.signals import SignalLabels
@@ -17,8 +20,9 @@ from sensors.sensor import SensorOutput
 
 @dataclass(frozen=True, slots=True)
 class FrameRecord:
-    """One frame: the ego's pose, every sensor's output in rig order, and the labels (one
-    :class:`~gtgen.labels.CameraLabels` per camera, in the order of :attr:`cameras`).
+    """One frame: the ego's pose, the output of every sensor that fired in it (rig order; each
+    sensor fires at its own rate), and the labels (one :class:`~gtgen.labels.CameraLabels` per
+    camera that fired, in the order of :attr:`cameras`).
     ``scene_cut``: the ego was put back at the start of a route before this frame (it ran
     out of road): this frame starts a new scene. ``checkpoint``: what the frame loop needs to
     continue after this frame (plain JSON data, kept by the run's resume file). ``signals``:
@@ -34,6 +38,7 @@ class FrameRecord:
     checkpoint: Mapping[str, object] = field(default_factory=dict)
     signals: SignalLabels = field(default_factory=SignalLabels.empty)
     map: MapFrame | None = None  # the map ground truth around the ego (None: not asked for)
+    ego_velocity_map_mps: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
 
     @property
     def lidars(self) -> tuple[LidarOutput, ...]:

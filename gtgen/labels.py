@@ -35,7 +35,7 @@ class FrameLabels:
     (horizontal, from the ego origin), ``lidar_points`` and ``radar_points: (N,) int32``
     summed over the sensors of that kind, ``seen: (N,) bool`` (a ray of some sensor hit the
     object: a LiDAR or radar return, or a visible camera pixel) and one :class:`CameraLabels`
-    per camera."""
+    per camera that fired in the frame (each sensor fires at its own rate)."""
 
     frame_index: int
     timestamp_ns: int
@@ -45,6 +45,22 @@ class FrameLabels:
     radar_points: npt.NDArray[np.int32]
     seen: npt.NDArray[np.bool_]
     cameras: tuple[CameraLabels, ...] = ()
+    camera_names: tuple[str, ...] = ()  # every camera of the rig ('': those of ``cameras``)
+
+    @property
+    def rig_cameras(self) -> tuple[str, ...]:
+        """The names of the rig's cameras, in rig order (those that did not fire included)."""
+        return self.camera_names or tuple(c.name for c in self.cameras)
+
+    def camera(self, name: str) -> CameraLabels | None:
+        """The labels of camera ``name`` in this frame (None: it did not fire)."""
+        return next((c for c in self.cameras if c.name == name), None)
+
+    @property
+    def first_camera(self) -> CameraLabels | None:
+        """The labels of the rig's first camera, if it fired in this frame."""
+        names = self.rig_cameras
+        return self.camera(names[0]) if names else None
 
     def __post_init__(self) -> None:
         n = len(self.objects)
@@ -69,10 +85,12 @@ def label_frame(
     outputs: tuple[SensorOutput, ...],
     scene: SilhouetteCaster,
     range_m: float,
+    camera_names: tuple[str, ...] = (),
 ) -> FrameLabels:
     """Label every agent whose box centre lies within ``range_m`` of the ego, and every agent
     a sensor ray hit (a long bus can be hit while its centre is out of range). ``outputs`` are
-    the frame's sensor outputs, ``scene`` the scene they were cast in."""
+    the outputs of the sensors that fired in the frame, ``scene`` the scene they were cast in,
+    ``camera_names`` the rig's cameras (those that did not fire get no 2D labels this frame)."""
     objects = ObjectBoxes.seen_from(ego, agents)
     distance = np.linalg.norm(objects.center_ego_m[:, :2], axis=1)
     lidar = _hits(outputs, LidarOutput, objects.track_id)
@@ -87,7 +105,7 @@ def label_frame(
     camera_labels = tuple(_camera_labels(camera, kept, map_SE3_ego, scene, px[keep])
                           for camera, px in zip(cameras, pixels_per_camera, strict=True))  # fmt: skip
     return FrameLabels(frame_index, timestamp_ns, kept, distance[keep], lidar[keep], radar[keep], seen[keep],
-                       camera_labels)  # fmt: skip
+                       camera_labels, camera_names)  # fmt: skip
 
 
 def _camera_labels(

@@ -62,8 +62,9 @@ def signal_table(labels: FrameLabels, signals: SignalLabels) -> dict[str, npt.ND
     order = np.argsort(o.track_id, kind="stable")
     rows = order[np.searchsorted(o.track_id[order], signals.track_id)] if len(signals) else np.zeros(0, np.intp)
     n = len(signals)
-    if labels.cameras:
-        vis = labels.cameras[0].visibility
+    first = labels.first_camera
+    if first is not None:
+        vis = first.visibility
         visible_px, fraction = vis.visible_px[rows], vis.fraction[rows]
     else:
         visible_px, fraction = np.full(n, np.nan), np.full(n, np.nan)

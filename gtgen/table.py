@@ -2,7 +2,8 @@
 
 CSV, JSON (MCAP ``/gt/labels``), KITTI and YOLO writers all read these columns, so a
 field has one definition. The camera columns of ``COLUMNS`` come from the first camera of
-the rig; every further camera adds its own, prefixed with its name (``rear_occluded``).
+the rig; every further camera adds its own, prefixed with its name (``rear_occluded``). A
+camera that did not fire in a frame (each fires at its own rate) leaves its columns empty.
 """
 
 from __future__ import annotations
@@ -52,8 +53,8 @@ def label_table(labels: FrameLabels) -> dict[str, npt.NDArray[np.generic]]:
         "radar_points": labels.radar_points,
         "seen": labels.seen.astype(np.int8),
     }  # fmt: skip
-    if labels.cameras:
-        cam = labels.cameras[0]
+    cam = labels.first_camera
+    if cam is not None:
         table.update(
             alpha=cam.boxes.alpha_rad,
             left=cam.boxes.clipped_px[:, 0], top=cam.boxes.clipped_px[:, 1],
@@ -70,18 +71,22 @@ def label_table(labels: FrameLabels) -> dict[str, npt.NDArray[np.generic]]:
         for name in ("alpha", "left", "top", "right", "bottom", "truncated", "occluded", *CAMERA_EXTRA_COLUMNS):
             table[name] = nan
     ordered = {name: table[name] for name in COLUMNS}
-    for cam in labels.cameras[1:]:
-        boxes, vis = cam.boxes, cam.visibility
+    for name in labels.rig_cameras[1:]:
+        other = labels.camera(name)
+        if other is None:  # it did not fire in this frame
+            ordered.update({f"{name}_{c}": nan for c in PER_CAMERA_COLUMNS})
+            continue
+        boxes, vis = other.boxes, other.visibility
         values = (boxes.alpha_rad, *boxes.clipped_px.T, boxes.truncated, vis.occluded, vis.visible_px, vis.fraction,
                   vis.visibility_bin, *vis.modal_px.T)  # fmt: skip
-        ordered.update({f"{cam.name}_{c}": v for c, v in zip(PER_CAMERA_COLUMNS, values, strict=True)})
+        ordered.update({f"{name}_{c}": v for c, v in zip(PER_CAMERA_COLUMNS, values, strict=True)})
     return ordered
 
 
 def table_columns(labels: FrameLabels) -> list[str]:
     """The columns of :func:`label_table` for frames of this rig: ``COLUMNS``, then those of
     every camera after the first."""
-    return COLUMNS + [f"{cam.name}_{c}" for cam in labels.cameras[1:] for c in PER_CAMERA_COLUMNS]
+    return COLUMNS + [f"{name}_{c}" for name in labels.rig_cameras[1:] for c in PER_CAMERA_COLUMNS]
 
 
 def format_rows(table: dict[str, npt.NDArray[np.generic]]) -> list[str]:

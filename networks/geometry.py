@@ -88,6 +88,13 @@ def rotation_from_rpy(roll: float, pitch: float, yaw: float) -> FloatArray:
     return np.asarray(rz @ ry @ rx)
 
 
+def rpy_from_rotation(rotation: npt.ArrayLike) -> tuple[float, float, float]:
+    """Roll, pitch, yaw (radians) with ``rotation == Rz(yaw) @ Ry(pitch) @ Rx(roll)``."""
+    r = np.asarray(rotation, dtype=np.float64)
+    pitch = math.asin(max(-1.0, min(1.0, -float(r[2, 0]))))
+    return math.atan2(float(r[2, 1]), float(r[2, 2])), pitch, math.atan2(float(r[1, 0]), float(r[0, 0]))
+
+
 def quaternion_xyzw_from_rotation(rotation: FloatArray) -> tuple[float, float, float, float]:
     """Unit quaternion (x, y, z, w) of a rotation matrix, with w >= 0."""
     m = rotation

@@ -9,6 +9,7 @@ pair the spec with the data (:class:`~sensors.lidar.LidarOutput`,
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
@@ -26,6 +27,16 @@ if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer pr
 
 F64 = npt.NDArray[np.float64]
 SensorOutput = LidarOutput | CameraOutput | RadarOutput
+
+
+def fires(rate_hz: float, step_s: float, frame_index: int) -> bool:
+    """Whether a sensor of ``rate_hz`` fires in frame ``frame_index`` of frames ``step_s``
+    apart: in frame 0, then in the first frame at or after each of its periods (on average
+    exactly ``rate_hz``; every frame at the frame rate)."""
+    if frame_index == 0 or step_s <= 0:
+        return True
+    periods = rate_hz * step_s
+    return math.floor(frame_index * periods + 1e-6) > math.floor((frame_index - 1) * periods + 1e-6)
 
 
 class SensorSpec(Protocol):

@@ -15,6 +15,7 @@ from gtgen.sinks.images import FrameImages
 from gtgen.sinks.kitti_sink import KittiSink
 from gtgen.sinks.live import LiveAddress, LiveSink
 from gtgen.sinks.mcap_sink import McapSink
+from gtgen.sinks.nuscenes_sink import NuscenesSetup, NuscenesSink
 from gtgen.sinks.resume_sink import ResumeSink
 from gtgen.sinks.yolo_sink import YoloSink
 from gtgen.timing import NO_CLOCK, StageClock
@@ -23,7 +24,8 @@ from networks.geometry import SE3
 
 @dataclass(frozen=True, slots=True)
 class SinkChoice:
-    """Which outputs to write under ``out_dir``: ``run.mcap``, ``labels.csv``, ``kitti/``, ``yolo/``."""
+    """Which outputs to write under ``out_dir``: ``run.mcap``, ``labels.csv``, ``kitti/``, ``yolo/``,
+    ``map/``, ``nuscenes/``."""
 
     out_dir: Path
     mcap: bool = True
@@ -40,6 +42,7 @@ class SinkChoice:
     kitti_native_types: bool = False  # KITTI labels with the simulator's class names
     traffic_lights: bool = False  # lights_and_signs.csv beside labels.csv (with csv)
     map_json: Path | None = None  # the whole map (networks.hdmap): map/ is written (frames carry their part)
+    nuscenes: NuscenesSetup | None = None  # the nuScenes layout under nuscenes/
 
     @property
     def map(self) -> bool:
@@ -52,7 +55,7 @@ class SinkChoice:
     def partial_paths(self) -> list[Path]:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
         names = {"mcap": "run.mcap", "csv": "labels.csv", "lights_csv": "lights_and_signs.csv", "kitti": "kitti",
-                 "yolo": "yolo", "map": "map"}  # fmt: skip
+                 "yolo": "yolo", "map": "map", "nuscenes": "nuscenes"}  # fmt: skip
         return [self.out_dir / f"{name}.partial" for kind, name in names.items() if getattr(self, kind)]
 
 
@@ -72,6 +75,8 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
         return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego, choice.kitti_native_types)
     if kind == "map" and choice.map_json is not None:
         return MapSink(out / "map", choice.map_json, keep)
+    if kind == "nuscenes" and choice.nuscenes is not None:
+        return NuscenesSink(out / "nuscenes", choice.nuscenes, keep)
     if kind == "resume":
         return ResumeSink(out, keep)
     return YoloSink(out / "yolo", choice.yolo_min_visible_px, keep)
@@ -96,7 +101,9 @@ class SinkGroup(ClosedOnExit):
         """Open the chosen sinks; if one cannot be opened, those already open are aborted.
         With ``announce``, their notices go to stderr."""
         kinds = [
-            k for k in ("mcap", "csv", "lights_csv", "kitti", "yolo", "map", "live", "resume") if getattr(choice, k)
+            k
+            for k in ("mcap", "csv", "lights_csv", "kitti", "yolo", "map", "nuscenes", "live", "resume")
+            if getattr(choice, k)
         ]
         group = cls([], clock)
         try:

@@ -46,10 +46,13 @@ class YoloSink:
 
     def encode(self, record: FrameRecord, images: FrameImages) -> dict[str, bytes]:
         """The frame's files, by path relative to the ``yolo`` folder."""
-        if not record.cameras:
+        if not record.labels.rig_cameras:
             raise SinkError("the YOLO layout needs at least one camera in the rig")
+        cam = record.labels.first_camera
+        if cam is None:  # the first camera did not fire in this frame
+            return {}
         name = f"{record.frame_index:06d}"
-        camera, cam = record.cameras[0], record.labels.cameras[0]
+        camera = record.cameras[0]
         objects = record.labels.objects
         cls = _INDEX[objects.semantic_class]
         signals = record.signals

@@ -160,9 +160,11 @@ def test_the_kitti_rig_preset_is_kittis_car_and_stays_editable(tmp_path):
     assert steps[0] == pytest.approx(1 / 3, abs=0.01) and steps[-1] == pytest.approx(0.5, abs=0.01)
     assert [(c.name, c.width_px, c.height_px) for c in rig.cameras] == [("cam2", 1242, 375), ("cam3", 1242, 375)]
     assert rig.cameras[0].pinhole.K[0, 0] == pytest.approx(721.5377, abs=0.01) and rig.radars == ()
-    edited = load_scenario(str(write(tmp_path, "network: skeleton\nrig: kitti\nsensors: {radars: [{}]}\n"))).sensors
+    edited = load_scenario(
+        str(write(tmp_path, "network: skeleton\nrig: kitti\nsensors: {radars: [{rate_hz: 10}]}\n"))
+    ).sensors
     assert len(edited.radars) == 1 and edited.cameras == rig.cameras  # the rest of the preset stays
-    with pytest.raises(ScenarioError, match=r"rig: expected one of 'default', 'kitti', got 'carla'"):
+    with pytest.raises(ScenarioError, match=r"rig: expected one of 'default', 'kitti', 'nuscenes', got 'carla'"):
         load_scenario("town05_crowded", ["rig=carla"])
 
 

@@ -1,0 +1,120 @@
+"""The nuScenes export read by the official nuscenes-devkit (in .venv-nuscenes, made by
+``make nuscenes-devkit``): two runs of the nuScenes rig merged into one version, loaded,
+rendered and scored by the devkit's own detection and tracking evaluations."""
+
+import json
+import subprocess
+from collections import Counter
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from cosim.loop import run
+from cosim.scenario import load_scenario
+from gtgen import nuscenes
+from gtgen.load import load_labels
+
+ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT / "tests" / "data"
+DEVKIT = ROOT / ".venv-nuscenes" / "bin" / "python"
+KEYFRAME_EVERY = 10  # frames of 0.05 s in 0.5 s
+NATIVE = {"car": "vehicle.car", "truck": "vehicle.truck", "bus": "vehicle.bus.rigid",
+          "motorcycle": "vehicle.motorcycle", "bicycle": "vehicle.bicycle", "pedestrian": "human.pedestrian.adult"}  # fmt: skip
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def export(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[Path], Path, dict]:
+    if not DEVKIT.exists():
+        pytest.fail("the nuScenes devkit's environment is missing: run `make nuscenes-devkit` (make test does)")
+    root = tmp_path_factory.mktemp("nuscenes")
+    runs = []
+    for seed in (3, 4):
+        out = root / f"tiny-s{seed}"
+        run(load_scenario(str(DATA / "tiny.yaml"), ["rig=nuscenes", f"seed={seed}", "frames=41"]), out, progress=False)
+        runs.append(out)
+    merged = root / "merged"
+    assert nuscenes.main(["merge", str(merged), *(str(r) for r in runs), "--val", str(runs[1])]) == 0
+    check = subprocess.run([str(DEVKIT), str(ROOT / "tests" / "nuscenes_devkit_check.py"), str(merged),
+                            str(root / "devkit"), "--eval", "sim_all"], capture_output=True, text=True, check=False)  # fmt: skip
+    assert check.returncode == 0, check.stderr[-3000:]
+    return runs, merged, json.loads(check.stdout)
+
+
+def test_the_devkit_loads_both_scenes_and_every_reference_resolves(export):
+    runs, merged, report = export
+    assert report["scenes"] == ["tiny-s3", "tiny-s4"] and report["samples"] == 10
+    assert report["unresolved"] == []
+    splits = json.loads((merged / nuscenes.VERSION / "splits.json").read_text())
+    assert splits == {"sim_train": ["tiny-s3"], "sim_val": ["tiny-s4"], "sim_all": ["tiny-s3", "tiny-s4"]}
+
+
+def test_the_devkits_own_scores_of_the_ground_truth_are_perfect(export):
+    scores = export[2]["eval"]
+    assert scores["mAP"] >= 0.99 and scores["NDS"] >= 0.99 and scores["AMOTA"] >= 0.99, scores
+    assert {"car", "pedestrian"} <= set(scores["detection_classes"]) and scores["gt_boxes"] > 50
+
+
+def test_annotations_per_category_equal_the_labels_at_the_keyframes(export):
+    runs, _, report = export
+    expected: Counter[str] = Counter()
+    for out in runs:
+        labels = load_labels(out / "labels.csv")
+        at_keyframes = labels[(labels["frame"] % KEYFRAME_EVERY == 0) & labels["type"].isin(list(NATIVE))]
+        expected.update(NATIVE[t] for t in at_keyframes["type"])
+    assert report["per_category"] == dict(expected)
+
+
+def test_devkit_boxes_in_each_camera_land_on_the_labels_2d_boxes(export):
+    runs, _, report = export
+    frame_of_instance = {}
+    labels_of = {}
+    for days, out in enumerate(runs):  # the merge moves the k-th run k days later
+        labels = load_labels(out / "labels.csv")
+        labels_of[out.name] = labels
+        for track in labels["id"].unique():
+            frame_of_instance[nuscenes.token(out.name, "instance", 0, int(track))] = (out.name, int(track), days)
+    compared = 0
+    for box in report["camera_boxes"]:
+        left, top, right, bottom = box["box"]
+        if left < 0 or top < 0 or right > 1599 or bottom > 899:
+            continue  # cut by the image edge: the labels hold the clipped box
+        name, track, days = frame_of_instance[box["instance"]]
+        labels = labels_of[name]
+        seconds = (box["timestamp"] - days * nuscenes.DAY_US) / 1e6
+        row = labels[(labels["id"] == track) & (np.isclose(labels["timestamp"], seconds, atol=5e-4))]
+        prefix = "" if box["channel"] == "CAM_FRONT" else f"{box['channel']}_"
+        ours = row[[f"{prefix}{c}" for c in ("left", "top", "right", "bottom")]].to_numpy(float)
+        assert ours.shape == (1, 4)
+        assert np.abs(ours[0] - [left, top, right, bottom]).max() <= 1.0, (box, ours)
+        compared += 1
+    assert compared > 40
+    channels = {b["channel"] for b in report["camera_boxes"]}
+    assert {"CAM_FRONT", "CAM_BACK"} <= channels
+
+
+def test_the_rendered_sample_shows_the_lidar_and_six_cameras(export):
+    rendered = export[2]["rendered"]
+    assert sorted(Path(p).stem for p in rendered) == sorted(
+        ["LIDAR_TOP", "CAM_FRONT", "CAM_FRONT_LEFT", "CAM_FRONT_RIGHT", "CAM_BACK", "CAM_BACK_LEFT", "CAM_BACK_RIGHT"]
+    )
+    assert all(cv2.imread(p) is not None for p in rendered)
+
+
+def test_sensors_fire_at_their_own_rates_and_files_sit_where_the_tables_say(export):
+    runs, merged, _ = export
+    data = json.loads((merged / nuscenes.VERSION / "sample_data.json").read_text())
+    sensors = {s["token"]: s["channel"] for s in json.loads((merged / nuscenes.VERSION / "sensor.json").read_text())}
+    calibrated = json.loads((merged / nuscenes.VERSION / "calibrated_sensor.json").read_text())
+    channel_of = {c["token"]: sensors[c["sensor_token"]] for c in calibrated}
+    per_channel = Counter(channel_of[d["calibrated_sensor_token"]] for d in data)
+    # 41 frames of 0.05 s per run: LiDAR 20 Hz -> 41, cameras 12 Hz -> 25, radars 13 Hz -> 27
+    assert per_channel["LIDAR_TOP"] == 82 and per_channel["CAM_FRONT"] == 50 and per_channel["RADAR_FRONT"] == 54
+    assert all((merged / d["filename"]).is_file() for d in data)
+    keys = [d for d in data if d["is_key_frame"]]
+    assert all(d["filename"].startswith("samples/") for d in keys) and len(keys) == 10 * 12
+    points = np.fromfile(merged / next(d["filename"] for d in keys if d["fileformat"] == "pcd"
+                                       and d["filename"].endswith(".bin")), "<f4").reshape(-1, 5)  # fmt: skip
+    assert len(np.unique(points[:, 4])) > 16 and points[:, 4].max() <= 31  # HDL-32E rings

@@ -1,0 +1,204 @@
+"""Read a nuScenes export with the official nuscenes-devkit (run with the devkit's own Python:
+``.venv-nuscenes/bin/python tests/nuscenes_devkit_check.py DATAROOT OUT [--eval SPLIT]``).
+
+Prints one JSON object: the scenes the devkit lists, annotation counts per category, every
+token reference that does not resolve, each keyframe camera's boxes as the devkit projects
+them (``get_sample_data``, corners through ``view_points``), and with ``--eval`` the
+devkit's detection (mAP, NDS) and tracking (AMOTA) scores of the ground truth submitted
+as predictions. Renders a sample on the LiDAR and on each camera into OUT.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections import Counter
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import numpy as np
+from nuscenes import NuScenes
+from nuscenes.eval.common.config import config_factory
+from nuscenes.eval.common.loaders import add_center_dist, filter_eval_boxes, load_gt_of_sample_tokens
+from nuscenes.eval.detection import data_classes as detection_data_classes
+from nuscenes.eval.detection.data_classes import (
+    DetectionBox,
+    DetectionConfig,
+)
+from nuscenes.eval.detection.evaluate import DetectionEval
+from nuscenes.eval.tracking.data_classes import TrackingBox, TrackingConfig
+from nuscenes.eval.tracking.evaluate import TrackingEval
+from nuscenes.utils.geometry_utils import BoxVisibility, view_points
+from nuscenes.utils.splits import get_scenes_of_custom_split
+
+VERSION = "v1.0-trainval"
+
+
+def unresolved(nusc: NuScenes) -> list[str]:
+    """Every reference (``*_token``, ``*_tokens``, ``prev``, ``next``) that names no record."""
+    targets = {"sample_token": "sample", "instance_token": "instance", "scene_token": "scene", "log_token": "log",
+               "ego_pose_token": "ego_pose", "calibrated_sensor_token": "calibrated_sensor",
+               "sensor_token": "sensor", "category_token": "category", "visibility_token": "visibility",
+               "first_sample_token": "sample", "last_sample_token": "sample",
+               "first_annotation_token": "sample_annotation", "last_annotation_token": "sample_annotation",
+               "attribute_tokens": "attribute", "log_tokens": "log"}  # fmt: skip
+    tokens = {t: {r["token"] for r in getattr(nusc, t)} for t in nusc.table_names}
+    bad = []
+    for table in nusc.table_names:
+        for record in getattr(nusc, table):
+            for field, value in record.items():
+                target = table if field in ("prev", "next") else targets.get(field)
+                if target is None:
+                    continue
+                for v in value if isinstance(value, list) else [value]:
+                    if field in ("prev", "next") and v == "":
+                        continue
+                    if v not in tokens[target]:
+                        bad.append(f"{table}.{field}={v}")
+    return bad
+
+
+def camera_boxes(nusc: NuScenes) -> list[dict[str, object]]:
+    """For each keyframe camera image: the devkit's boxes in it, as 2D boxes of their corners."""
+    out = []
+    for sample in nusc.sample:
+        for channel, sd_token in sample["data"].items():
+            sd = nusc.get("sample_data", sd_token)
+            if sd["sensor_modality"] != "camera":
+                continue
+            _, boxes, K = nusc.get_sample_data(sd_token, box_vis_level=BoxVisibility.ANY)
+            for box in boxes:
+                corners = box.corners()
+                if np.any(corners[2] <= 0.1):
+                    continue  # a box reaching behind the camera: its 2D box needs clipping in 3D
+                uv = view_points(corners, np.asarray(K), normalize=True)[:2]
+                ann = nusc.get("sample_annotation", box.token)
+                out.append(
+                    {
+                        "sample_data": sd_token,
+                        "channel": channel,
+                        "timestamp": sd["timestamp"],
+                        "instance": ann["instance_token"],
+                        "scene": sample["scene_token"],
+                        "box": [float(uv[0].min()), float(uv[1].min()), float(uv[0].max()), float(uv[1].max())],
+                    }
+                )
+    return out
+
+
+def render(nusc: NuScenes, out: Path) -> list[str]:
+    """A sample in the middle of the first scene: LiDAR (with boxes) and each camera."""
+    scene = nusc.scene[0]
+    token = scene["first_sample_token"]
+    for _ in range(scene["nbr_samples"] // 2):
+        token = nusc.get("sample", token)["next"] or token
+    sample = nusc.get("sample", token)
+    written = []
+    for channel, sd_token in sorted(sample["data"].items()):
+        if nusc.get("sample_data", sd_token)["sensor_modality"] == "radar":
+            continue
+        path = out / f"{channel}.png"
+        nusc.render_sample_data(sd_token, with_anns=True, out_path=str(path), verbose=False)
+        written.append(str(path))
+    return written
+
+
+def ground_truth_as_predictions(nusc: NuScenes, split: str, out: Path) -> dict[str, float]:
+    """The devkit's detection and tracking evaluations of the ground truth, submitted as
+    predictions (the boxes the devkit keeps for evaluation, score 1)."""
+    scenes = set(get_scenes_of_custom_split(split, nusc))
+    samples = [s["token"] for s in nusc.sample if nusc.get("scene", s["scene_token"])["name"] in scenes]
+    default = config_factory("detection_cvpr_2019")
+    loaded = load_gt_of_sample_tokens(nusc, samples, DetectionBox)
+    loaded_names = sorted({b.detection_name for b in loaded.all})  # before the filter, which works in place
+    gt = filter_eval_boxes(nusc, add_center_dist(nusc, loaded), default.class_range)
+    # The simulation has no trailers, construction vehicles, barriers or traffic cones, and a
+    # class without a box the devkit keeps scores AP 0: the classes evaluated are those with
+    # kept boxes. DetectionConfig insists on all ten names, so it is made with the names of the
+    # classes loaded (the devkit's filter needs their ranges), then evaluates the kept ones.
+    present = sorted({b.detection_name for b in gt.all})
+    detection = default.serialize()
+    detection["class_range"] = {c: default.class_range[c] for c in loaded_names}
+    names = detection_data_classes.DETECTION_NAMES
+    detection_data_classes.DETECTION_NAMES = list(detection["class_range"])
+    try:
+        config = DetectionConfig.deserialize(detection)
+    finally:
+        detection_data_classes.DETECTION_NAMES = names
+    config.class_names = present
+    meta = {"use_camera": False, "use_lidar": True, "use_radar": False, "use_map": False, "use_external": False}
+    results = {t: [] for t in samples}
+    for box in gt.all:
+        record = box.serialize()
+        record["detection_score"] = 1.0
+        results[box.sample_token].append(record)
+    det_path = out / "detection_results.json"
+    det_path.write_text(json.dumps({"meta": meta, "results": results}, default=lambda v: v.tolist()))
+    det = DetectionEval(nusc, config=config, result_path=str(det_path), eval_set=split,
+                        output_dir=str(out / "detection"), verbose=False)  # fmt: skip
+    metrics, _ = det.evaluate()
+    summary = metrics.serialize()
+
+    tracking_default = config_factory("tracking_nips_2019")
+    t_loaded = load_gt_of_sample_tokens(nusc, samples, TrackingBox)
+    loaded_tracks = sorted({b.tracking_name for b in t_loaded.all})
+    tgt = filter_eval_boxes(nusc, add_center_dist(nusc, t_loaded), tracking_default.class_range)
+    tracked = sorted({b.tracking_name for b in tgt.all})
+    tracking = tracking_default.serialize()
+    tracking["tracking_names"] = loaded_tracks
+    tracking["class_range"] = {c: tracking_default.class_range[c] for c in loaded_tracks}
+    tracking_config = TrackingConfig.deserialize(tracking)
+    tracking_config.class_names = tracked
+    tracks = {t: [] for t in samples}
+    for box in tgt.all:
+        record = box.serialize()
+        record["tracking_score"] = 1.0
+        tracks[box.sample_token].append(record)
+    track_path = out / "tracking_results.json"
+    track_path.write_text(json.dumps({"meta": meta, "results": tracks}, default=lambda v: v.tolist()))
+    trk = TrackingEval(config=tracking_config, result_path=str(track_path), eval_set=split,
+                       output_dir=str(out / "tracking"), nusc_version=nusc.version, nusc_dataroot=nusc.dataroot,
+                       verbose=False)  # fmt: skip
+    tracking_metrics, _ = trk.evaluate()
+    t_summary = tracking_metrics.serialize()
+    return {"mAP": summary["mean_ap"], "NDS": summary["nd_score"], "AMOTA": t_summary["amota"],
+            "detection_classes": present, "tracking_classes": tracked,
+            "gt_boxes": len(gt.all), "samples": len(samples)}  # fmt: skip
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("dataroot", type=Path)
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--eval", default="")
+    parser.add_argument("--no-render", action="store_true")
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    with open(os.devnull, "w") as quiet:
+        stdout, sys.stdout = sys.stdout, quiet
+        try:
+            nusc = NuScenes(version=VERSION, dataroot=str(args.dataroot), verbose=False)
+            report: dict[str, object] = {
+                "scenes": [s["name"] for s in nusc.scene],
+                "samples": len(nusc.sample),
+                "per_category": dict(Counter(a["category_name"] for a in nusc.sample_annotation)),
+                "unresolved": unresolved(nusc),
+                "camera_boxes": camera_boxes(nusc),
+            }
+            nusc.list_scenes()
+            if not args.no_render:
+                report["rendered"] = render(nusc, args.out)
+            if args.eval:
+                report["eval"] = ground_truth_as_predictions(nusc, args.eval, args.out)
+        finally:
+            sys.stdout = stdout
+    print(json.dumps(report))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
