@@ -66,7 +66,7 @@ def cases(quick: bool = False) -> list[Case]:
     """The cases of a run, each ray engine side by side: ``full`` (the fast engine) is the
     3,000-frame memory run too, ``full-bare`` the same frames without the street furniture and the
     map ground truth (what markings, lights, signs and the map cost); ``quick`` is a smoke run."""
-    full, other, lidar, fleet = (30, 30, 60, 20) if quick else (3000, 600, 600, 150)
+    full, other, lidar, fleet, nus = (30, 30, 60, 20, 20) if quick else (3000, 600, 600, 150, 200)
     o3d = ("engine=open3d",)
     return [
         Case("full", "full rig, town05_crowded", "town05_crowded", full),
@@ -74,6 +74,7 @@ def cases(quick: bool = False) -> list[Case]:
         Case("full-open3d", "full rig, town05_crowded, Open3D", "town05_crowded", other, o3d, engine="open3d"),
         Case("lidar", "LiDAR only, town05_crowded", "town05_crowded", lidar, LIDAR_ONLY),
         Case("lidar-open3d", "LiDAR only, Open3D", "town05_crowded", lidar, (*LIDAR_ONLY, *o3d), engine="open3d"),
+        Case("nuscenes", "nuScenes rig and export, town05_crowded", "town05_crowded", nus, ("rig=nuscenes",)),
         Case("v500", "full rig, 500 vehicles", "town05_crowded", fleet, ("traffic.vehicles=500",)),
         Case("v5000", "full rig, 5,000 vehicles", "town05_crowded", fleet, ("traffic.vehicles=5000",)),
     ]
@@ -332,7 +333,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="a short smoke run (20 to 60 frames a case)")
     parser.add_argument("--frames", type=int, help="frames of every case (instead of the defaults)")
     parser.add_argument(
-        "--cases", help="comma-separated subset of: full, full-open3d, lidar, lidar-open3d, v500, v5000"
+        "--cases",
+        help="comma-separated subset of: full, full-bare, full-open3d, lidar, lidar-open3d, nuscenes, v500, v5000",
     )
     parser.add_argument("--one-process", action="store_true", help="SUMO and the writers in the loop's process")
     parser.add_argument("--out", type=Path, default=Path("bench.json"), help="where to write the JSON (bench.json)")

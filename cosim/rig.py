@@ -28,7 +28,7 @@ class Rig:
     sensors: tuple[Sensor, ...]
     weather: Weather
     engine: Engine
-    notice: str = ""  # why the engine asked for is not the one used ('' if it is)
+    notice: str = ""  # lines for the user: the engine asked for is not the one used, a sensor above the frame rate
     step_s: float = 0.0
 
     def due(self, frame_index: int) -> tuple[Sensor, ...]:
@@ -80,4 +80,14 @@ def build_rig(scenario: Scenario) -> Rig:
     sensors += [Camera(s) for s in spec.cameras]
     sensors += [Radar(s) for s in spec.radars]
     engine, notice = open_engine(scenario.engine)
-    return Rig(tuple(sensors), weather_preset(scenario.weather), engine, notice, scenario.step_s)
+    notices = [notice] if notice else []
+    notices += rate_notices(sensors, scenario.step_s)
+    return Rig(tuple(sensors), weather_preset(scenario.weather), engine, "\n".join(notices), scenario.step_s)
+
+
+def rate_notices(sensors: list[Sensor], step_s: float) -> list[str]:
+    """A line for each sensor faster than the frames: it fires every frame."""
+    frame_hz = 1.0 / step_s
+    fast = [s.spec for s in sensors if s.spec.rate_hz > frame_hz * (1 + 1e-9)]
+    return [f"notice: sensors: {spec.name} is set to {spec.rate_hz:g} Hz, above the frame rate ({frame_hz:g} Hz, "
+            f"step_s {step_s:g}): it fires every frame" for spec in fast]  # fmt: skip

@@ -182,7 +182,7 @@ def with_rig(data: dict[str, Any]) -> dict[str, Any]:
     sensors = dict(PRESETS[name])
     for kind, entries in own.items():
         preset = sensors.get(kind)
-        if isinstance(preset, list) and isinstance(entries, list):
+        if isinstance(preset, list) and isinstance(entries, list) and entries:
             sensors[kind] = _merged(preset, entries)
         else:
             sensors[kind] = entries

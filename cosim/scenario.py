@@ -147,11 +147,6 @@ class Scenario:
         if self.outputs.yolo and not rig.cameras:
             raise ValueError("outputs.yolo: needs a rig with a camera, this one has none; set outputs.yolo=false")
         frame_hz = 1.0 / self.step_s
-        specs: tuple[LidarSpec | CameraSpec | RadarSpec, ...] = (*rig.lidars, *rig.cameras, *rig.radars)
-        for spec in specs:
-            _check(spec.rate_hz <= frame_hz * (1 + 1e-9), f"sensors: {spec.name}: rate_hz",
-                   f"at most the frame rate ({frame_hz:g} Hz, step_s {self.step_s:g}): a sensor fires at most once "
-                   "a frame; lower rate_hz or step_s", spec.rate_hz)  # fmt: skip
         every_frame = f"every frame ({frame_hz:g} Hz, step_s {self.step_s:g})"
         if self.outputs.kitti:
             camera, lidar = rig.cameras[0], rig.lidars[0]

@@ -76,6 +76,6 @@ def foxglove_layout(lidars: list[str], cameras: list[str], radars: list[str], ma
 
 def layout_for(record: FrameRecord) -> str:
     """The layout for the rig of a frame record."""
-    names = ([o.spec.name for o in record.lidars], [c.spec.name for c in record.cameras],
+    names = ([o.spec.name for o in record.lidars], list(record.labels.rig_cameras),
              [o.spec.name for o in record.radars])  # fmt: skip
     return foxglove_layout(*names, map_vectors=record.map is not None)

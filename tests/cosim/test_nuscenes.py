@@ -21,7 +21,8 @@ DATA = ROOT / "tests" / "data"
 DEVKIT = ROOT / ".venv-nuscenes" / "bin" / "python"
 KEYFRAME_EVERY = 10  # frames of 0.05 s in 0.5 s
 NATIVE = {"car": "vehicle.car", "truck": "vehicle.truck", "bus": "vehicle.bus.rigid",
-          "motorcycle": "vehicle.motorcycle", "bicycle": "vehicle.bicycle", "pedestrian": "human.pedestrian.adult"}  # fmt: skip
+          "motorcycle": "vehicle.motorcycle", "bicycle": "vehicle.bicycle",
+          "pedestrian": "human.pedestrian.adult"}  # fmt: skip
 pytestmark = pytest.mark.slow
 
 
@@ -37,14 +38,15 @@ def export(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[Path], Path, 
         runs.append(out)
     merged = root / "merged"
     assert nuscenes.main(["merge", str(merged), *(str(r) for r in runs), "--val", str(runs[1])]) == 0
-    check = subprocess.run([str(DEVKIT), str(ROOT / "tests" / "nuscenes_devkit_check.py"), str(merged),
-                            str(root / "devkit"), "--eval", "sim_all"], capture_output=True, text=True, check=False)  # fmt: skip
+    command = [str(DEVKIT), str(ROOT / "tests" / "nuscenes_devkit_check.py"), str(merged), str(root / "devkit"),
+               "--eval", "sim_all"]  # fmt: skip
+    check = subprocess.run(command, capture_output=True, text=True, check=False)
     assert check.returncode == 0, check.stderr[-3000:]
     return runs, merged, json.loads(check.stdout)
 
 
 def test_the_devkit_loads_both_scenes_and_every_reference_resolves(export):
-    runs, merged, report = export
+    _, merged, report = export
     assert report["scenes"] == ["tiny-s3", "tiny-s4"] and report["samples"] == 10
     assert report["unresolved"] == []
     splits = json.loads((merged / nuscenes.VERSION / "splits.json").read_text())
@@ -104,7 +106,7 @@ def test_the_rendered_sample_shows_the_lidar_and_six_cameras(export):
 
 
 def test_sensors_fire_at_their_own_rates_and_files_sit_where_the_tables_say(export):
-    runs, merged, _ = export
+    _, merged, _ = export
     data = json.loads((merged / nuscenes.VERSION / "sample_data.json").read_text())
     sensors = {s["token"]: s["channel"] for s in json.loads((merged / nuscenes.VERSION / "sensor.json").read_text())}
     calibrated = json.loads((merged / nuscenes.VERSION / "calibrated_sensor.json").read_text())
@@ -118,3 +120,15 @@ def test_sensors_fire_at_their_own_rates_and_files_sit_where_the_tables_say(expo
     points = np.fromfile(merged / next(d["filename"] for d in keys if d["fileformat"] == "pcd"
                                        and d["filename"].endswith(".bin")), "<f4").reshape(-1, 5)  # fmt: skip
     assert len(np.unique(points[:, 4])) > 16 and points[:, 4].max() <= 31  # HDL-32E rings
+
+
+def test_the_kitti_preset_writes_kitti_sized_images_and_a_64_ring_cloud(tmp_path):
+    from gtgen.load import iter_messages, lidar_points
+
+    out = tmp_path / "kitti"
+    run(load_scenario(str(DATA / "tiny.yaml"), ["rig=kitti", "frames=3"]), out, progress=False)
+    image = cv2.imread(str(out / "kitti" / "image_2" / "000000.png"))
+    assert image.shape == (375, 1242, 3) and len(list((out / "kitti" / "velodyne").iterdir())) == 3
+    cloud = next(message for _, _, message in iter_messages(out / "run.mcap", ["/lidar"]))
+    rings = np.unique(lidar_points(cloud)["ring"])
+    assert rings.max() == 63 and len(rings) >= 60

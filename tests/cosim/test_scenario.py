@@ -179,3 +179,83 @@ def test_a_lidar_with_explicit_beam_elevations_casts_them_and_checks_them():
     np.testing.assert_allclose(np.degrees(np.arcsin(dirs[ring == 1, 2])), -2.0)
     with pytest.raises(SensorConfigError, match="elevations_deg"):
         LidarSpec(beams=3, elevations_deg=(1.0, -2.0, 3.0))
+
+
+def test_the_nuscenes_preset_is_the_nuscenes_car_with_its_rates_and_its_export():
+    import numpy as np
+
+    from cosim.rigs import HDL32E_ELEVATIONS_DEG
+
+    s = load_scenario("town05_crowded", ["rig=nuscenes"])
+    rig = s.sensors
+    assert [c.name for c in rig.cameras] == ["CAM_FRONT", "CAM_FRONT_RIGHT", "CAM_BACK_RIGHT", "CAM_BACK",
+                                             "CAM_BACK_LEFT", "CAM_FRONT_LEFT"]  # fmt: skip
+    assert all((c.width_px, c.height_px, c.rate_hz) == (1600, 900, 12.0) for c in rig.cameras)
+    # published focal lengths (n015): CAM_FRONT 1266.417 px, CAM_BACK 809.221 px
+    assert rig.cameras[0].pinhole.K[0, 0] == pytest.approx(1266.417, abs=0.01)
+    assert rig.cameras[3].pinhole.K[0, 0] == pytest.approx(809.221, abs=0.01)
+    # CAM_FRONT looks ahead, CAM_BACK behind: their optical axes in the ego frame
+    assert rig.cameras[0].ego_SE3_sensor.rotation[:, 2] @ [1, 0, 0] > 0.99
+    assert rig.cameras[3].ego_SE3_sensor.rotation[:, 2] @ [-1, 0, 0] > 0.99
+    (lidar,) = rig.lidars
+    assert (lidar.name, lidar.beams, lidar.rate_hz) == ("LIDAR_TOP", 32, 20.0)
+    assert lidar.elevations_deg == HDL32E_ELEVATIONS_DEG and (HDL32E_ELEVATIONS_DEG[0], HDL32E_ELEVATIONS_DEG[-1]) == (
+        -30.67, 10.67)  # fmt: skip
+    assert np.allclose(np.diff(HDL32E_ELEVATIONS_DEG), 4 / 3, atol=0.011)
+    # nuScenes's LiDAR axes: x right, y forward
+    assert lidar.ego_SE3_sensor.rotation[:, 1] @ [1, 0, 0] > 0.99
+    assert [r.name for r in rig.radars] == ["RADAR_FRONT", "RADAR_FRONT_LEFT", "RADAR_FRONT_RIGHT",
+                                            "RADAR_BACK_LEFT", "RADAR_BACK_RIGHT"]  # fmt: skip
+    assert all(r.rate_hz == 13.0 for r in rig.radars) and rig.radars[0].mount_xyz_m[0] == pytest.approx(2.0)
+    assert s.outputs.nuscenes and not s.outputs.kitti and s.step_s == 0.05
+    edited = load_scenario("town05_crowded", ["rig=nuscenes", "outputs.kitti=false", "outputs.nuscenes=false"])
+    assert not edited.outputs.nuscenes  # the scenario's own keys win over the preset's
+
+
+def test_a_preset_sensor_is_edited_key_by_key_by_naming_it(tmp_path):
+    text = "network: skeleton\nrig: nuscenes\nsensors: {radars: [{name: RADAR_FRONT, points_per_frame: 60}]}\n"
+    rig = load_scenario(str(write(tmp_path, text))).sensors
+    assert len(rig.radars) == 5 and rig.radars[0].points_per_frame == 60 and rig.radars[0].rate_hz == 13.0
+
+
+def test_a_sensor_fires_at_its_own_rate_on_the_frame_clock():
+    from sensors.sensor import fires
+
+    def count(rate_hz: float, step_s: float, frames: int) -> int:
+        return sum(fires(rate_hz, step_s, k) for k in range(frames))
+
+    assert count(20.0, 0.05, 200) == 200 and count(12.0, 0.05, 200) == 120 and count(13.0, 0.05, 200) == 130
+    assert count(10.0, 0.05, 200) == 100 and [k for k in range(6) if fires(10.0, 0.05, k)] == [0, 2, 4]
+    assert all(fires(12.0, 0.05, k) for k in range(0, 200, 10))  # cameras fire at every 0.5 s keyframe
+    assert count(20.0, 0.1, 50) == 50  # faster than the frames: every frame (the run says so)
+
+
+def test_a_sensor_faster_than_the_frames_is_named_in_a_notice():
+    from cosim.rig import rate_notices
+    from sensors.camera import Camera, CameraSpec
+    from sensors.lidar import Lidar, LidarSpec
+
+    lines = rate_notices([Lidar(LidarSpec(rate_hz=20.0)), Camera(CameraSpec(rate_hz=10.0))], 0.1)
+    assert lines == ["notice: sensors: lidar is set to 20 Hz, above the frame rate (10 Hz, step_s 0.1): it fires "
+                     "every frame"]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("sets", "message"),
+    [
+        (["rig=nuscenes", "sensors.lidars=[]"], "outputs.nuscenes: needs a LiDAR"),
+        (["rig=nuscenes", "step_s=0.04"], "outputs.nuscenes: keyframes come every 0.5 s"),
+        (["rig=nuscenes", "sensors.cameras=[{name: CAM_FRONT, width_px: 1280, height_px: 720}]"],
+         "sensors: CAM_FRONT: 1280x720 px, 64.5615 deg conflicts with the nuscenes preset's CAM_FRONT"),
+        (["sensors.cameras=[{rate_hz: 10}]"], "outputs.kitti: KITTI pairs each image with a LiDAR sweep"),
+        (["rig=pandaset"], "rig: expected one of 'default', 'kitti', 'nuscenes', got 'pandaset'"),
+    ],
+)  # fmt: skip
+def test_a_rig_or_export_that_cannot_work_is_one_line_and_writes_nothing(tmp_path, sets, message):
+    args = [a for s in sets for a in ("--set", s)]
+    proc = run_cli("run", str(ROOT / "tests" / "data" / "tiny.yaml"), "--out",
+                   str(tmp_path / "o"), *args, cwd=ROOT)  # fmt: skip
+    assert proc.returncode != 0
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], lines
+    assert not (tmp_path / "o").exists()

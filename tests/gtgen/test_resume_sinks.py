@@ -1,6 +1,7 @@
 """Writers that continue an earlier run: a run stopped after some frames (closed, or killed
 with its files cut short) and continued writes the same files as a run never stopped."""
 
+import json
 import shutil
 from pathlib import Path
 
@@ -53,3 +54,41 @@ def test_files_cut_short_by_a_kill_are_taken_back_to_their_last_whole_frame(reco
     result = compare_datasets(tmp_path / "whole", killed)
     assert result.same, result.differences
     assert not list(killed.glob("*.partial")) and not list(killed.glob("*.earlier"))
+
+
+def test_a_nuscenes_export_stopped_and_continued_is_the_export_never_stopped(records, tmp_path):
+    from gtgen.sinks.nuscenes_sink import NuscenesSetup
+
+    # frames 0.25 s apart: keyframes (every 0.5 s) at frames 0 and 2; every sensor every frame
+    setup = NuscenesSetup("run", 0.25, (("lidar", "lidar", 4.0), ("camera", "camera", 4.0), ("radar", "radar", 4.0)),
+                          "skeleton")  # fmt: skip
+
+    def export(out: Path, upto: int, keep: int = 0) -> None:
+        out.mkdir(exist_ok=True)
+        with SinkGroup.open(SinkChoice(out, mcap=False, csv=False, kitti=False, yolo=False, nuscenes=setup,
+                                       keep_frames=keep)) as sinks:  # fmt: skip
+            for record in records[keep:upto]:
+                sinks.write(record)
+
+    export(tmp_path / "whole", 3)
+    export(tmp_path / "stopped", 2)
+    export(tmp_path / "stopped", 3, keep=1)  # frame 1 again (its files and records are made anew), then 2
+    result = compare_datasets(tmp_path / "whole", tmp_path / "stopped")
+    assert result.same, result.differences
+    tables = tmp_path / "whole" / "nuscenes" / "v1.0-trainval"
+    assert len(json.loads((tables / "sample.json").read_text())) == 2
+    data = json.loads((tables / "sample_data.json").read_text())
+    assert len(data) == 9 and sum(d["is_key_frame"] for d in data) == 6
+    sweeps = tmp_path / "stopped" / "nuscenes" / "sweeps" / "LIDAR_TOP"
+    assert [p.name for p in sweeps.iterdir()] == ["run__LIDAR_TOP__50000.pcd.bin"]  # frame 1 once
+
+
+def test_merging_what_holds_no_nuscenes_export_is_one_line(tmp_path, capsys):
+    from gtgen import nuscenes
+
+    (tmp_path / "a").mkdir()
+    assert nuscenes.main(["merge", str(tmp_path / "out"), str(tmp_path / "a")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"error: {tmp_path / 'a'}: no nuScenes export (expected {tmp_path / 'a'}/nuscenes/v1.0-trainval; "
+                   "run it with outputs.nuscenes=true)"]  # fmt: skip
+    assert not (tmp_path / "out").exists()
