@@ -46,6 +46,8 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--density", type=float, nargs="+", default=[], metavar="VEH_PER_LANE_KM")
     sweep.add_argument("--vehicles", type=int, nargs="+", default=[], metavar="COUNT")
     sweep.add_argument("--seed", type=int, nargs="+", default=[0], metavar="SEED")
+    sweep.add_argument("--hazard-scale", type=float, nargs="+", default=[], metavar="FACTOR",
+                       help="multiply the rate of the scenario's hazards by each factor")  # fmt: skip
     sweep.add_argument("--frames", type=int, help="frames per run (overrides the scenario)")
     sweep.add_argument("--out", type=Path, help="output folder (default: out/<scenario>-sweep)")
     workers_help = f"runs at once on this machine (default {DEFAULT_WORKERS}: a run keeps about two cores busy)"
@@ -104,7 +106,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         raise ScenarioError(f"sweep: --workers: expected a whole number >= 1, got {args.workers}")
     overrides = list(args.overrides) + ([f"frames={args.frames}"] if args.frames is not None else [])
     out_root = args.out if args.out is not None else Path("out") / f"{resolve(args.scenario).stem}-sweep"
-    jobs = plan(args.scenario, out_root, args.density, args.vehicles, args.seed, overrides)
+    jobs = plan(args.scenario, out_root, args.density, args.vehicles, args.seed, overrides, args.hazard_scale)
     out_root.mkdir(parents=True, exist_ok=True)
 
     print(f"sweep: {len(jobs)} runs into {out_root}/", flush=True)

@@ -20,6 +20,7 @@ import numpy as np
 from tqdm import tqdm
 
 from cosim.errors import CosimError, RunStoppedError, Terminated, TrafficError
+from cosim.net_index import check_hazards
 from cosim.resume import ResumePoint, begin, finish, resume_point
 from cosim.rig import Rig, build_rig
 from cosim.scenario import Scenario
@@ -130,6 +131,7 @@ def sense_and_label(
     rng: np.random.Generator,
     probe: FrameProbe = NO_PROBE,
     signals: StreetObjects | None = None,
+    hazards: bool = False,
 ) -> FrameRecord:
     """Cast every sensor into one scene of this frame, then label what the rays saw (the
     traffic lights' heads among the objects, with ``signals``)."""
@@ -148,11 +150,13 @@ def sense_and_label(
     probe.scene(frame_index, scene, map_SE3_ego)
     with probe.stage("labels"):
         timestamp_ns = round(state.time_s * 1e9)
+        events = {a: h.name for h in state.hazards for a in h.actor_ids} if hazards else None
         labels = label_frame(frame_index, timestamp_ns, state.agents, state.ego, outputs, scene, rig.label_range_m,
-                             rig.camera_names)  # fmt: skip
+                             rig.camera_names, events)  # fmt: skip
         lights = signals.labels(labels, state) if signals is not None else SignalLabels.empty()
     return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut, signals=lights,
-                       ego_velocity_map_mps=state.ego.velocity_map_mps)  # fmt: skip
+                       ego_velocity_map_mps=state.ego.velocity_map_mps, hazards=state.hazards if hazards else None,
+                       ego_collided=state.ego_collided)  # fmt: skip
 
 
 def prepare_map(prepared: PreparedNetwork) -> tuple[HdMap, Path]:
@@ -200,7 +204,8 @@ def sink_choice(
                       sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first,
                       kitti_native_types=o.kitti_types == "native",
                       traffic_lights=scenario.street.traffic_lights or scenario.street.signs,
-                      map_json=map_json, nuscenes=nuscenes_setup(scenario, out_dir, map_json))  # fmt: skip
+                      map_json=map_json, nuscenes=nuscenes_setup(scenario, out_dir, map_json),
+                      hazards=bool(scenario.hazards))  # fmt: skip
 
 
 def nuscenes_setup(scenario: Scenario, out_dir: Path, map_json: Path | None) -> NuscenesSetup | None:
@@ -255,6 +260,12 @@ def run(
         print(f"{scenario.name}: preparing the network and its world (made on first use, then cached)",
               file=sys.stderr, flush=True)  # fmt: skip
     prepared = prepare_network(scenario)
+    try:
+        check_hazards(scenario.hazards, prepared.net)
+    except CosimError:
+        with contextlib.suppress(OSError):
+            out_dir.rmdir()  # made above for this run, still empty
+        raise
     if prepared.notice:
         print(prepared.notice, file=sys.stderr)
     rig = build_rig(scenario)
@@ -377,7 +388,8 @@ class FrameLoop:
             probe.frame_done(-1)
             for frame_index in bar:
                 state = traffic.next()
-                record = sense_and_label(frame_index, state, self.crop, self.rig, self.rng, probe, self.signals)
+                record = sense_and_label(frame_index, state, self.crop, self.rig, self.rng, probe, self.signals,
+                                         bool(scenario.hazards))  # fmt: skip
                 if self.hdmap is not None:
                     with probe.stage("map"):
                         o = scenario.outputs

@@ -10,6 +10,8 @@ import numpy.typing as npt
 import sumolib
 
 from cosim.demand import KINDS
+from cosim.errors import CosimError
+from cosim.scenario import HazardConfig
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,3 +106,22 @@ def _fringe(net: sumolib.net.Net, by_class: dict[str, list[str]]) -> tuple[dict[
             if not any(e.allows(vclass) for e in edge.getOutgoing()):
                 exits.setdefault(vclass, []).append(edge_id)
     return entries, exits
+
+
+def check_hazards(hazards: tuple[HazardConfig, ...], net: sumolib.net.Net) -> None:
+    """Refuse, before frame 0, a hazard kind the network cannot have."""
+    kinds = {h.kind for h in hazards}
+    if "cut_in" in kinds:
+        wide = any(
+            sum(1 for lane in edge.getLanes() if lane.allows("passenger")) >= 2
+            for edge in net.getEdges()
+            if edge.getFunction() != "internal"
+        )
+        if not wide:
+            raise CosimError("hazards: cut_in needs a road with two lanes in one direction; this network has none")
+    if "red_light" in kinds and not net.getTrafficLights():
+        raise CosimError("hazards: red_light needs signalised junctions; this network has no traffic lights")
+    if "jaywalker" in kinds and not any(
+        lane.allows("pedestrian") for edge in net.getEdges() for lane in edge.getLanes()
+    ):
+        raise CosimError("hazards: jaywalker needs a footpath or sidewalk to start from; this network has none")

@@ -49,6 +49,42 @@ class TrafficConfig:
         _check(sum(self.mix.values()) > 0, "mix", "at least one share > 0", self.mix)
 
 
+HAZARD_KINDS = ("cut_in", "hard_brake", "jaywalker", "red_light")
+
+
+@dataclass(frozen=True, slots=True)
+class HazardConfig:
+    """One kind of hazard made near the ego about ``per_minute`` times a simulated minute (an
+    event starts when one is due and the traffic around the ego allows it). ``distance_m``:
+    how far ahead of the ego the event starts (cut_in: the gap the cutting vehicle leaves;
+    hard_brake: the gap to the braking leader; jaywalker: where the pedestrian steps out;
+    red_light: the ego's distance to its green stop line). ``time_gap_s``: cut_in, the gap in
+    seconds at the ego's speed. ``decel_mps2``: hard_brake's deceleration; ``to_speed_mps``:
+    the speed it brakes to (0: a stop). ``walk_mps``: the jaywalker's speed;
+    ``behind_parked``: the jaywalker steps out from in front of a parked vehicle when one
+    stands there."""
+
+    kind: Literal["cut_in", "hard_brake", "jaywalker", "red_light"]
+    per_minute: float = 1.0
+    distance_m: tuple[float, float] = (5.0, 30.0)
+    time_gap_s: tuple[float, float] = (0.3, 1.5)
+    decel_mps2: float = 7.0
+    to_speed_mps: float = 0.0
+    walk_mps: float = 1.6
+    behind_parked: bool = True
+
+    def __post_init__(self) -> None:
+        _check(0 < self.per_minute <= 30, "per_minute", "events per minute in (0, 30]", self.per_minute)
+        lo, hi = self.distance_m
+        _check(0 < lo < hi <= 150, "distance_m", "a range [near, far] in metres, 0 < near < far <= 150",
+               self.distance_m)  # fmt: skip
+        _check(0 <= self.time_gap_s[0] < self.time_gap_s[1], "time_gap_s", "a range [low, high] in seconds",
+               self.time_gap_s)  # fmt: skip
+        _check(1.0 <= self.decel_mps2 <= 12.0, "decel_mps2", "a deceleration in [1, 12] m/s^2", self.decel_mps2)
+        _check(self.to_speed_mps >= 0, "to_speed_mps", "a speed >= 0", self.to_speed_mps)
+        _check(0.3 <= self.walk_mps <= 5.0, "walk_mps", "a walking speed in [0.3, 5] m/s", self.walk_mps)
+
+
 @dataclass(frozen=True, slots=True)
 class EgoConfig:
     """``route``: SUMO edge ids the ego starts on; empty: a passenger car picked after the
@@ -128,6 +164,7 @@ class Scenario:
     engine: Literal["auto", "open3d", "mitsuba"] = "auto"  # the ray engine (see sensors/engine.py)
     rig: Literal["default", "kitti", "nuscenes"] = "default"  # a sensor rig preset (cosim/rigs.py) under `sensors`
     street: StreetConfig = field(default_factory=StreetConfig)
+    hazards: tuple[HazardConfig, ...] = ()  # cut-ins, hard braking, jaywalkers, red-light runners near the ego
     sensors: SensorsConfig = field(default_factory=SensorsConfig)
     outputs: OutputsConfig = field(default_factory=OutputsConfig)
     name: str = "scenario"

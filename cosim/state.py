@@ -6,6 +6,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from gtgen.frame import ActiveHazard
 from sensors.agents import Agents, EgoState
 
 
@@ -15,7 +16,8 @@ class WorldState:
     ``scene_cut``: the ego is a new one, put at the start of a route when the last one ran out
     of road (what came before is another scene); ``signal_states``: each traffic light's
     state string at this step (libsumo's, one letter per controlled link); ``ego_lane``: the
-    SUMO lane the ego drives on; ``ego_route_ahead``: the edges of its route from the one it is on."""
+    SUMO lane the ego drives on; ``ego_route_ahead``: the edges of its route from the one it is on;
+    ``hazards``: the hazard events under way."""
 
     time_s: float
     agents: Agents
@@ -24,6 +26,8 @@ class WorldState:
     signal_states: dict[str, str] = field(default_factory=dict)
     ego_lane: str = ""
     ego_route_ahead: tuple[str, ...] = ()
+    hazards: tuple[ActiveHazard, ...] = ()
+    ego_collided: bool = False  # SUMO saw the ego collide in the last step
 
     def near(self, radius_m: float) -> WorldState:
         """Only the agents whose centre lies within ``radius_m`` of the ego (in the plane)."""

@@ -44,6 +44,7 @@ class SweepJob:
     density: float | None
     vehicles: int | None
     seed: int
+    hazard_scale: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,17 +69,28 @@ def plan(
     vehicle_counts: Iterable[int] = (),
     seeds: Iterable[int] = (0,),
     overrides: Iterable[str] = (),
+    hazard_scales: Iterable[float] = (),
 ) -> list[SweepJob]:
-    """The runs of a sweep, validated: a bad key or value fails here, before any run starts."""
+    """The runs of a sweep, validated: a bad key or value fails here, before any run starts.
+    ``hazard_scales`` multiply the rate of every hazard of the scenario (``per_minute``)."""
     densities, vehicle_counts, seeds = list(densities), list(vehicle_counts), list(seeds)
     if densities and vehicle_counts:
         raise ScenarioError("sweep: give densities or vehicle counts, not both")
     levels: list[tuple[float | None, int | None]] = [(d, None) for d in densities] + [(None, v) for v in vehicle_counts]
     jobs = []
     base = load_scenario(scenario, list(overrides))
-    for (density, vehicles), seed in itertools.product(levels or [(None, None)], seeds):
+    scales: list[float | None] = list(hazard_scales) or [None]
+    if scales != [None] and not base.hazards:
+        raise ScenarioError(f"sweep: --hazard-scale: the scenario {base.name} has no hazards to scale")
+    for (density, vehicles), scale, seed in itertools.product(levels or [(None, None)], scales, seeds):
         extra = [f"seed={seed}"]
         label = f"s{seed}"
+        if scale is not None:
+            if scale <= 0:
+                raise ScenarioError(f"sweep: --hazard-scale: expected factors > 0, got {scale:g}")
+            scaled = [{**asdict(h), "per_minute": h.per_minute * scale} for h in base.hazards]
+            extra.append("hazards=" + json.dumps(scaled))
+            label = f"h{scale:g}-{label}"
         if density is not None:
             extra.append(f"traffic.vehicles_per_lane_km={density}")
             label = f"d{density:g}-{label}"
@@ -88,7 +100,7 @@ def plan(
         all_overrides = (*overrides, *extra)
         load_scenario(scenario, list(all_overrides))  # validates every run's settings up front
         name = f"{base.name}-{label}"
-        jobs.append(SweepJob(name, scenario, all_overrides, str(out_root / name), density, vehicles, seed))
+        jobs.append(SweepJob(name, scenario, all_overrides, str(out_root / name), density, vehicles, seed, scale))
     return jobs
 
 

@@ -9,7 +9,7 @@ import os
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -32,6 +32,9 @@ from cosim.state import WorldState
 from networks.cache import cache_dir, digest, intact, seal, take_notices
 from networks.sumo_tools import sumo_binary, sumo_home
 from sensors.agents import Agents, EgoState
+
+if TYPE_CHECKING:
+    from cosim.hazards import HazardController
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
@@ -123,6 +126,12 @@ class Traffic:
         self._watch_radius_m: float | None = None
         self._long_route: list[str] = []
         self.counts = TrafficCounts()
+        self._hazards: HazardController | None = None
+        if scenario.hazards:
+            from cosim.hazards import HazardController
+
+            self._hazards = HazardController(scenario.hazards, scenario.seed, self._parked, self._index.walk_edges)
+        self._ego_collided = False
 
     def _open_targets(self, targets: dict[str, int]) -> dict[str, int]:
         """The vehicle counts of the kinds some lane of the network is open to; a notice for each other."""
@@ -390,6 +399,9 @@ class Traffic:
             x, y = libsumo.vehicle.getPosition(self._ego)
         self._ego_xy = (x, y)
         self._keep_ego_going()
+        if self._hazards is not None:
+            self._ego_collided = self._ego in libsumo.simulation.getCollidingVehiclesIDList()
+            self._hazards.step(self._ego, self._time(), self._scenario.step_s)
         if self._watch_radius_m is not None:
             libsumo.poi.setPosition(PERSON_ANCHOR, x, y)
         if round(libsumo.simulation.getTime() / self._scenario.step_s) % 20 == 0:
@@ -471,7 +483,9 @@ class Traffic:
         lane = str(libsumo.vehicle.getLaneID(self._ego))
         route = libsumo.vehicle.getRoute(self._ego)
         ahead = tuple(route[max(int(libsumo.vehicle.getRouteIndex(self._ego)), 0) :])
-        return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut, signals, lane, ahead)
+        hazards = () if self._hazards is None else self._hazards.active(self._track_id, self._ego)
+        return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut, signals, lane, ahead, hazards,
+                          self._ego_collided)  # fmt: skip
 
     @staticmethod
     def _time() -> float:

@@ -19,6 +19,17 @@ from sensors.sensor import SensorOutput
 
 
 @dataclass(frozen=True, slots=True)
+class ActiveHazard:
+    """A hazard event under way (made by ``cosim.hazards``): ``name`` (``cut_in-3``: its kind and
+    the run's event number), the track ids of its actors and of the ego."""
+
+    name: str
+    kind: str
+    actor_ids: tuple[int, ...]
+    ego_id: int
+
+
+@dataclass(frozen=True, slots=True)
 class FrameRecord:
     """One frame: the ego's pose, the output of every sensor that fired in it (rig order; each
     sensor fires at its own rate), and the labels (one :class:`~gtgen.labels.CameraLabels` per
@@ -39,6 +50,8 @@ class FrameRecord:
     signals: SignalLabels = field(default_factory=SignalLabels.empty)
     map: MapFrame | None = None  # the map ground truth around the ego (None: not asked for)
     ego_velocity_map_mps: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    hazards: tuple[ActiveHazard, ...] | None = None  # the hazard events under way (None: the run makes none)
+    ego_collided: bool = False  # the simulation saw the ego collide in this step
 
     @property
     def lidars(self) -> tuple[LidarOutput, ...]:

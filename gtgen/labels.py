@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from gtgen.counting import count_hits
+from gtgen.criticality import collision_radius, path_distance, time_to_collision
 from gtgen.objects import ObjectBoxes
 from gtgen.projection import CameraBoxes, camera_boxes
 from gtgen.visibility import CameraVisibility, SilhouetteCaster, camera_visibility
@@ -46,6 +48,10 @@ class FrameLabels:
     seen: npt.NDArray[np.bool_]
     cameras: tuple[CameraLabels, ...] = ()
     camera_names: tuple[str, ...] = ()  # every camera of the rig ('': those of ``cameras``)
+    ttc_s: npt.NDArray[np.float64] | None = None  # time to collision with the ego (NaN: none); see criticality
+    collision_radius_m: npt.NDArray[np.float64] | None = None
+    path_distance_m: npt.NDArray[np.float64] | None = None  # to the ego's predicted path
+    hazard_event: tuple[str, ...] = ()  # per object: the hazard event it is an actor of ('' none; () no hazards)
 
     @property
     def rig_cameras(self) -> tuple[str, ...]:
@@ -86,11 +92,13 @@ def label_frame(
     scene: SilhouetteCaster,
     range_m: float,
     camera_names: tuple[str, ...] = (),
+    events: Mapping[int, str] | None = None,
 ) -> FrameLabels:
     """Label every agent whose box centre lies within ``range_m`` of the ego, and every agent
     a sensor ray hit (a long bus can be hit while its centre is out of range). ``outputs`` are
     the outputs of the sensors that fired in the frame, ``scene`` the scene they were cast in,
-    ``camera_names`` the rig's cameras (those that did not fire get no 2D labels this frame)."""
+    ``camera_names`` the rig's cameras (those that did not fire get no 2D labels this frame),
+    ``events`` the hazard event of each actor's track id (None: the run makes no hazards)."""
     objects = ObjectBoxes.seen_from(ego, agents)
     distance = np.linalg.norm(objects.center_ego_m[:, :2], axis=1)
     lidar = _hits(outputs, LidarOutput, objects.track_id)
@@ -104,8 +112,13 @@ def label_frame(
     map_SE3_ego = ego.map_SE3_ego()
     camera_labels = tuple(_camera_labels(camera, kept, map_SE3_ego, scene, px[keep])
                           for camera, px in zip(cameras, pixels_per_camera, strict=True))  # fmt: skip
+    p_xy, v_xy = kept.center_ego_m[:, :2], kept.velocity_ego_mps[:, :2]
+    radius = collision_radius(kept.lwh_m[:, :2], ego.lwh_m[:2])
+    ttc = time_to_collision(p_xy, v_xy, radius)
+    near_path = path_distance(p_xy, float(np.linalg.norm(ego.velocity_map_mps[:2])))
+    hazard = () if events is None else tuple(events.get(int(t), "") for t in kept.track_id)
     return FrameLabels(frame_index, timestamp_ns, kept, distance[keep], lidar[keep], radar[keep], seen[keep],
-                       camera_labels, camera_names)  # fmt: skip
+                       camera_labels, camera_names, ttc, radius, near_path, hazard)  # fmt: skip
 
 
 def _camera_labels(

@@ -57,7 +57,8 @@ def radar_points(cloud: Any) -> npt.NDArray[np.void]:
 
 
 def load_labels(path: Path) -> pd.DataFrame:
-    return pd.read_csv(path)
+    """``labels.csv`` as a table (``hazard_event`` as text, empty: NaN)."""
+    return pd.read_csv(path, dtype={"hazard_event": str})
 
 
 def objects_from_table(rows: pd.DataFrame) -> tuple[ObjectBoxes, npt.NDArray[np.bool_]]:

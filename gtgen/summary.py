@@ -2,7 +2,9 @@
 
 ``stats.csv`` (per class), ``objects_per_frame.png``, ``distance.png``, ``visibility.png``,
 ``lidar_points.png``, and for a few frames ``bev_<frame>.png`` (LiDAR points by class with
-the label boxes) and ``camera_<frame>.png`` (the image with tight and projected boxes).
+the label boxes) and ``camera_<frame>.png`` (the image with tight and projected boxes). A run
+with hazards adds ``events.csv`` (events per kind, per minute, median and smallest time to
+collision) and ``events.png`` (each event's minimum time to collision, by kind).
 """
 
 from __future__ import annotations
@@ -157,4 +159,35 @@ def write_summary(out_dir: Path, picture_frames: int = 3) -> pd.DataFrame:
     if n and (out_dir / "run.mcap").exists():
         picks = sorted({0, n // 2, n - 1}) if picture_frames >= 3 else [0]
         frame_pictures(out_dir / "run.mcap", labels, picks, folder)
+    if (out_dir / "events.csv").exists():
+        minutes = labels["timestamp"].nunique() and (labels["timestamp"].max() - labels["timestamp"].min()) / 60.0
+        event_summary(pd.read_csv(out_dir / "events.csv"), float(minutes or 0.0), folder)
     return stats
+
+
+def event_summary(events: pd.DataFrame, minutes: float, folder: Path) -> None:
+    """``summary/events.csv`` (per kind: events, per minute, median and smallest minimum time to
+    collision) and ``summary/events.png`` (each event's minimum time to collision)."""
+    rows = []
+    for kind, group in events.groupby("kind"):
+        ttc = group["min_ttc"].dropna()
+        rows.append({"kind": kind, "events": len(group), "per_minute": len(group) / minutes if minutes else np.nan,
+                     "median_min_ttc": float(ttc.median()) if len(ttc) else np.nan,
+                     "smallest_min_ttc": float(ttc.min()) if len(ttc) else np.nan,
+                     "ego_collided": int(group["ego_collided"].sum())})  # fmt: skip
+    columns = ["kind", "events", "per_minute", "median_min_ttc", "smallest_min_ttc", "ego_collided"]
+    pd.DataFrame(rows, columns=columns).to_csv(folder / "events.csv", index=False, float_format="%.3f")
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for kind, group in events.groupby("kind"):
+        shown = group.dropna(subset=["min_ttc"])
+        ax.scatter(shown["first_frame"], shown["min_ttc"].clip(upper=10.0), label=f"{kind} ({len(group)})", s=30)
+    ax.axhline(4.0, color="grey", lw=0.8, ls="--")
+    ax.set(
+        xlabel="frame the event starts",
+        ylabel="minimum time to collision [s] (10 = 10 or more)",
+        title=f"{len(events)} hazard events",
+        ylim=(0, 10.5),
+    )
+    if len(events):
+        ax.legend(loc="upper right")
+    _save(fig, folder / "events.png")

@@ -21,7 +21,8 @@ REFERENCE_COLUMNS = [
 CAMERA_EXTRA_COLUMNS = [
     "camera_visible_px", "visible_fraction", "visibility_bin", "modal_left", "modal_top", "modal_right", "modal_bottom",
 ]  # fmt: skip
-EXTRA_COLUMNS = ["class_id", "parked", "distance", "lidar_points", "radar_points", *CAMERA_EXTRA_COLUMNS, "seen"]
+EXTRA_COLUMNS = ["class_id", "parked", "distance", "lidar_points", "radar_points", *CAMERA_EXTRA_COLUMNS, "seen",
+                 "ttc", "collision_radius", "path_distance", "hazard_event"]  # fmt: skip
 COLUMNS = REFERENCE_COLUMNS + EXTRA_COLUMNS
 
 # Columns of every camera after the first: "<camera name>_<column>".
@@ -52,6 +53,10 @@ def label_table(labels: FrameLabels) -> dict[str, npt.NDArray[np.generic]]:
         "lidar_points": labels.lidar_points,
         "radar_points": labels.radar_points,
         "seen": labels.seen.astype(np.int8),
+        "ttc": nan if labels.ttc_s is None else labels.ttc_s,
+        "collision_radius": nan if labels.collision_radius_m is None else labels.collision_radius_m,
+        "path_distance": nan if labels.path_distance_m is None else labels.path_distance_m,
+        "hazard_event": np.asarray(labels.hazard_event or ("",) * n, dtype=str),
     }  # fmt: skip
     cam = labels.first_camera
     if cam is not None:

@@ -106,8 +106,12 @@ def radar_cloud(ns: int, radar: RadarOutput) -> PointCloud:
     return _cloud(ns, radar.spec.name, packed, RADAR_FIELDS)
 
 
+HAZARD_RGB = (1.0, 0.0, 1.0)
+
+
 def box_update(ns: int, labels: FrameLabels, signal_states: dict[int, str] | None = None) -> SceneUpdate:
-    """A cube per labelled object, coloured by class (traffic lights by the state they show)."""
+    """A cube per labelled object, coloured by class (traffic lights by the state they show,
+    the actors of a hazard event magenta)."""
     o = labels.objects
     states = signal_states or {}
     entities = []
@@ -115,6 +119,9 @@ def box_update(ns: int, labels: FrameLabels, signal_states: dict[int, str] | Non
         cls = SemanticClass(int(o.semantic_class[i]))
         state = states.get(int(o.track_id[i]))
         r, g, b = STATE_RGB[state] if state is not None else CLASS_RGB.get(cls, (0.8, 0.8, 0.8))
+        event = labels.hazard_event[i] if labels.hazard_event else ""
+        if event:
+            r, g, b = HAZARD_RGB
         box_pose = pose(SE3.from_xyz_rpy(o.center_ego_m[i], yaw=float(o.yaw_ego_rad[i])))
         size = Vector3(x=float(o.lwh_m[i, 0]), y=float(o.lwh_m[i, 1]), z=float(o.lwh_m[i, 2]))
         cube = CubePrimitive(pose=box_pose, size=size, color=Color(r=r, g=g, b=b, a=0.35 if labels.seen[i] else 0.08))
@@ -122,6 +129,8 @@ def box_update(ns: int, labels: FrameLabels, signal_states: dict[int, str] | Non
                     "parked": str(bool(o.parked[i])).lower(), "seen": str(bool(labels.seen[i])).lower()}  # fmt: skip
         if state is not None:
             metadata["state"] = state
+        if event:
+            metadata["hazard_event"] = event
         entities.append(SceneEntity(
             timestamp=timestamp(ns), frame_id="ego", id=str(int(o.track_id[i])), cubes=[cube],
             metadata=[KeyValuePair(key=k, value=v) for k, v in metadata.items()],

@@ -11,6 +11,7 @@ from gtgen.lifetime import ClosedOnExit
 from gtgen.mapgt import MapSink
 from gtgen.sinks import Sink
 from gtgen.sinks.csv_sink import CsvSink
+from gtgen.sinks.events_sink import EventsSink
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.kitti_sink import KittiSink
 from gtgen.sinks.live import LiveAddress, LiveSink
@@ -43,10 +44,15 @@ class SinkChoice:
     traffic_lights: bool = False  # lights_and_signs.csv beside labels.csv (with csv)
     map_json: Path | None = None  # the whole map (networks.hdmap): map/ is written (frames carry their part)
     nuscenes: NuscenesSetup | None = None  # the nuScenes layout under nuscenes/
+    hazards: bool = False  # the run makes hazard events: events.csv (with csv), /gt/events
 
     @property
     def map(self) -> bool:
         return self.map_json is not None
+
+    @property
+    def events(self) -> bool:
+        return self.csv and self.hazards
 
     @property
     def lights_csv(self) -> bool:
@@ -55,7 +61,8 @@ class SinkChoice:
     def partial_paths(self) -> list[Path]:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
         names = {"mcap": "run.mcap", "csv": "labels.csv", "lights_csv": "lights_and_signs.csv", "kitti": "kitti",
-                 "yolo": "yolo", "map": "map", "nuscenes": "nuscenes"}  # fmt: skip
+                 "yolo": "yolo", "map": "map", "nuscenes": "nuscenes",
+                 "events": "event_frames.csv"}  # fmt: skip
         return [self.out_dir / f"{name}.partial" for kind, name in names.items() if getattr(self, kind)]
 
 
@@ -66,7 +73,7 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
     if kind == "live":
         if choice.live is None:
             raise ValueError("SinkChoice: no live address")
-        return LiveSink(choice.live, choice.map_world, choice.sensors, choice.map)
+        return LiveSink(choice.live, choice.map_world, choice.sensors, choice.map, choice.hazards)
     if kind == "csv":
         return CsvSink(out / "labels.csv", keep)
     if kind == "lights_csv":
@@ -75,6 +82,8 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
         return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego, choice.kitti_native_types)
     if kind == "map" and choice.map_json is not None:
         return MapSink(out / "map", choice.map_json, keep)
+    if kind == "events":
+        return EventsSink(out, keep)
     if kind == "nuscenes" and choice.nuscenes is not None:
         return NuscenesSink(out / "nuscenes", choice.nuscenes, keep)
     if kind == "resume":
@@ -102,7 +111,7 @@ class SinkGroup(ClosedOnExit):
         With ``announce``, their notices go to stderr."""
         kinds = [
             k
-            for k in ("mcap", "csv", "lights_csv", "kitti", "yolo", "map", "nuscenes", "live", "resume")
+            for k in ("mcap", "csv", "lights_csv", "events", "kitti", "yolo", "map", "nuscenes", "live", "resume")
             if getattr(choice, k)
         ]
         group = cls([], clock)

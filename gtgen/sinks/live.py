@@ -105,7 +105,7 @@ class FoxgloveServer:
 
     # --- any thread ---------------------------------------------------------------------------
     def advertise(self, channel_id: int, topic: str, proto: type | None) -> None:
-        schema = channel_schema(proto)
+        schema = channel_schema(proto, topic)
         text = base64.b64encode(schema.data).decode() if schema.encoding == "protobuf" else schema.data.decode()
         channel = {"id": channel_id, "topic": topic, "encoding": schema.message_encoding,
                    "schemaName": schema.name, "schema": text, "schemaEncoding": schema.encoding}  # fmt: skip
@@ -208,7 +208,7 @@ class LiveSink:
 
     def __init__(
         self, address: LiveAddress, map_world: Path | None = None, sensors: tuple[tuple[str, str], ...] = (),
-        map_vectors: bool = False,
+        map_vectors: bool = False, events: bool = False,
     ) -> None:  # fmt: skip
         try:
             self._server = FoxgloveServer(address.host, address.port)
@@ -218,7 +218,7 @@ class LiveSink:
         self.host, self.port = address.host, self._server.port
         self._map_world = map_world
         self._channels: dict[str, int] = {}
-        for topic, proto in planned_topics(sensors, map_world is not None, map_vectors) if sensors else []:
+        for topic, proto in planned_topics(sensors, map_world is not None, map_vectors, events) if sensors else []:
             self._channel(topic, proto)
 
     def _channel(self, topic: str, proto: type | None) -> int:

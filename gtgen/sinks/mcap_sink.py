@@ -50,6 +50,18 @@ from sensors.sensor import SensorOutput
 
 MAP_TOPIC = "/map"
 LABELS_TOPIC = "/gt/labels"
+EVENTS_TOPIC = "/gt/events"  # hazard events under way (runs with hazards)
+EVENTS_SCHEMA = {
+    "type": "object",
+    "properties": {
+        "frame": {"type": "integer"},
+        "timestamp_ns": {"type": "integer"},
+        "ego_collided": {"type": "boolean"},
+        "events": {"type": "array", "items": {"type": "object", "properties": {
+            "name": {"type": "string"}, "kind": {"type": "string"},
+            "actors": {"type": "array", "items": {"type": "integer"}}, "ego": {"type": "integer"}}}},
+    },
+}  # fmt: skip
 MAP_VECTORS_TOPIC = "/map/vectors"
 LAYOUT_FILE = "foxglove_layout.json"
 
@@ -103,9 +115,11 @@ class ChannelSchema:
     message_encoding: str  # "protobuf" or "json"
 
 
-def channel_schema(proto: type | None) -> ChannelSchema:
-    """The schema of a topic's messages: its protobuf's file descriptors, or (``None``) the
-    labels' JSON schema."""
+def channel_schema(proto: type | None, topic: str = LABELS_TOPIC) -> ChannelSchema:
+    """The schema of a topic's messages: its protobuf's file descriptors, or (``None``) the JSON
+    schema of the labels (or of the events, on their topic)."""
+    if proto is None and topic == EVENTS_TOPIC:
+        return ChannelSchema("gt.HazardEvents", "jsonschema", json.dumps(EVENTS_SCHEMA).encode(), "json")
     if proto is None:
         return ChannelSchema("gt.FrameLabels", "jsonschema", json.dumps(LABELS_SCHEMA).encode(), "json")
     descriptors = build_file_descriptor_set(proto).SerializeToString()
@@ -145,16 +159,23 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
     out.append(("/gt/boxes", fx.box_update(ns, record.labels, record.signals.state_of())))
     if record.map is not None:
         out.append((MAP_VECTORS_TOPIC, fx.map_lines(ns, record.map.vectors["elements"])))
+    if record.hazards is not None:
+        events = [
+            {"name": h.name, "kind": h.kind, "actors": list(h.actor_ids), "ego": h.ego_id} for h in record.hazards
+        ]
+        out.append((EVENTS_TOPIC, {"frame": record.frame_index, "timestamp_ns": ns, "ego_collided": record.ego_collided,
+                                   "events": events}))  # fmt: skip
     out.append((LABELS_TOPIC, labels_json(record)))
     return out
 
 
 def planned_topics(
-    sensors: tuple[tuple[str, str], ...], with_map: bool, with_map_vectors: bool = False
+    sensors: tuple[tuple[str, str], ...], with_map: bool, with_map_vectors: bool = False, with_events: bool = False
 ) -> list[tuple[str, type | None]]:
     """Every topic a run of a rig writes, with its protobuf class (None: JSON), known before its
     first frame. ``sensors``: (kind, name) pairs of the rig; ``with_map_vectors``: the run writes
-    map ground truth. The same topics as :func:`frame_messages`."""
+    map ground truth; ``with_events``: the run makes hazard events. The same topics as
+    :func:`frame_messages`."""
     topics: list[tuple[str, type | None]] = [(MAP_TOPIC, SceneUpdate)] if with_map else []
     topics.append(("/tf", FrameTransforms))
     topics += [(f"/{name}", PointCloud) for kind, name in sensors if kind == "lidar"]
@@ -163,6 +184,7 @@ def planned_topics(
         topics += [(f"/{name}/{k}", CompressedImage) for k in ("image", "depth", "instance", "class")]
         topics += [(f"/{name}/calibration", CameraCalibration), (f"/{name}/annotations", ImageAnnotations)]
     topics += [("/gt/boxes", SceneUpdate)] + ([(MAP_VECTORS_TOPIC, SceneUpdate)] if with_map_vectors else [])
+    topics += [(EVENTS_TOPIC, None)] if with_events else []
     return [*topics, (LABELS_TOPIC, None)]
 
 
@@ -255,7 +277,7 @@ class McapSink:
     def _channel(self, message: McapMessage) -> int:
         channel = self._channels.get(message.topic)
         if channel is None:
-            schema = channel_schema(message.proto)
+            schema = channel_schema(message.proto, message.topic)
             schema_id = self._writer.register_schema(schema.name, schema.encoding, schema.data)
             channel = self._writer.register_channel(message.topic, schema.message_encoding, schema_id)
             self._channels[message.topic] = channel

@@ -105,3 +105,15 @@ def test_a_run_whose_process_dies_is_tried_once_more_and_continues(tmp_path):
     (row,) = csv.DictReader((tmp_path / "sweep.csv").open())
     assert row["error"] == "" and row["attempts"] == "2" and int(row["kept_frames"]) >= 20
     assert json.loads((tmp_path / "tiny-s5" / "manifest.json").read_text())["frames"] == 60
+
+
+def test_a_sweep_scales_the_rates_of_the_scenarios_hazards(tmp_path):
+    from cosim.scenario import load_scenario
+    from cosim.sweep import plan
+
+    jobs = plan("town05_cut_ins", tmp_path, seeds=[1], hazard_scales=[0.5, 2])
+    assert [j.name for j in jobs] == ["town05_cut_ins-h0.5-s1", "town05_cut_ins-h2-s1"]
+    rates = [load_scenario(j.scenario, list(j.overrides)).hazards[0].per_minute for j in jobs]
+    assert rates == [5.0, 20.0]
+    with pytest.raises(ScenarioError, match="has no hazards to scale"):
+        plan("town05_crowded", tmp_path, hazard_scales=[2])
