@@ -5,8 +5,9 @@ Each hazard kind of the scenario is due about ``per_minute`` times a simulated m
 (exponential waits, from the scenario's seed); when one is due, it starts at the first step
 where the traffic around the ego allows it:
 
-Cut-ins and hard braking start only where the ego's lane runs straight ahead (a time to
-collision under constant velocity means little in a bend).
+Cut-ins, hard braking and jaywalkers start only where the ego's lane runs straight ahead (a
+time to collision under constant velocity means little in a bend, and a jaywalker crosses in
+the direction the road has at its start).
 
 - ``cut_in``: a vehicle ahead of the ego in a lane beside it, ``distance_m`` and ``time_gap_s``
   ahead, changes into the ego's lane at once (lane-change mode 0: SUMO's safety checks off for
@@ -258,8 +259,8 @@ class HazardController:
         when the ego is about its braking distance (plus 5 m) away."""
         lane_id = libsumo.vehicle.getLaneID(ego)
         speed = libsumo.vehicle.getSpeed(ego)
-        if lane_id.startswith(":") or speed < 2.0 or not self._walk_edges:
-            return None
+        if speed < 2.0 or not self._walk_edges or not _straight_ahead(ego, STRAIGHT_REACH_M):
+            return None  # on a straight road: the crossing direction, fixed at the start, stays across
         edge, lane_index = libsumo.vehicle.getRoadID(ego), libsumo.vehicle.getLaneIndex(ego)
         lanes = libsumo.edge.getLaneNumber(edge)
         driving = [i for i in range(lanes) if "passenger" in libsumo.lane.getAllowed(f"{edge}_{i}")
