@@ -263,25 +263,28 @@ class HazardController:
             return None  # on a straight road: the crossing direction, fixed at the start, stays across
         edge, lane_index = libsumo.vehicle.getRoadID(ego), libsumo.vehicle.getLaneIndex(ego)
         lanes = libsumo.edge.getLaneNumber(edge)
-        driving = [i for i in range(lanes) if "passenger" in libsumo.lane.getAllowed(f"{edge}_{i}")
-                   or not libsumo.lane.getAllowed(f"{edge}_{i}")]  # fmt: skip
-        width = libsumo.lane.getWidth(lane_id)
-        kerb_m = (lane_index - min(driving) + 0.5) * width  # from the ego's lane centre to its side's kerb
+        driving = [i for i in range(lanes) if "passenger" not in libsumo.lane.getDisallowed(f"{edge}_{i}")]
+        if lane_index not in driving:
+            return None
+        widths = [libsumo.lane.getWidth(f"{edge}_{i}") for i in range(lanes)]
+        kerb_m = widths[lane_index] / 2.0 + sum(widths[min(driving) : lane_index])  # ego lane centre to kerb
         across_path = kerb_m + JAYWALK_STEP_M - JAYWALK_PATH_M  # walked until the pedestrian is in the ego's path
         fast = speed + 2.0  # the ego may speed up meanwhile
         reach = fast * across_path / hazard.walk_mps + fast * fast / (2.0 * EGO_STOP_DECEL) + 5.0
         lo, hi = hazard.distance_m
         if not lo <= reach <= hi:
             return None
-        ex, ey = libsumo.vehicle.getPosition(ego)
-        heading = math.radians(90.0 - libsumo.vehicle.getAngle(ego))
-        fwd = np.array([math.cos(heading), math.sin(heading)])
+        position = libsumo.vehicle.getLanePosition(ego)
+        if reach + 10.0 > libsumo.lane.getLength(lane_id) - position:
+            return None  # stay on the ego's road
+        # the road's own direction and the ego's place across it (the ego may be changing lanes)
+        ex, ey = libsumo.simulation.convert2D(edge, position, lane_index)
+        ax, ay = libsumo.simulation.convert2D(edge, position + reach, lane_index)
+        fwd = np.array([ax - ex, ay - ey]) / max(math.hypot(ax - ex, ay - ey), 1e-6)
         left = np.array([-fwd[1], fwd[0]])
         leader = libsumo.vehicle.getLeader(ego, reach + 20.0)
         if leader and leader[0] and leader[1] < reach + 8.0:
             return None  # a vehicle ahead would drive through the pedestrian
-        if reach > libsumo.lane.getLength(lane_id) - libsumo.vehicle.getLanePosition(ego) + 5.0:
-            return None  # stay on the ego's road
         along, across = reach, -(kerb_m + JAYWALK_STEP_M)
         if hazard.behind_parked:  # from just before a parked car's front bumper, when one stands near there
             for vid in sorted(self._parked):
@@ -291,7 +294,7 @@ class HazardController:
                     along = float(rel @ fwd) + 0.8  # its front bumper is where SUMO puts it
                     break
         start = np.array([ex, ey]) + fwd * along + left * across
-        length = abs(across) + (max(driving) - lane_index + 0.5) * width + 1.0  # to beyond the far kerb
+        length = abs(across) + widths[lane_index] / 2.0 + sum(widths[lane_index + 1 : max(driving) + 1]) + 1.0
         self._people += 1
         person = f"jaywalker_{self._people}"
         libsumo.person.add(person, self._walk_edges[0], 0.0)
