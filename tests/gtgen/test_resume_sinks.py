@@ -92,3 +92,29 @@ def test_merging_what_holds_no_nuscenes_export_is_one_line(tmp_path, capsys):
     assert err == [f"error: {tmp_path / 'a'}: no nuScenes export (expected {tmp_path / 'a'}/nuscenes/v1.0-trainval; "
                    "run it with outputs.nuscenes=true)"]  # fmt: skip
     assert not (tmp_path / "out").exists()
+
+
+def test_events_of_a_run_stopped_and_continued_are_those_of_a_run_never_stopped(records, tmp_path):
+    from dataclasses import replace
+
+    from gtgen.frame import ActiveHazard
+
+    marked = [replace(r, hazards=(ActiveHazard("hard_brake-1", "hard_brake", (3, 5), 1),) if i else ())
+              for i, r in enumerate(records)]  # fmt: skip
+
+    def export(out: Path, upto: int, keep: int = 0) -> None:
+        out.mkdir(exist_ok=True)
+        choice = SinkChoice(out, mcap=False, kitti=False, yolo=False, hazards=True, keep_frames=keep)
+        with SinkGroup.open(choice) as sinks:
+            for record in marked[keep:upto]:
+                sinks.write(record)
+
+    export(tmp_path / "whole", 3)
+    export(tmp_path / "stopped", 2)
+    export(tmp_path / "stopped", 3, keep=1)
+    result = compare_datasets(tmp_path / "whole", tmp_path / "stopped")
+    assert result.same, result.differences
+    rows = (tmp_path / "whole" / "events.csv").read_text().splitlines()
+    assert rows[0].startswith("event,kind,first_frame,last_frame,frames,actors,ego_id,min_ttc,min_distance")
+    assert rows[1].startswith("hard_brake-1,hard_brake,1,2,2,3 5,1,")
+    assert len((tmp_path / "whole" / "event_frames.csv").read_text().splitlines()) == 3
