@@ -20,8 +20,9 @@ the direction the road has at its start).
   ``to_speed_mps``, holds it 2 s, then drives on; the ego follows with SUMO's car-following.
 - ``jaywalker``: a pedestrian steps off the kerb on the ego's side and walks across at
   ``walk_mps`` outside any crossing, where it reaches the ego's path when the ego is its
-  braking distance (at 7.5 m/s^2) plus 5 m away (within ``distance_m``); from just before a
-  parked car's front bumper when one stands there. The ego brakes (up to 7.5 m/s^2) for a
+  braking distance (at 7.5 m/s^2) plus 5 m away (within ``distance_m``); from just before the
+  front bumper of the tallest parked car standing near there, in line behind it as the ego
+  sees it. Jaywalkers are the scene's shortest pedestrian type. The ego brakes (up to 7.5 m/s^2) for a
   pedestrian within 40 m ahead that is in its path or will be before it could stop.
 - ``red_light``: while the ego approaches a green light ``distance_m`` away, a vehicle on a
   crossing approach with red drives through (speed mode 7: red lights and right of way
@@ -68,6 +69,7 @@ RED_MARGIN_S = 1.5  # it leaves the junction this long before the ego can reach 
 JUNCTION_M = 25.0  # the way through a junction
 JAYWALK_PATH_M, JAYWALK_LOOK_M = 1.8, 40.0  # the ego's path: this far either side of its lane centre
 JAYWALK_STEP_M = 0.6  # the pedestrian starts this far beyond the kerb
+JAYWALK_HIDDEN_M = 0.5  # and this much farther when it starts in front of a parked car
 
 
 @dataclass(slots=True)
@@ -84,8 +86,12 @@ class _Event:
 
 
 class HazardController:
-    def __init__(self, hazards: tuple[HazardConfig, ...], seed: int, parked: set[str], walk_edges: list[str]) -> None:
+    def __init__(
+        self, hazards: tuple[HazardConfig, ...], seed: int, parked: set[str], walk_edges: list[str],
+        pedestrian_type: str = "",
+    ) -> None:  # fmt: skip
         self._hazards = hazards
+        self._pedestrian_type = pedestrian_type  # the jaywalkers' (the smallest of the scene's pedestrians)
         self._walk_edges = sorted(walk_edges)
         self._rng = np.random.default_rng([seed, 0x4A2D])
         self._parked = parked
@@ -286,18 +292,21 @@ class HazardController:
         if leader and leader[0] and leader[1] < reach + 8.0:
             return None  # a vehicle ahead would drive through the pedestrian
         along, across = reach, -(kerb_m + JAYWALK_STEP_M)
-        if hazard.behind_parked:  # from just before a parked car's front bumper, when one stands near there
+        if hazard.behind_parked:  # from just before the front bumper of the tallest parked car near there
+            near = []
             for vid in sorted(self._parked):
-                px, py = libsumo.vehicle.getPosition(vid)
+                px, py = libsumo.vehicle.getPosition(vid)  # its front bumper
                 rel = np.array([px - ex, py - ey])
-                if abs(float(rel @ fwd) - reach) < 4.0 and -kerb_m - 4.5 < float(rel @ left) < -kerb_m:
-                    along = float(rel @ fwd) + 0.8  # its front bumper is where SUMO puts it
-                    break
+                if abs(float(rel @ fwd) - reach) < 6.0 and -kerb_m - 4.5 < float(rel @ left) < -kerb_m:
+                    near.append((libsumo.vehicle.getHeight(vid), float(rel @ fwd)))
+            if near:
+                along = max(near)[1] + 0.6
+                across -= JAYWALK_HIDDEN_M  # in line behind it, seen from the ego
         start = np.array([ex, ey]) + fwd * along + left * across
         length = abs(across) + widths[lane_index] / 2.0 + sum(widths[lane_index + 1 : max(driving) + 1]) + 1.0
         self._people += 1
         person = f"jaywalker_{self._people}"
-        libsumo.person.add(person, self._walk_edges[0], 0.0)
+        libsumo.person.add(person, self._walk_edges[0], 0.0, typeID=self._pedestrian_type or "DEFAULT_PEDTYPE")
         libsumo.person.appendWaitingStage(person, 3600.0)
         libsumo.person.moveToXY(person, "", float(start[0]), float(start[1]), 0.0, keepRoute=2)
         decel = libsumo.vehicle.getDecel(ego)

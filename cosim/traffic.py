@@ -130,7 +130,9 @@ class Traffic:
         if scenario.hazards:
             from cosim.hazards import HazardController
 
-            self._hazards = HazardController(scenario.hazards, scenario.seed, self._parked, self._index.walk_edges)
+            shortest = min(self._variants.get("pedestrian", []), key=lambda v: v.height_m, default=None)
+            self._hazards = HazardController(scenario.hazards, scenario.seed, self._parked, self._index.walk_edges,
+                                             shortest.type_id if shortest is not None else "")  # fmt: skip
         self._ego_collided = False
 
     def _open_targets(self, targets: dict[str, int]) -> dict[str, int]:

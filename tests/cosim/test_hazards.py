@@ -76,3 +76,15 @@ def test_a_hazard_the_network_cannot_have_stops_the_run_before_frame_0_with_one_
     assert proc.returncode != 0
     assert lines == ["error: hazards: red_light needs signalised junctions; this network has no traffic lights"]
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_a_jaywalker_is_a_pedestrian_hidden_behind_a_parked_car_then_in_the_open(tmp_path):
+    run(load_scenario("town05_jaywalkers", [*LIGHT[1:], "frames=515"]), tmp_path, progress=False)
+    events = pd.read_csv(tmp_path / "events.csv")
+    assert list(events["kind"]) == ["jaywalker"]
+    labels = load_labels(tmp_path / "labels.csv")
+    actor = labels[labels["hazard_event"] == events["event"][0]].sort_values("frame")
+    assert set(actor["type"]) == {"pedestrian"}
+    points = actor["lidar_points"].to_numpy()
+    assert points[0] == 0 and points[-1] > 3  # hidden from the LiDAR by the parked car, then not
