@@ -83,6 +83,7 @@ class _Event:
     started_s: float = 0.0
     hidden: bool = False  # a cut-in's approach: not an event yet
     gap_m: float = 0.0  # the gap a cut-in is made at
+    config: HazardConfig | None = None  # the scenario's entry it was made for
 
 
 class HazardController:
@@ -103,7 +104,7 @@ class HazardController:
     def _wait(self, hazard: HazardConfig, now: float = 0.0) -> float:
         return now + float(self._rng.exponential(60.0 / hazard.per_minute))
 
-    def step(self, ego: str, now: float, step_s: float) -> None:
+    def step(self, ego: str, now: float) -> None:
         """Move the events under way, end those that are over, start those that are due."""
         if self._due is None:
             self._due = [self._wait(h, now) for h in self._hazards]
@@ -111,7 +112,7 @@ class HazardController:
         for index, event in list(self._active.items()):
             was_hidden = event.hidden
             try:
-                done = self._advance(event, ego, now, step_s)
+                done = self._advance(event, ego, now)
             except libsumo.TraCIException:
                 done = True  # an actor left the simulation
             if was_hidden and not event.hidden:  # a cut-in's approach became the event: the next wait starts
@@ -142,13 +143,15 @@ class HazardController:
                                   track_id(ego)) for e in shown)  # fmt: skip
 
     # --- one step of an event under way ----------------------------------------------------
-    def _advance(self, event: _Event, ego: str, now: float, step_s: float) -> bool:
+    def _advance(self, event: _Event, ego: str, now: float) -> bool:
+        config = event.config
+        if config is None:
+            return True
         if event.hidden:
-            hazard = next(h for h in self._hazards if h.kind == event.kind)
-            return not self._cut_now(event, hazard, ego, now)
+            return not self._cut_now(event, config, ego, now)
         if event.kind == "jaywalker" and event.path is not None:
             start, direction, length = event.path
-            walked = (now - event.started_s) * self._hazards_walk(event)
+            walked = (now - event.started_s) * config.walk_mps
             person = event.actors[0]
             if walked >= length:
                 return True
@@ -161,7 +164,7 @@ class HazardController:
             rel = np.array([x - ex, y - ey])
             along, across = float(rel @ fwd), float(rel @ np.array([-fwd[1], fwd[0]]))
             speed = libsumo.vehicle.getSpeed(ego)
-            entering_s = max(0.0, (abs(across) - JAYWALK_PATH_M) / self._hazards_walk(event))
+            entering_s = max(0.0, (abs(across) - JAYWALK_PATH_M) / config.walk_mps)
             coming = across < JAYWALK_PATH_M and entering_s <= speed / EGO_STOP_DECEL + 1.0
             if -6.0 < along < JAYWALK_LOOK_M and coming:
                 libsumo.vehicle.setSpeed(ego, 0.0)  # the ego stops for a pedestrian stepping into its path
@@ -169,14 +172,13 @@ class HazardController:
                 libsumo.vehicle.setSpeed(ego, -1.0)
         return now >= event.ends_s
 
-    def _hazards_walk(self, event: _Event) -> float:
-        return next(h.walk_mps for h in self._hazards if h.kind == event.kind)
-
     # --- starting an event ------------------------------------------------------------------
     def _start(self, hazard: HazardConfig, ego: str, now: float) -> _Event | None:
         start = {"cut_in": self._cut_in, "hard_brake": self._hard_brake, "jaywalker": self._jaywalker,
                  "red_light": self._red_light}[hazard.kind]  # fmt: skip
         event = start(hazard, ego, now)
+        if event is not None:
+            event.config = hazard
         if event is not None and not event.hidden:
             self._count += 1
             event.number = self._count
@@ -405,9 +407,4 @@ def _straight_ahead(ego: str, reach_m: float) -> bool:
     return abs(math.degrees(math.atan2(math.sin(turn), math.cos(turn)))) <= STRAIGHT_DEG
 
 
-def ego_collisions(ego: str) -> bool:
-    """Whether SUMO saw the ego collide in the last step."""
-    return ego in libsumo.simulation.getCollidingVehiclesIDList()
-
-
-__all__ = ["ActiveHazard", "HazardController", "ego_collisions"]
+__all__ = ["ActiveHazard", "HazardController"]

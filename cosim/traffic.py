@@ -403,7 +403,7 @@ class Traffic:
         self._keep_ego_going()
         if self._hazards is not None:
             self._ego_collided = self._ego in libsumo.simulation.getCollidingVehiclesIDList()
-            self._hazards.step(self._ego, self._time(), self._scenario.step_s)
+            self._hazards.step(self._ego, self._time())
         if self._watch_radius_m is not None:
             libsumo.poi.setPosition(PERSON_ANCHOR, x, y)
         if round(libsumo.simulation.getTime() / self._scenario.step_s) % 20 == 0:
