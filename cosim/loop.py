@@ -43,7 +43,10 @@ from networks.geometry import SE3
 from networks.hdmap import MAP_VERSION, HdMap, build_map
 from networks.markings import is_left_hand
 from networks.street import street_objects
+from sensors.camera import CameraSpec
 from sensors.engine import Scene
+from sensors.lidar import LidarSpec
+from sensors.radar import RadarSpec
 from sensors.scene import StaticCrop
 
 AGENT_MARGIN_M = 10.0
@@ -196,10 +199,9 @@ def sink_choice(
     map_json: Path | None = None,
 ) -> SinkChoice:  # fmt: skip
     """The run's outputs; with ``point``, those of a run that continues an earlier one."""
-    o, rig = scenario.outputs, scenario.sensors
+    o = scenario.outputs
     keep, first = (0, None) if point is None else (point.frames, point.first_map_SE3_ego)
-    sensors = tuple((kind, s.name) for kind, specs in (("lidar", rig.lidars), ("camera", rig.cameras),
-                                                       ("radar", rig.radars)) for s in specs)  # fmt: skip
+    sensors = tuple((kind, spec.name) for kind, spec in rig_specs(scenario))
     return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address,
                       sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first,
                       kitti_native_types=o.kitti_types == "native",
@@ -208,14 +210,19 @@ def sink_choice(
                       hazards=bool(scenario.hazards))  # fmt: skip
 
 
+def rig_specs(scenario: Scenario) -> list[tuple[str, LidarSpec | CameraSpec | RadarSpec]]:
+    """The rig's sensor specs with their kind, in rig order (LiDARs, cameras, radars)."""
+    rig = scenario.sensors
+    return [(kind, spec) for kind, specs in (("lidar", rig.lidars), ("camera", rig.cameras), ("radar", rig.radars))
+            for spec in specs]  # fmt: skip
+
+
 def nuscenes_setup(scenario: Scenario, out_dir: Path, map_json: Path | None) -> NuscenesSetup | None:
     """What the nuScenes export needs of the run (None: not asked for). The run's folder name
     names its log and scenes."""
     if not scenario.outputs.nuscenes:
         return None
-    rig = scenario.sensors
-    sensors = tuple((kind, s.name, s.rate_hz) for kind, specs in (("lidar", rig.lidars), ("camera", rig.cameras),
-                                                                ("radar", rig.radars)) for s in specs)  # fmt: skip
+    sensors = tuple((kind, spec.name, spec.rate_hz) for kind, spec in rig_specs(scenario))
     path = scenario.network_path()
     location = scenario.network if path is None else path.stem
     return NuscenesSetup(out_dir.resolve().name, scenario.step_s, sensors, location, map_json)

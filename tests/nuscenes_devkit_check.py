@@ -107,6 +107,17 @@ def render(nusc: NuScenes, out: Path) -> list[str]:
     return written
 
 
+def submission(path: Path, boxes: object, score: str, samples: list[str]) -> Path:
+    """A results file of ``boxes`` (the devkit's EvalBoxes), each with ``score`` 1, every
+    sample of the split present."""
+    meta = {"use_camera": False, "use_lidar": True, "use_radar": False, "use_map": False, "use_external": False}
+    results: dict[str, list[dict[str, object]]] = {t: [] for t in samples}
+    for box in boxes.all:  # type: ignore[attr-defined]
+        results[box.sample_token].append({**box.serialize(), score: 1.0})
+    path.write_text(json.dumps({"meta": meta, "results": results}, default=lambda v: v.tolist()))
+    return path
+
+
 def ground_truth_as_predictions(nusc: NuScenes, split: str, out: Path) -> dict[str, float]:
     """The devkit's detection and tracking evaluations of the ground truth, submitted as
     predictions (the boxes the devkit keeps for evaluation, score 1)."""
@@ -130,14 +141,7 @@ def ground_truth_as_predictions(nusc: NuScenes, split: str, out: Path) -> dict[s
     finally:
         detection_data_classes.DETECTION_NAMES = names
     config.class_names = present
-    meta = {"use_camera": False, "use_lidar": True, "use_radar": False, "use_map": False, "use_external": False}
-    results = {t: [] for t in samples}
-    for box in gt.all:
-        record = box.serialize()
-        record["detection_score"] = 1.0
-        results[box.sample_token].append(record)
-    det_path = out / "detection_results.json"
-    det_path.write_text(json.dumps({"meta": meta, "results": results}, default=lambda v: v.tolist()))
+    det_path = submission(out / "detection_results.json", gt, "detection_score", samples)
     det = DetectionEval(nusc, config=config, result_path=str(det_path), eval_set=split,
                         output_dir=str(out / "detection"), verbose=False)  # fmt: skip
     metrics, _ = det.evaluate()
@@ -153,13 +157,7 @@ def ground_truth_as_predictions(nusc: NuScenes, split: str, out: Path) -> dict[s
     tracking["class_range"] = {c: tracking_default.class_range[c] for c in loaded_tracks}
     tracking_config = TrackingConfig.deserialize(tracking)
     tracking_config.class_names = tracked
-    tracks = {t: [] for t in samples}
-    for box in tgt.all:
-        record = box.serialize()
-        record["tracking_score"] = 1.0
-        tracks[box.sample_token].append(record)
-    track_path = out / "tracking_results.json"
-    track_path.write_text(json.dumps({"meta": meta, "results": tracks}, default=lambda v: v.tolist()))
+    track_path = submission(out / "tracking_results.json", tgt, "tracking_score", samples)
     trk = TrackingEval(config=tracking_config, result_path=str(track_path), eval_set=split,
                        output_dir=str(out / "tracking"), nusc_version=nusc.version, nusc_dataroot=nusc.dataroot,
                        verbose=False)  # fmt: skip
