@@ -69,7 +69,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from cosim.loop import run
     from cosim.resume import AlreadyCompleteError
     from cosim.scenario import load_scenario
-    from gtgen.summary import write_summary
+    from gtgen.summary import hazard_lines, write_summary
 
     overrides = list(args.overrides)
     if args.frames is not None:
@@ -92,7 +92,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if not args.no_summary:
         write_summary(out_dir)
     print(f"wrote {out_dir}/")
-    for line in summary.lines():
+    for line in [*summary.lines(), *hazard_lines(out_dir)]:
         print(line)
     return 0
 

@@ -62,7 +62,8 @@ class HazardConfig:
     seconds at the ego's speed. ``decel_mps2``: hard_brake's deceleration; ``to_speed_mps``:
     the speed it brakes to (0: a stop). ``walk_mps``: the jaywalker's speed;
     ``behind_parked``: the jaywalker steps out from in front of a parked vehicle when one
-    stands there."""
+    stands there; ``child``: the jaywalker is a child 1.15 m tall (the size of Euro NCAP's
+    child target), hidden by a parked car's roof, rather than the scene's shortest adult."""
 
     kind: Literal["cut_in", "hard_brake", "jaywalker", "red_light"]
     per_minute: float = 1.0
@@ -72,6 +73,7 @@ class HazardConfig:
     to_speed_mps: float = 0.0
     walk_mps: float = 1.6
     behind_parked: bool = True
+    child: bool = True
 
     def __post_init__(self) -> None:
         _check(0 < self.per_minute <= 30, "per_minute", "events per minute in (0, 30]", self.per_minute)

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from gtgen.counting import count_hits
-from gtgen.criticality import collision_radius, path_distance, time_to_collision
+from gtgen.criticality import path_distance, time_to_collision
 from gtgen.objects import ObjectBoxes
 from gtgen.projection import CameraBoxes, camera_boxes
 from gtgen.visibility import CameraVisibility, SilhouetteCaster, camera_visibility
@@ -49,7 +49,7 @@ class FrameLabels:
     cameras: tuple[CameraLabels, ...] = ()
     camera_names: tuple[str, ...] = ()  # every camera of the rig ('': those of ``cameras``)
     ttc_s: npt.NDArray[np.float64] | None = None  # time to collision with the ego (NaN: none); see criticality
-    collision_radius_m: npt.NDArray[np.float64] | None = None
+    ego_lw_m: tuple[float, float] = (0.0, 0.0)  # the ego's footprint the time to collision is to
     path_distance_m: npt.NDArray[np.float64] | None = None  # to the ego's predicted path
     hazard_event: tuple[str, ...] = ()  # per object: the hazard event it is an actor of ('' none; () no hazards)
 
@@ -113,12 +113,12 @@ def label_frame(
     camera_labels = tuple(_camera_labels(camera, kept, map_SE3_ego, scene, px[keep])
                           for camera, px in zip(cameras, pixels_per_camera, strict=True))  # fmt: skip
     p_xy, v_xy = kept.center_ego_m[:, :2], kept.velocity_ego_mps[:, :2]
-    radius = collision_radius(kept.lwh_m[:, :2], ego.lwh_m[:2])
-    ttc = time_to_collision(p_xy, v_xy, radius)
+    ego_lw = (float(ego.lwh_m[0]), float(ego.lwh_m[1]))
+    ttc = time_to_collision(p_xy, v_xy, kept.yaw_ego_rad, kept.lwh_m[:, :2], np.array(ego_lw))
     near_path = path_distance(p_xy, float(np.linalg.norm(ego.velocity_map_mps[:2])))
     hazard = () if events is None else tuple(events.get(int(t), "") for t in kept.track_id)
     return FrameLabels(frame_index, timestamp_ns, kept, distance[keep], lidar[keep], radar[keep], seen[keep],
-                       camera_labels, camera_names, ttc, radius, near_path, hazard)  # fmt: skip
+                       camera_labels, camera_names, ttc, ego_lw, near_path, hazard)  # fmt: skip
 
 
 def _camera_labels(

@@ -9,6 +9,7 @@ collision) and ``events.png`` (each event's minimum time to collision, by kind).
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 from typing import Any
@@ -146,6 +147,21 @@ def draw_camera_boxes(image: npt.NDArray[np.uint8], rows: pd.DataFrame) -> npt.N
     return out
 
 
+def hazard_lines(out_dir: Path) -> list[str]:
+    """What the run's summary says of its hazard events, a line per kind ([] without hazards)."""
+    table = out_dir / "summary" / "events.csv"
+    if not table.exists():
+        return []
+    lines = []
+    for row in pd.read_csv(table).itertuples():
+        ttc = "" if pd.isna(row.smallest_min_ttc) else f", smallest time to collision {row.smallest_min_ttc:.2f} s"
+        lines.append(f"hazard events, {row.kind}: {row.events} ({row.per_minute:.1f} a minute, "
+                     f"{row.asked_per_minute:g} asked{ttc})")  # fmt: skip
+        if row.per_minute < row.asked_per_minute / 2:
+            lines.append(f"  fewer than asked: a {row.kind} starts only where the traffic around the ego allows it")
+    return lines
+
+
 def write_summary(out_dir: Path, picture_frames: int = 3) -> pd.DataFrame:
     """Write ``out_dir/summary`` from ``labels.csv`` and ``run.mcap``; return the class table."""
     labels = load_labels(out_dir / "labels.csv")
@@ -161,21 +177,31 @@ def write_summary(out_dir: Path, picture_frames: int = 3) -> pd.DataFrame:
         frame_pictures(out_dir / "run.mcap", labels, picks, folder)
     if (out_dir / "events.csv").exists():
         minutes = labels["timestamp"].nunique() and (labels["timestamp"].max() - labels["timestamp"].min()) / 60.0
-        event_summary(pd.read_csv(out_dir / "events.csv"), float(minutes or 0.0), folder)
+        asked: dict[str, float] = {}
+        manifest = out_dir / "manifest.json"
+        scenario = json.loads(manifest.read_text()).get("scenario", {}) if manifest.exists() else {}
+        for hazard in scenario.get("hazards", []):
+            asked[hazard["kind"]] = asked.get(hazard["kind"], 0.0) + float(hazard["per_minute"])
+        event_summary(pd.read_csv(out_dir / "events.csv"), float(minutes or 0.0), folder, asked)
     return stats
 
 
-def event_summary(events: pd.DataFrame, minutes: float, folder: Path) -> None:
-    """``summary/events.csv`` (per kind: events, per minute, median and smallest minimum time to
-    collision) and ``summary/events.png`` (each event's minimum time to collision)."""
+def event_summary(events: pd.DataFrame, minutes: float, folder: Path, asked: dict[str, float] | None = None) -> None:
+    """``summary/events.csv`` (per kind: events, per minute and as asked in the scenario, median
+    and smallest minimum time to collision) and ``summary/events.png`` (each event's minimum
+    time to collision). ``asked``: the scenario's events per minute of each kind (kinds without
+    an event are listed too)."""
+    asked = asked or {}
     rows = []
-    for kind, group in events.groupby("kind"):
+    for kind in sorted(set(events["kind"]) | set(asked)):
+        group = events[events["kind"] == kind]
         ttc = group["min_ttc"].dropna()
         rows.append({"kind": kind, "events": len(group), "per_minute": len(group) / minutes if minutes else np.nan,
+                     "asked_per_minute": asked.get(kind, np.nan),
                      "median_min_ttc": float(ttc.median()) if len(ttc) else np.nan,
                      "smallest_min_ttc": float(ttc.min()) if len(ttc) else np.nan,
                      "ego_collided": int(group["ego_collided"].sum())})  # fmt: skip
-    columns = ["kind", "events", "per_minute", "median_min_ttc", "smallest_min_ttc", "ego_collided"]
+    columns = ["kind", "events", "per_minute", "asked_per_minute", "median_min_ttc", "smallest_min_ttc", "ego_collided"]
     pd.DataFrame(rows, columns=columns).to_csv(folder / "events.csv", index=False, float_format="%.3f")
     fig, ax = plt.subplots(figsize=(8, 4))
     for kind, group in events.groupby("kind"):

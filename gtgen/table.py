@@ -22,7 +22,7 @@ CAMERA_EXTRA_COLUMNS = [
     "camera_visible_px", "visible_fraction", "visibility_bin", "modal_left", "modal_top", "modal_right", "modal_bottom",
 ]  # fmt: skip
 EXTRA_COLUMNS = ["class_id", "parked", "distance", "lidar_points", "radar_points", *CAMERA_EXTRA_COLUMNS, "seen",
-                 "ttc", "collision_radius", "path_distance", "hazard_event"]  # fmt: skip
+                 "ttc", "ego_length", "ego_width", "path_distance", "hazard_event"]  # fmt: skip
 COLUMNS = REFERENCE_COLUMNS + EXTRA_COLUMNS
 
 # Columns of every camera after the first: "<camera name>_<column>".
@@ -54,7 +54,7 @@ def label_table(labels: FrameLabels) -> dict[str, npt.NDArray[np.generic]]:
         "radar_points": labels.radar_points,
         "seen": labels.seen.astype(np.int8),
         "ttc": nan if labels.ttc_s is None else labels.ttc_s,
-        "collision_radius": nan if labels.collision_radius_m is None else labels.collision_radius_m,
+        "ego_length": np.full(n, labels.ego_lw_m[0]), "ego_width": np.full(n, labels.ego_lw_m[1]),
         "path_distance": nan if labels.path_distance_m is None else labels.path_distance_m,
         "hazard_event": np.asarray(labels.hazard_event or ("",) * n, dtype=str),
     }  # fmt: skip

@@ -14,7 +14,7 @@ from networks.errors import NetconvertError, NetworkError
 from networks.sumo_tools import sumo_binary
 from networks.world import lane_footprint, load_net
 
-CONVERT_VERSION = "6"
+CONVERT_VERSION = "7"
 
 # Sidewalks and crossings for pedestrians, smooth lane shapes, z kept from the file.
 IMPORT_OPTIONS: tuple[str, ...] = (
@@ -120,6 +120,7 @@ def import_opendrive(xodr_path: Path) -> Path:
                 )
         (scratch / "netconvert.log").replace(folder / "netconvert.log")
         _drop_header_comment(partial)
+        _keep_off_motorways(partial, motorway_roads(source))
         partial.replace(net)
     seal(net)
     return net
@@ -130,6 +131,41 @@ def _drop_header_comment(net_path: Path) -> None:
     file, and every cache key made from it, depends on the network only."""
     text = net_path.read_text(encoding="utf-8")
     net_path.write_text(re.sub(r"<!--.*?-->\s*", "", text, count=1, flags=re.DOTALL), encoding="utf-8")
+
+
+MOTORWAY_BANNED = ("bicycle", "moped", "pedestrian")  # off roads of OpenDRIVE type "motorway"
+
+
+def motorway_roads(xodr_path: Path) -> set[str]:
+    """Ids of the OpenDRIVE roads with a ``<type type="motorway">`` record."""
+    try:
+        roads = ElementTree.parse(xodr_path).getroot().iter("road")
+    except ElementTree.ParseError:
+        return set()
+    return {road.get("id", "") for road in roads if any(t.get("type") == "motorway" for t in road.iter("type"))}
+
+
+def _keep_off_motorways(net_path: Path, roads: set[str]) -> None:
+    """Close the lanes of motorway roads to bicycles, mopeds and pedestrians (netconvert gives
+    an OpenDRIVE driving lane to every vehicle class, whatever its road's type); lanes are
+    found by the road in their ``origId``."""
+    if not roads:
+        return
+    tree = ElementTree.parse(net_path)
+    changed = False
+    for lane in tree.getroot().iter("lane"):
+        origin = next((p.get("value", "") for p in lane.iter("param") if p.get("key") == "origId"), "")
+        if not any(part.rsplit("_", 1)[0] in roads for part in origin.split()):
+            continue
+        if "allow" in lane.attrib:
+            kept = [c for c in lane.attrib["allow"].split() if c not in MOTORWAY_BANNED]
+            lane.set("allow", " ".join(kept))
+        else:
+            banned = lane.get("disallow", "").split()
+            lane.set("disallow", " ".join([*banned, *(c for c in MOTORWAY_BANNED if c not in banned)]))
+        changed = True
+    if changed:
+        tree.write(net_path, encoding="UTF-8", xml_declaration=True)
 
 
 def conversion_notice(net_path: Path) -> str:

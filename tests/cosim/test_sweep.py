@@ -111,9 +111,9 @@ def test_a_sweep_scales_the_rates_of_the_scenarios_hazards(tmp_path):
     from cosim.scenario import load_scenario
     from cosim.sweep import plan
 
-    jobs = plan("town05_cut_ins", tmp_path, seeds=[1], hazard_scales=[0.5, 2])
-    assert [j.name for j in jobs] == ["town05_cut_ins-h0.5-s1", "town05_cut_ins-h2-s1"]
+    jobs = plan("town06_cut_ins", tmp_path, seeds=[1], hazard_scales=[0.5, 2])
+    assert [j.name for j in jobs] == ["town06_cut_ins-h0.5-s1", "town06_cut_ins-h2-s1"]
     rates = [load_scenario(j.scenario, list(j.overrides)).hazards[0].per_minute for j in jobs]
-    assert rates == [5.0, 20.0]
+    assert rates == [1.5, 6.0]  # the catalog asks 3 a minute
     with pytest.raises(ScenarioError, match="has no hazards to scale"):
         plan("town05_crowded", tmp_path, hazard_scales=[2])

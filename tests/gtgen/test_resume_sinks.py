@@ -5,10 +5,13 @@ import json
 import shutil
 from pathlib import Path
 
+import pandas as pd
+
 from gtgen.compare import compare_datasets
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.sinks.mcap_sink import complete_frames
 from gtgen.sinks.resume_sink import read_states
+from gtgen.summary import event_summary, hazard_lines
 
 
 def write(records, out: Path, keep_frames: int = 0, first=None) -> None:
@@ -118,3 +121,19 @@ def test_events_of_a_run_stopped_and_continued_are_those_of_a_run_never_stopped(
     assert rows[0].startswith("event,kind,first_frame,last_frame,frames,actors,ego_id,min_ttc,min_distance")
     assert rows[1].startswith("hard_brake-1,hard_brake,1,2,2,3 5,1,")
     assert len((tmp_path / "whole" / "event_frames.csv").read_text().splitlines()) == 3
+
+
+def test_the_summary_lists_every_hazard_kind_asked_with_its_rate_even_without_events(tmp_path):
+    events = pd.DataFrame({"event": ["cut_in-1"], "kind": ["cut_in"], "first_frame": [10], "min_ttc": [2.5],
+                           "ego_collided": [0]})  # fmt: skip
+    folder = tmp_path / "summary"
+    folder.mkdir()
+    event_summary(events, 0.5, folder, {"cut_in": 4.0, "red_light": 1.0})
+    table = pd.read_csv(folder / "events.csv")
+    assert list(table["kind"]) == ["cut_in", "red_light"]
+    assert list(table["events"]) == [1, 0] and list(table["per_minute"]) == [2.0, 0.0]
+    assert list(table["asked_per_minute"]) == [4.0, 1.0]
+    lines = hazard_lines(tmp_path)
+    assert lines[0] == "hazard events, cut_in: 1 (2.0 a minute, 4 asked, smallest time to collision 2.50 s)"
+    assert lines[1] == "hazard events, red_light: 0 (0.0 a minute, 1 asked)"
+    assert lines[2].startswith("  fewer than asked: a red_light starts only where")

@@ -99,3 +99,15 @@ def test_left_hand_geometry_without_a_rule_is_read_as_left_hand_traffic():
     assert sidewalks_on_driving_lanes(net_path) < 0.01
     assert "read as left-hand traffic" in conversion_notice(net_path)
     assert conversion_notice(import_opendrive(XODR / "lane_types.xodr")) == ""
+
+
+def test_motorways_are_closed_to_bicycles_and_pedestrians(tmp_path):
+    """netconvert opens an OpenDRIVE driving lane to every class; on a road of type motorway
+    bicycles (and mopeds, pedestrians) are kept off: no bicycle slows the ego on a motorway."""
+    town = _convert("lane_types.xodr")
+    assert any(lane.allows("bicycle") for lane in _driving_lanes(town))
+    motorway = tmp_path / "motorway.xodr"
+    motorway.write_text((XODR / "lane_types.xodr").read_text().replace('type="town"', 'type="motorway"'))
+    lanes = _driving_lanes(load_net(import_opendrive(motorway)))
+    assert len(lanes) >= 2
+    assert not any(lane.allows(c) for lane in lanes for c in ("bicycle", "moped", "pedestrian"))
