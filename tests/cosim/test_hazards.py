@@ -20,7 +20,7 @@ from gtgen.load import load_labels
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data"
 # the catalog's hard-braking scene up to its second event, with a LiDAR alone (faster)
-LIGHT = ["frames=620", "sensors.cameras=[]", "sensors.radars=[]", "outputs.kitti=false", "outputs.yolo=false",
+LIGHT = ["frames=720", "sensors.cameras=[]", "sensors.radars=[]", "outputs.kitti=false", "outputs.yolo=false",
          "outputs.mcap=false", "outputs.map=false"]  # fmt: skip
 
 
@@ -94,7 +94,8 @@ def _events_of_traffic(scene: str, frames: int) -> list[tuple[int, str, tuple[in
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("scene", "frames"), [("town06_cut_ins", 330), ("town05_red_light", 620)])
+@pytest.mark.parametrize(("scene", "frames"), [("town06_cut_ins", 330), ("town05_red_light", 620),
+                                               ("town05_jaywalkers", 720)])  # fmt: skip
 def test_the_same_seed_makes_the_same_events(scene, frames):
     first = _events_of_traffic(scene, frames)
     assert first, f"{scene}: no event in {frames} frames"
@@ -115,12 +116,19 @@ def test_a_hazard_the_network_cannot_have_stops_the_run_before_frame_0_with_one_
 
 
 @pytest.mark.slow
-def test_a_jaywalker_is_a_pedestrian_hidden_behind_a_parked_car_then_in_the_open(tmp_path):
-    run(load_scenario("town05_jaywalkers", [*LIGHT[1:], "frames=515"]), tmp_path, progress=False)
+def test_a_jaywalker_is_a_child_hidden_behind_a_parked_car_then_in_the_open(tmp_path):
+    """The catalog's jaywalker steps out in front of a parked car: no LiDAR point and no pixel
+    at first (the child is lower than the car's roof), then fully visible."""
+    light = ["frames=715", "sensors.radars=[]", "outputs.kitti=false", "outputs.yolo=false", "outputs.mcap=false",
+             "outputs.map=false"]  # fmt: skip
+    run(load_scenario("town05_jaywalkers", light), tmp_path, progress=False)
     events = pd.read_csv(tmp_path / "events.csv")
     assert list(events["kind"]) == ["jaywalker"]
+    assert events["seen_lidar"][0] == 0 and events["seen_camera"][0] == 0
     labels = load_labels(tmp_path / "labels.csv")
     actor = labels[labels["hazard_event"] == events["event"][0]].sort_values("frame")
-    assert set(actor["type"]) == {"pedestrian"}
-    points = actor["lidar_points"].to_numpy()
-    assert points[0] == 0 and points[-1] > 3  # hidden from the LiDAR by the parked car, then not
+    assert set(actor["type"]) == {"pedestrian"} and set(actor["h"]) == {1.15}
+    first, last = actor.iloc[0], actor.iloc[-1]
+    assert first["lidar_points"] == 0 and first["camera_visible_px"] == 0 and first["visible_fraction"] == 0
+    assert first["occluded"] == 3  # fully occluded
+    assert last["lidar_points"] > 3 and last["visible_fraction"] > 0.9 and last["occluded"] == 0
