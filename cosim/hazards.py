@@ -69,6 +69,7 @@ EGO_STOP_DECEL = 7.5
 CUT_IN_HOLD_S, CUT_IN_S = 4.0, 6.0
 CUT_IN_SPEED_SHARE, CUT_IN_BRAKE_S = 0.5, 2.0  # the cutting vehicle slows to half the ego's speed within 2 s
 REACTION_S = 0.6  # the ego's driver decides this often while surprised (SUMO's action step length)
+CUT_IN_LATERAL_MPS = 2.5  # the cutting vehicle's sideways speed
 CUT_IN_ROOM_M = 1.0  # free space it needs in front of it in the ego's lane (no one is cut into)
 CUT_IN_MAX_DECEL = 4.0  # m/s^2: the cutting vehicle brakes no harder than this (the ego can follow)
 CUT_IN_SPEED_FACTOR = 1.3  # of the speed limit, while it overtakes the ego
@@ -269,6 +270,8 @@ class HazardController:
         lane = _into_ego_lane(ego, vid)
         if lane is None or not _straight_ahead(ego, STRAIGHT_REACH_M):
             return now < event.ends_s
+        lateral = libsumo.vehicle.getMaxSpeedLat(vid)
+        libsumo.vehicle.setMaxSpeedLat(vid, CUT_IN_LATERAL_MPS)  # across in about 1.5 s (a lane change is 3 s)
         libsumo.vehicle.setLaneChangeMode(vid, 0)
         libsumo.vehicle.changeLane(vid, lane, CUT_IN_HOLD_S)
         slower = max(CUT_IN_SPEED_SHARE * ego_speed, ego_speed - CUT_IN_MAX_DECEL * CUT_IN_BRAKE_S)
@@ -280,6 +283,7 @@ class HazardController:
         libsumo.vehicle.setLaneChangeMode(ego, 0)  # the ego keeps its lane and brakes (no swerving around)
         event.restore.append(_react_late(ego))
         event.restore += [lambda: libsumo.vehicle.setDecel(vid, decel),
+                          lambda: libsumo.vehicle.setMaxSpeedLat(vid, lateral),
                           lambda: libsumo.vehicle.setLaneChangeMode(vid, LANE_CHANGE_DEFAULT),
                           lambda: libsumo.vehicle.setLaneChangeMode(ego, ego_mode)]  # fmt: skip
         self._count += 1

@@ -41,6 +41,7 @@ import libsumo  # noqa: E402
 import sumolib  # noqa: E402
 
 EGO_ID = "ego"
+LANE_CHANGE_S = 3.0  # a lane change takes this long (SUMO's continuous lane change); at 0 it is one step
 # Every vehicle re-plans its route each minute on the travel times SUMO measures, so
 # traffic spreads around queues instead of feeding them (the jams of a crowded town).
 REROUTING_OPTIONS = ("--device.rerouting.probability", "1", "--device.rerouting.period", "60")
@@ -100,6 +101,7 @@ class Traffic:
             str(sumo_binary("sumo")), "-n", str(net_path), "--step-length", f"{scenario.step_s}",
             "--seed", str(scenario.seed), "--no-step-log", "true", "--no-warnings", "true",
             "--time-to-teleport", "120", "--collision.action", "warn", "--begin", "0",
+            "--lanechange.duration", f"{LANE_CHANGE_S}",  # vehicles move across lanes, not jump
             *REROUTING_OPTIONS,
         ]  # fmt: skip
         if self._parking:

@@ -20,7 +20,7 @@ from gtgen.load import load_labels
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data"
 # the catalog's hard-braking scene up to its second event, with a LiDAR alone (faster)
-LIGHT = ["frames=720", "sensors.cameras=[]", "sensors.radars=[]", "outputs.kitti=false", "outputs.yolo=false",
+LIGHT = ["frames=600", "sensors.cameras=[]", "sensors.radars=[]", "outputs.kitti=false", "outputs.yolo=false",
          "outputs.mcap=false", "outputs.map=false"]  # fmt: skip
 
 
@@ -94,7 +94,7 @@ def _events_of_traffic(scene: str, frames: int) -> list[tuple[int, str, tuple[in
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("scene", "frames"), [("town06_cut_ins", 330), ("town05_red_light", 620),
+@pytest.mark.parametrize(("scene", "frames"), [("town06_cut_ins", 480), ("town05_red_light", 620),
                                                ("town05_jaywalkers", 720)])  # fmt: skip
 def test_the_same_seed_makes_the_same_events(scene, frames):
     first = _events_of_traffic(scene, frames)

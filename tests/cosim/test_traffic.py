@@ -175,3 +175,27 @@ def test_agents_read_around_the_ego_equal_those_found_among_all_agents():
             kinds["parked"] += int(near.agents.parked.sum())
             kinds["pedestrian"] += int(np.sum(near.agents.semantic_class == SemanticClass.PEDESTRIAN))
     assert kinds["parked"] > 0 and kinds["pedestrian"] > 0, kinds
+
+
+def test_vehicles_change_lanes_by_moving_across_not_by_jumping():
+    """A lane change takes SUMO's continuous lane-change time: where a vehicle's lane index
+    changes, its sideways position moves on by a step's worth (SUMO's default, a jump of a
+    lane width in one step, would teleport its box 3.5 m between two frames)."""
+    import libsumo
+
+    with running("town06_cut_ins", "traffic.pedestrians=0", "hazards=[]"):
+        last: dict[str, tuple[str, int, float]] = {}
+        shifts = []
+        for _ in range(600):
+            libsumo.simulationStep()
+            for vid in libsumo.vehicle.getIDList():
+                road, index = libsumo.vehicle.getRoadID(vid), libsumo.vehicle.getLaneIndex(vid)
+                lateral = libsumo.vehicle.getLateralLanePosition(vid)  # from its lane's centre, + left
+                if vid in last and last[vid][0] == road and last[vid][1] != index:
+                    before = last[vid][1]
+                    widths = libsumo.lane.getWidth(f"{road}_{before}"), libsumo.lane.getWidth(f"{road}_{index}")
+                    half_widths = sum(widths) / 2
+                    shifts.append(lateral - last[vid][2] + (index - before) * half_widths)
+                last[vid] = (road, index, lateral)
+    assert len(shifts) >= 10  # lane changes happened
+    assert max(abs(s) for s in shifts) < 0.3  # about 2.5 m/s for 0.05 s, not a lane's width
