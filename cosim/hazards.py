@@ -188,8 +188,7 @@ class HazardController:
             if walked >= length:
                 return True
             x, y = start + direction * walked
-            angle = math.degrees(math.atan2(direction[0], direction[1])) % 360.0  # SUMO: clockwise from north
-            libsumo.person.moveToXY(person, "", float(x), float(y), angle, keepRoute=2)
+            libsumo.person.moveToXY(person, "", float(x), float(y), _sumo_angle(direction), keepRoute=2)
             ex, ey = libsumo.vehicle.getPosition(ego)
             heading = math.radians(90.0 - libsumo.vehicle.getAngle(ego))
             fwd = np.array([math.cos(heading), math.sin(heading)])
@@ -362,7 +361,7 @@ class HazardController:
         kind = CHILD_TYPE if hazard.child else self._pedestrian_type or "DEFAULT_PEDTYPE"
         libsumo.person.add(person, self._walk_edges[0], 0.0, typeID=kind)
         libsumo.person.appendWaitingStage(person, 3600.0)
-        libsumo.person.moveToXY(person, "", float(start[0]), float(start[1]), 0.0, keepRoute=2)
+        libsumo.person.moveToXY(person, "", float(start[0]), float(start[1]), _sumo_angle(left), keepRoute=2)
         decel = libsumo.vehicle.getDecel(ego)
         libsumo.vehicle.setDecel(ego, max(decel, EGO_STOP_DECEL))
         restore = [lambda: libsumo.person.remove(person), lambda: libsumo.vehicle.setSpeed(ego, -1.0),
@@ -421,6 +420,11 @@ class HazardController:
 STRAIGHT_DEG = 6.0
 STRAIGHT_REACH_M = 30.0
 IN_LINE_M, IN_LINE_DEG = 1.0, 8.0
+
+
+def _sumo_angle(direction: np.ndarray) -> float:
+    """SUMO's angle of a direction in the map plane: degrees clockwise from north."""
+    return math.degrees(math.atan2(direction[0], direction[1])) % 360.0
 
 
 def _react_late(ego: str) -> Callable[[], None]:
