@@ -57,9 +57,8 @@ from networks.sumo_tools import sumo_home
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
 
-CHILD_TYPE = (
-    "pedestrian_child"  # jaywalking children (the traffic set-up makes the type): Euro NCAP's child target's size
-)
+# Jaywalking children: a pedestrian type the traffic set-up makes, of Euro NCAP's child target's size.
+CHILD_TYPE = "pedestrian_child"
 CHILD_LWH_M = (0.25, 0.4, 1.15)
 
 LANE_CHANGE_DEFAULT = 0b011001010101  # SUMO's default lane-change mode (1621)
