@@ -50,6 +50,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from cosim.kinematics import sumo_angle_to_yaw
 from cosim.scenario import HazardConfig
 from gtgen.frame import ActiveHazard
 from networks.sumo_tools import sumo_home
@@ -57,7 +58,7 @@ from networks.sumo_tools import sumo_home
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
 
-# Jaywalking children: a pedestrian type the traffic set-up makes, of Euro NCAP's child target's size.
+# Jaywalking children: a pedestrian type of Euro NCAP's child target's size, made with the controller.
 CHILD_TYPE = "pedestrian_child"
 CHILD_LWH_M = (0.25, 0.4, 1.15)
 
@@ -120,6 +121,11 @@ class HazardController:
         self._active: dict[int, _Event] = {}  # by hazard index
         self._count = 0
         self._people = 0
+        if any(h.kind == "jaywalker" and h.child for h in hazards):
+            libsumo.vehicletype.copy("DEFAULT_PEDTYPE", CHILD_TYPE)
+            libsumo.vehicletype.setLength(CHILD_TYPE, CHILD_LWH_M[0])
+            libsumo.vehicletype.setWidth(CHILD_TYPE, CHILD_LWH_M[1])
+            libsumo.vehicletype.setHeight(CHILD_TYPE, CHILD_LWH_M[2])
 
     def _wait(self, hazard: HazardConfig) -> float:
         """The time from one event of a kind to the next: 0.5 to 1.5 times 60 / per_minute."""
@@ -189,8 +195,7 @@ class HazardController:
             x, y = start + direction * walked
             libsumo.person.moveToXY(person, "", float(x), float(y), _sumo_angle(direction), keepRoute=2)
             ex, ey = libsumo.vehicle.getPosition(ego)
-            heading = math.radians(90.0 - libsumo.vehicle.getAngle(ego))
-            fwd = np.array([math.cos(heading), math.sin(heading)])
+            fwd = _forward(ego)
             rel = np.array([x - ex, y - ey])
             along, across = float(rel @ fwd), float(rel @ np.array([-fwd[1], fwd[0]]))
             speed = libsumo.vehicle.getSpeed(ego)
@@ -221,8 +226,8 @@ class HazardController:
                 and libsumo.vehicle.getVehicleClass(vid) not in ("bicycle", "pedestrian"))  # fmt: skip
 
     def _cut_in(self, hazard: HazardConfig, ego: str, now: float) -> _Event | None:
-        """A vehicle ahead in a lane beside the ego is held a little slower than the ego
-        (unseen as an event) until the gap is as drawn, then cuts in."""
+        """A vehicle in a lane beside the ego is driven (unseen as an event: its approach)
+        until it is the drawn gap ahead; :meth:`_cut_now` then makes it cut in."""
         ego_speed = libsumo.vehicle.getSpeed(ego)
         if ego_speed < 3.0 or not _straight_ahead(ego, STRAIGHT_REACH_M):
             return None
@@ -256,14 +261,14 @@ class HazardController:
         if ego_speed < 3.0:
             return now < event.ends_s
         libsumo.vehicle.setSpeed(vid, _approach_speed(ego_speed, gap, event.gap_m - 1.0))  # aims a metre short
-        near, far = _cut_in_gaps(hazard, ego_speed)
-        if not near <= gap <= max(far, event.gap_m):
-            return now < event.ends_s  # not yet at a gap the scenario asks for
+        near, _ = _cut_in_gaps(hazard, ego_speed)
+        if not near <= gap <= event.gap_m:
+            return now < event.ends_s  # not yet at the gap drawn, or closer than the scenario allows
         speed = libsumo.vehicle.getSpeed(vid)
         off_pace = not ego_speed - CUT_IN_APPROACH_MPS - 2.0 <= speed <= ego_speed + 0.5  # rammed, or pulling away
         leader = libsumo.vehicle.getLeader(ego, gap + 40.0)
         room = not leader or not leader[0] or leader[1] >= gap + libsumo.vehicle.getLength(vid) + CUT_IN_ROOM_M
-        if off_pace or not room or gap > event.gap_m:
+        if off_pace or not room:
             return now < event.ends_s
         lane = _into_ego_lane(ego, vid)
         if lane is None or not _straight_ahead(ego, STRAIGHT_REACH_M):
@@ -421,6 +426,12 @@ STRAIGHT_REACH_M = 30.0
 IN_LINE_M, IN_LINE_DEG = 1.0, 8.0
 
 
+def _forward(vid: str) -> np.ndarray:
+    """A vehicle's unit heading in the map plane."""
+    yaw = float(sumo_angle_to_yaw(libsumo.vehicle.getAngle(vid)))
+    return np.array([math.cos(yaw), math.sin(yaw)])
+
+
 def _sumo_angle(direction: np.ndarray) -> float:
     """SUMO's angle of a direction in the map plane: degrees clockwise from north."""
     return math.degrees(math.atan2(direction[0], direction[1])) % 360.0
@@ -462,10 +473,7 @@ def _beside_gap(ego: str, vid: str) -> float | None:
     """A vehicle's gap ahead of the ego (its rear from the ego's front bumper, along the ego's
     heading) while it drives in a lane beside the ego's (its centre 1.5 to 6 m to the side, its
     heading within 20 degrees); None otherwise."""
-    heading = math.radians(90.0 - libsumo.vehicle.getAngle(ego))
-    forward = np.array([math.cos(heading), math.sin(heading)])
-    their = math.radians(90.0 - libsumo.vehicle.getAngle(vid))
-    their_forward = np.array([math.cos(their), math.sin(their)])
+    forward, their_forward = _forward(ego), _forward(vid)
     length = libsumo.vehicle.getLength(vid)
     rear = np.array(libsumo.vehicle.getPosition(vid)) - length * their_forward
     offset = rear + 0.5 * length * their_forward - np.array(libsumo.vehicle.getPosition(ego))
@@ -533,15 +541,14 @@ def _in_line(ego: str, vid: str) -> bool:
     """Whether a vehicle ahead is in line with the ego (a leader on a gentle bend): its centre
     within ``IN_LINE_M`` of the ego's heading line, its heading within ``IN_LINE_DEG``; a time to
     collision under constant velocity then still says how close a stop ahead comes."""
-    heading = math.radians(90.0 - libsumo.vehicle.getAngle(ego))
-    forward = np.array([math.cos(heading), math.sin(heading)])
+    forward, their_forward = _forward(ego), _forward(vid)
     half = libsumo.vehicle.getLength(vid) / 2.0
-    their = math.radians(90.0 - libsumo.vehicle.getAngle(vid))
-    centre = np.array(libsumo.vehicle.getPosition(vid)) - half * np.array([math.cos(their), math.sin(their)])
+    centre = np.array(libsumo.vehicle.getPosition(vid)) - half * their_forward
     offset = centre - np.array(libsumo.vehicle.getPosition(ego))
-    across = abs(float(offset @ np.array([-forward[1], forward[0]])))
-    turn = math.degrees(their - heading)
-    return across <= IN_LINE_M and abs((turn + 180.0) % 360.0 - 180.0) <= IN_LINE_DEG
+    left = np.array([-forward[1], forward[0]])
+    across = abs(float(offset @ left))
+    turn = math.degrees(math.atan2(float(their_forward @ left), float(their_forward @ forward)))
+    return across <= IN_LINE_M and abs(turn) <= IN_LINE_DEG
 
 
 def _length(points: np.ndarray) -> float:

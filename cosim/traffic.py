@@ -130,14 +130,9 @@ class Traffic:
         self.counts = TrafficCounts()
         self._hazards: HazardController | None = None
         if scenario.hazards:
-            from cosim.hazards import CHILD_LWH_M, CHILD_TYPE, HazardController
+            from cosim.hazards import HazardController
 
             shortest = min(self._variants.get("pedestrian", []), key=lambda v: v.height_m, default=None)
-            if any(h.kind == "jaywalker" and h.child for h in scenario.hazards):
-                libsumo.vehicletype.copy("DEFAULT_PEDTYPE", CHILD_TYPE)
-                for set_size, size in zip((libsumo.vehicletype.setLength, libsumo.vehicletype.setWidth,
-                                           libsumo.vehicletype.setHeight), CHILD_LWH_M, strict=True):  # fmt: skip
-                    set_size(CHILD_TYPE, size)
             self._hazards = HazardController(scenario.hazards, scenario.seed, self._parked, self._index.walk_edges,
                                              shortest.type_id if shortest is not None else "")  # fmt: skip
         self._ego_collided = False

@@ -85,9 +85,10 @@ class EventsSink:
     def close(self) -> None:
         if not self._partial.read_text():
             self._partial.write_text(",".join(FRAME_COLUMNS) + "\n")
-        self._events_path.with_name("events.csv.partial").write_text(summarize(self._partial.read_text()))
+        events_partial = self._events_path.with_name(self._events_path.name + ".partial")
+        events_partial.write_text(summarize(self._partial.read_text()))
         self._partial.replace(self._frames_path)
-        self._events_path.with_name("events.csv.partial").replace(self._events_path)
+        events_partial.replace(self._events_path)
 
     def abort(self) -> None:
         self._partial.unlink(missing_ok=True)
