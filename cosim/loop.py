@@ -204,10 +204,16 @@ def sink_choice(
     sensors = tuple((kind, spec.name) for kind, spec in rig_specs(scenario))
     return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address,
                       sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first,
-                      kitti_native_types=o.kitti_types == "native",
+                      kitti_native_types=o.kitti_types == "native", kitti_image_3=kitti_image_3(scenario),
                       traffic_lights=scenario.street.traffic_lights or scenario.street.signs,
                       map_json=map_json, nuscenes=nuscenes_setup(scenario, out_dir, map_json),
                       hazards=bool(scenario.hazards))  # fmt: skip
+
+
+def kitti_image_3(scenario: Scenario) -> bool:
+    """The rig's second camera fires every frame: the KITTI export writes it as ``image_3``."""
+    cameras = scenario.sensors.cameras
+    return len(cameras) > 1 and cameras[1].rate_hz * scenario.step_s >= 1 - 1e-9
 
 
 def rig_specs(scenario: Scenario) -> list[tuple[str, LidarSpec | CameraSpec | RadarSpec]]:
@@ -511,7 +517,7 @@ def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr:
         for p in sorted(out_dir.rglob("*"))
         if p.is_file()
         and p.name != "manifest.json"
-        and p.parent.name not in ("image_2", "velodyne", "images")
+        and p.parent.name not in ("image_2", "image_3", "velodyne", "images")
         and RESUME_DIR not in p.relative_to(out_dir).parts
     }
     scenario_data = asdict(scenario)

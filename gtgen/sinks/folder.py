@@ -2,7 +2,7 @@
 
 A run that continues an earlier one (``keep_frames`` > 0) takes the folder back, from its
 partial or its final name, and removes every per-frame file (named by frame index,
-``000123.png``) of the frames it does not keep.
+``000123.png``, at any depth; links are not followed) of the frames it does not keep.
 """
 
 from __future__ import annotations
@@ -32,9 +32,9 @@ class PartialFolder:
     def _take_back(self, keep_frames: int) -> None:
         if not self.partial.exists() and self.final.exists():
             self.final.replace(self.partial)
-        for path in self.partial.glob("*/*"):
+        for path in list(self.partial.rglob("*")):
             frame = frame_of(path)
-            if frame is not None and frame >= keep_frames:
+            if frame is not None and frame >= keep_frames and not path.is_dir():
                 path.unlink()
 
     def write_files(self, files: dict[str, bytes]) -> None:

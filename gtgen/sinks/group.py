@@ -41,6 +41,7 @@ class SinkChoice:
     keep_frames: int = 0  # continue an earlier run: keep its first frames
     first_map_SE3_ego: SE3 | None = None  # the earlier run's ego pose at frame 0 (for KITTI's poses)
     kitti_native_types: bool = False  # KITTI labels with the simulator's class names
+    kitti_image_3: bool = False  # the rig's second camera fires every frame: KITTI's image_3 and P3
     traffic_lights: bool = False  # lights_and_signs.csv beside labels.csv (with csv)
     map_json: Path | None = None  # the whole map (networks.hdmap): map/ is written (frames carry their part)
     nuscenes: NuscenesSetup | None = None  # the nuScenes layout under nuscenes/
@@ -79,7 +80,8 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
     if kind == "lights_csv":
         return CsvSink(out / "lights_and_signs.csv", keep, signals=True)
     if kind == "kitti":
-        return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego, choice.kitti_native_types)
+        return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego, choice.kitti_native_types,
+                         choice.kitti_image_3)  # fmt: skip
     if kind == "map" and choice.map_json is not None:
         return MapSink(out / "map", choice.map_json, keep)
     if kind == "events":

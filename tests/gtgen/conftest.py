@@ -36,18 +36,26 @@ CARS = Agents(
 )
 
 
-def make_record(frame_index: int, lidar_azimuth_steps: int = 256, cameras: bool = True) -> FrameRecord:
-    """One frame with the ego ``frame_index`` metres along +x from the map origin."""
+RIGHT_CAMERA = CameraSpec(name="right", width_px=160, height_px=90, mount_xyz_m=(0.41, -0.53, 1.64))
+
+
+def make_record(
+    frame_index: int, lidar_azimuth_steps: int = 256, cameras: bool = True, agents: Agents = CARS,
+    second_camera: bool = False,
+) -> FrameRecord:  # fmt: skip
+    """One frame with the ego ``frame_index`` metres along +x from the map origin; with
+    ``second_camera``, a second camera 0.53 m right of the first (KITTI's stereo baseline)."""
     ego = EgoState(np.array([float(frame_index), 0.0, 0.75]), np.array([4.5, 1.8, 1.5]), 0.0, 0.0,
                    np.array([20.0, 0.0, 0.0]))  # fmt: skip
-    scene = FrameScene(GROUND, CARS)
+    scene = FrameScene(GROUND, agents)
     rng = np.random.default_rng(frame_index)
     sensors: list[Sensor] = [Lidar(LidarSpec(beams=16, azimuth_steps=lidar_azimuth_steps))]
     sensors += [Camera(CameraSpec(width_px=160, height_px=90))] if cameras else []
+    sensors += [Camera(RIGHT_CAMERA)] if second_camera else []
     sensors += [Radar(RadarSpec(azimuth_steps=90, elevation_steps=6, points_per_frame=50))]
     outputs = tuple(sensor.sense(scene, ego, DAY, rng) for sensor in sensors)
     ns = frame_index * 50_000_000
-    labels = label_frame(frame_index, ns, CARS, ego, outputs, scene, 100.0)
+    labels = label_frame(frame_index, ns, agents, ego, outputs, scene, 100.0)
     return FrameRecord(frame_index, ns, ego.map_SE3_ego(), outputs, labels)
 
 

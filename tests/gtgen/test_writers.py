@@ -67,7 +67,7 @@ def kitti_box_pixels(row: list[str], P2: np.ndarray, margin_m: float = 0.0) -> n
 
 
 def test_kitti_labels_read_back_as_the_seen_objects_and_their_boxes_project_onto_the_image(records, written):
-    kitti = written / "kitti"
+    kitti = written / "kitti" / "training"
     for record in records:
         name = f"{record.frame_index:06d}"
         rows = kitti_rows(kitti / "label_2" / f"{name}.txt")
@@ -90,7 +90,7 @@ def test_kitti_labels_read_back_as_the_seen_objects_and_their_boxes_project_onto
 
 
 def test_kitti_velodyne_and_semantic_kitti_labels_hold_every_lidar_point(records, written):
-    kitti = written / "kitti"
+    kitti = written / "kitti" / "training"
     for record in records:
         name, scan = f"{record.frame_index:06d}", record.lidars[0].scan
         velo = np.fromfile(kitti / "velodyne" / f"{name}.bin", dtype="<f4").reshape(-1, 4)
@@ -104,7 +104,7 @@ def test_kitti_velodyne_and_semantic_kitti_labels_hold_every_lidar_point(records
 
 
 def test_kitti_calibration_maps_lidar_points_into_the_camera_and_poses_follow_the_ego(records, written):
-    kitti = written / "kitti"
+    kitti = written / "kitti" / "training"
     calib = kitti_calib(kitti / "calib" / "000000.txt")
     record = records[0]
     lidar, camera = record.lidars[0], record.cameras[0]
@@ -119,6 +119,65 @@ def test_kitti_calibration_maps_lidar_points_into_the_camera_and_poses_follow_th
     np.testing.assert_allclose(poses[0], np.eye(4)[:3], atol=1e-12)
     # the ego drives 1 m along its x axis per record: along the camera's z (optical axis)
     np.testing.assert_allclose(poses[2][:, 3], [0.0, 0.0, 2.0], atol=1e-9)
+
+
+def test_kitti_splits_frames_into_image_sets_with_the_test_frames_under_testing(records, written):
+    kitti = written / "kitti"
+    sets = {s: (kitti / "ImageSets" / f"{s}.txt").read_text().split() for s in ("train", "val", "test", "trainval")}
+    assert sets == {"train": ["000000"], "val": ["000001"], "test": ["000002"], "trainval": ["000000", "000001"]}
+    for folder, ext in (("image_2", "png"), ("velodyne", "bin"), ("calib", "txt"), ("planes", "txt")):
+        assert sorted(p.name for p in (kitti / "testing" / folder).iterdir()) == [f"000002.{ext}"]
+        assert (kitti / "testing" / folder / f"000002.{ext}").samefile(kitti / "training" / folder / f"000002.{ext}")
+    assert not (kitti / "testing" / "label_2").exists()  # KITTI's test set has no labels
+    for former in ("image_2", "velodyne", "label_2", "calib", "labels", "poses.txt", "calib.txt"):
+        assert (kitti / former).resolve() == (kitti / "training" / former).resolve()
+    assert (kitti / "label_2" / "000001.txt").read_text() == (kitti / "training/label_2/000001.txt").read_text()
+
+
+def test_kitti_road_plane_holds_the_lidar_road_points_in_the_camera_frame(records, written):
+    training = written / "kitti" / "training"
+    for record in records:
+        name, scan = f"{record.frame_index:06d}", record.lidars[0].scan
+        lines = (training / "planes" / f"{name}.txt").read_text().splitlines()
+        assert lines[:3] == ["# Matrix", "WIDTH 4", "HEIGHT 1"]
+        a, b, c, d = (float(v) for v in lines[3].split())
+        assert b < 0 and np.isclose(np.linalg.norm([a, b, c]), 1.0)  # normal up: KITTI's -y
+        Tr = kitti_calib(training / "calib" / f"{name}.txt")["Tr_velo_to_cam"].reshape(3, 4)
+        road = scan.xyz_lidar_m[scan.semantic_class == SemanticClass.ROAD].astype(np.float64)
+        xyz_cam = road @ Tr[:, :3].T + Tr[:, 3]
+        assert len(road) > 500 and np.abs(xyz_cam @ [a, b, c] + d).max() < 0.03
+
+
+def test_a_kitti_frame_without_objects_gets_one_dont_care_line(record_maker, tmp_path):
+    from sensors.agents import Agents
+
+    with SinkGroup.open(SinkChoice(tmp_path, mcap=False, csv=False, yolo=False)) as sinks:
+        sinks.write(record_maker(0, agents=Agents.empty()))
+    rows = kitti_rows(tmp_path / "kitti" / "training" / "label_2" / "000000.txt")
+    assert rows == [["DontCare", "-1", "-1", "-10", "0.00", "0.00", "0.00", "0.00", "-1", "-1", "-1", "-1000",
+                     "-1000", "-1000", "-10"]]  # fmt: skip
+
+
+def test_kitti_image_3_is_the_second_camera_and_p3_projects_the_lidar_into_it(record_maker, tmp_path):
+    record = record_maker(0, second_camera=True)
+    with SinkGroup.open(SinkChoice(tmp_path, mcap=False, csv=False, yolo=False, kitti_image_3=True)) as sinks:
+        sinks.write(record)
+    training = tmp_path / "kitti" / "training"
+    right = record.cameras[1]
+    image = cv2.imread(str(training / "image_3" / "000000.png"))
+    np.testing.assert_array_equal(image, shade_frame(right.frame))
+    calib = kitti_calib(training / "calib" / "000000.txt")
+    P2, P3 = calib["P2"].reshape(3, 4), calib["P3"].reshape(3, 4)
+    assert P3[0, 3] == pytest.approx(-0.53 * P3[0, 0]) and np.allclose(P3[:, :3], P2[:, :3])  # KITTI's stereo form
+    scan = record.lidars[0].scan
+    Tr = calib["Tr_velo_to_cam"].reshape(3, 4)
+    on_cars = scan.instance_id > 0
+    xyz_cam = scan.xyz_lidar_m[on_cars].astype(np.float64) @ Tr[:, :3].T + Tr[:, 3]
+    uvw = np.column_stack([xyz_cam, np.ones(len(xyz_cam))]) @ P3.T
+    u, v = np.round(uvw[:, 0] / uvw[:, 2]).astype(int), np.round(uvw[:, 1] / uvw[:, 2]).astype(int)
+    inside = (uvw[:, 2] > 0) & (u >= 0) & (u < right.spec.width_px) & (v >= 0) & (v < right.spec.height_px)
+    hits = right.frame.instance_id[v[inside], u[inside]] == scan.instance_id[on_cars][inside]
+    assert inside.sum() > 20 and hits.mean() > 0.9  # with P2 instead of P3: 0.68
 
 
 def test_yolo_labels_are_the_tight_boxes_of_the_visible_objects(records, written):
