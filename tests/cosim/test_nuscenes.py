@@ -127,8 +127,14 @@ def test_the_kitti_preset_writes_kitti_sized_images_and_a_64_ring_cloud(tmp_path
 
     out = tmp_path / "kitti"
     run(load_scenario(str(DATA / "tiny.yaml"), ["rig=kitti", "frames=3"]), out, progress=False)
-    image = cv2.imread(str(out / "kitti" / "image_2" / "000000.png"))
-    assert image.shape == (375, 1242, 3) and len(list((out / "kitti" / "velodyne").iterdir())) == 3
+    training = out / "kitti" / "training"
+    image = cv2.imread(str(training / "image_2" / "000000.png"))
+    assert image.shape == (375, 1242, 3) and len(list((training / "velodyne").iterdir())) == 3
+    assert cv2.imread(str(training / "image_3" / "000002.png")).shape == (375, 1242, 3)  # cam3
+    calib = dict(line.split(": ", 1) for line in (training / "calib" / "000000.txt").read_text().splitlines())
+    P2, P3 = (np.array(calib[k].split(), float).reshape(3, 4) for k in ("P2", "P3"))
+    np.testing.assert_allclose(P3[:, :3], P2[:, :3])
+    assert P3[0, 3] == pytest.approx(-0.53 * P3[0, 0], rel=1e-9) and P2[0, 3] == 0  # cam3 0.53 m right of cam2
     cloud = next(message for _, _, message in iter_messages(out / "run.mcap", ["/lidar"]))
     rings = np.unique(lidar_points(cloud)["ring"])
     assert rings.max() == 63 and len(rings) >= 60
