@@ -23,5 +23,7 @@ def split_units(count: int) -> list[Split]:
         return first[:count]
     held_out = max(1, round(SHARE * count))
     held_out = min(held_out, (count - 1) // 2)
-    train = count - 2 * held_out
-    return ["train"] * train + ["val"] * held_out + ["test"] * held_out
+    train: list[Split] = ["train"] * (count - 2 * held_out)
+    val: list[Split] = ["val"] * held_out
+    test: list[Split] = ["test"] * held_out
+    return train + val + test
