@@ -1,13 +1,21 @@
-"""The nuScenes v1.0 layout: the 13 tables built from a run's per-frame records, and several
-runs merged into one version with train/val splits the nuScenes devkit evaluates.
+"""The nuScenes v1.0 layout: the tables built from a run's per-frame records (the versions,
+splits and merges are in :mod:`gtgen.nuscenes_versions`).
 
 A run's ``nuscenes/`` folder is a ``dataroot``: ``samples/<CHANNEL>/`` (keyframe files),
 ``sweeps/<CHANNEL>/`` (the others), ``maps/<token>.png`` (the drivable area, 0.1 m per
-pixel, as the devkit's map mask reads it) and ``v1.0-trainval/`` with the 13 tables, a
-``splits.json`` (the devkit's custom splits; ``sim_all`` holds the run's scenes) and
-``traffic_control.json``, an extension table the devkit does not read: the traffic lights
-(with the state they show) and signs at each keyframe, boxes as in ``sample_annotation``. Load it
-with ``NuScenes(version="v1.0-trainval", dataroot="<run>/nuscenes")``.
+pixel, as the devkit's map mask reads it), ``v1.0-trainval/`` (train and val scenes) and
+``v1.0-test/`` (test scenes) with the 13 tables, ``lidarseg.json`` and ``panoptic.json`` (the
+point labels under ``lidarseg/`` and ``panoptic/``, see :mod:`gtgen.nuscenes_lidarseg`), a
+``splits.json`` (the devkit's custom splits) and ``traffic_control.json``, an extension table
+the devkit does not read: the traffic lights (with the state they show) and signs at each
+keyframe, boxes as in ``sample_annotation``. Load it with
+``NuScenes(version="v1.0-trainval", dataroot="<run>/nuscenes")``.
+
+Scenes last at most 20 s (40 keyframes) as nuScenes's, shorter where a run is under a minute
+(so that it has three), and a scene cut starts a new one; they are split in time blocks by
+:mod:`gtgen.splits` and named from nuScenes's official lists (``scene-0001`` for the first
+train scene, ``scene-0003`` the first val, ``scene-0077`` the first test); ``description``
+gives the run, the network and the scene's time span.
 
 Conventions: the ego frame is this project's (origin at the footprint centre on the ground,
 x forward, z up) and ``ego_pose`` places it in the map frame; sensor frames as in
@@ -19,22 +27,18 @@ are those of the labels (yaw about the ego's up axis), put into the map frame.
 return holds one invalid cluster (``invalid_state`` 1), which the devkit's default filters
 drop: its reader cannot read an empty file.
 
-``python -m gtgen.nuscenes merge OUT RUN [RUN ...] [--val-fraction F | --val RUN ...]``
-merges the ``nuscenes/`` folders of several runs (a sweep's) into ``OUT``: one scene per run
-(more where a run has scene cuts), splits ``sim_train`` and ``sim_val`` by whole runs. The
-k-th run's timestamps move k days later (every run's clock starts at the same simulated time).
-Evaluate with the devkit's ``DetectionEval(..., eval_set="sim_val")``.
+``python -m gtgen.nuscenes merge OUT RUN [RUN ...] [--val RUN ...] [--test RUN ...]
+[--val-fraction F]`` merges the ``nuscenes/`` folders of several runs (a sweep's) into ``OUT``.
+The k-th run's timestamps move k days later (every run's clock starts at the same simulated time).
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
 import hashlib
+import io
 import json
 import math
-import os
-import shutil
 import sys
 from collections import defaultdict
 from pathlib import Path
@@ -44,12 +48,27 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, lidarseg_labels, number_instances, panoptic_labels
+from gtgen.nuscenes_versions import (
+    DAY_US,
+    TABLES,
+    TEST_VERSION,
+    VERSION,
+    NuscenesError,
+    Tables,
+    merge,
+    official_names,
+    write_versions,
+)
+from gtgen.splits import split_units
 from networks.classes import SemanticClass
 from networks.geometry import quaternion_xyzw_from_rotation
 from sensors.radar import RadarScan
 
-VERSION = "v1.0-trainval"
+__all__ = ["DAY_US", "TEST_VERSION", "VERSION", "NuscenesError"]
+
 KEYFRAME_S = 0.5
+SCENE_KEYFRAMES = 40  # nuScenes's scenes: 20 s, 40 keyframes
 MAP_RESOLUTION_M = 0.1
 CATEGORIES = {
     SemanticClass.CAR: ("vehicle.car", "Passenger car."),
@@ -77,12 +96,6 @@ VISIBILITY = (("1", "v0-40", "visibility of whole object is between 0 and 40%"),
               ("3", "v60-80", "visibility of whole object is between 60 and 80%"),
               ("4", "v80-100", "visibility of whole object is between 80 and 100%"))  # fmt: skip
 MOVING_MPS = 0.3  # slower than this counts as standing still
-TABLES = ("category", "attribute", "visibility", "sensor", "calibrated_sensor", "ego_pose", "log", "scene",
-          "sample", "sample_data", "sample_annotation", "instance", "map")  # fmt: skip
-
-
-class NuscenesError(Exception):
-    """A run or merge that cannot be made into the nuScenes layout (one line for the user)."""
 
 
 def token(*parts: object) -> str:
@@ -132,7 +145,8 @@ RADAR_FIELDS = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("dyn_prop", "i1"), ("
 def radar_pcd(scan: RadarScan, radar_velocity_mps: npt.NDArray[np.float64]) -> bytes:
     """A radar sweep as nuScenes's binary PCD v0.7: positions in the radar frame, velocities
     along the ray (``vx, vy``: relative; ``*_comp``: with the radar's own motion taken out),
-    dynamic property moving (0) or stationary (1) from the compensated speed."""
+    dynamic property moving (0) or stationary (1) from the compensated speed. A newline follows
+    the binary data: the devkit's reader (``RadarPointCloud.from_file``) needs a byte there."""
     n = len(scan.range_m)
     rows = np.zeros(max(n, 1), dtype=np.dtype(RADAR_FIELDS))
     if n == 0:
@@ -157,7 +171,7 @@ def radar_pcd(scan: RadarScan, radar_velocity_mps: npt.NDArray[np.float64]) -> b
     header = (f"# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {names}\nSIZE {sizes}\n"
               f"TYPE {types}\nCOUNT {counts}\nWIDTH {len(rows)}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n"
               f"POINTS {len(rows)}\nDATA binary\n")  # fmt: skip
-    return header.encode() + rows.tobytes()
+    return header.encode() + rows.tobytes() + b"\n"
 
 
 def calibration_record(channel: str, modality: str, translation: list[float], rotation_wxyz: list[float],
@@ -166,20 +180,44 @@ def calibration_record(channel: str, modality: str, translation: list[float], ro
             "camera_intrinsic": intrinsic}  # fmt: skip
 
 
-def _scene_name(name: str, index: int, scenes: int) -> str:
-    return name if scenes == 1 else f"{name}-{index}"
+def scene_chunks(frames: list[int], segment_of: dict[int, int], keyframes: list[int]) -> dict[int, int]:
+    """Each frame's scene index (-1: none). A segment (frames between scene cuts) is cut into
+    scenes of at most ``SCENE_KEYFRAMES`` keyframes, a third of the run's where it has fewer than
+    three scenes' worth, so that it gives train, val and test scenes (3 keyframes or more). A frame
+    between keyframes belongs to the scene of the next keyframe of its segment (nuScenes's
+    sweeps come before their keyframe), after the last one to the last scene."""
+    scenes = max(math.ceil(len(keyframes) / SCENE_KEYFRAMES), min(3, len(keyframes)))
+    size = math.ceil(len(keyframes) / max(scenes, 1))
+    by_segment: dict[int, list[int]] = defaultdict(list)
+    for f in keyframes:
+        by_segment[segment_of[f]].append(f)
+    scene_of_key: dict[int, int] = {}
+    for segment in sorted(by_segment):
+        own = by_segment[segment]
+        first = len(set(scene_of_key.values()))
+        scene_of_key |= {f: first + k // size for k, f in enumerate(own)}
+    scene_of = {}
+    for f in frames:
+        own = by_segment.get(segment_of[f], [])
+        later = [g for g in own if g >= f]
+        scene_of[f] = scene_of_key[later[0] if later else own[-1]] if own else -1
+    return scene_of
 
 
 def write_tables(root: Path, name: str, location: str, map_json: Path | None, lidar_channel: str) -> None:
-    """Build ``v1.0-trainval/`` and ``maps/`` under ``root`` from its ``rows/`` and
-    ``calibration.json`` (see :mod:`gtgen.sinks.nuscenes_sink`)."""
+    """Build the versions (``v1.0-trainval/``, ``v1.0-test/``), ``lidarseg/``, ``panoptic/`` and
+    ``maps/`` under ``root`` from its ``rows/`` and ``calibration.json`` (see
+    :mod:`gtgen.sinks.nuscenes_sink`): scenes of at most 20 s (:func:`scene_chunks`), split by
+    :mod:`gtgen.splits` and named from nuScenes's lists (:mod:`gtgen.nuscenes_versions`)."""
     rows = [json.loads(p.read_text()) for p in sorted((root / "rows").glob("*.json"))]
     calibration = json.loads((root / "calibration.json").read_text()) if (root / "calibration.json").exists() else {}
     if not rows:
         return
-    tables: dict[str, list[dict[str, Any]]] = {t: [] for t in TABLES}
-    tables["category"] = [{"token": token("category", c), "name": c, "description": d}
-                          for c, d in CATEGORIES.values()]  # fmt: skip
+    tables: Tables = {t: [] for t in TABLES}
+    described = dict(CATEGORIES.values())
+    tables["category"] = [{"token": token("category", c), "name": c, "index": index,
+                           "description": described.get(c, f"nuScenes-lidarseg category {c}.")}
+                          for index, c in enumerate(LIDARSEG_CATEGORIES)]  # fmt: skip
     tables["attribute"] = [{"token": token("attribute", a), "name": a, "description": d} for a, d in ATTRIBUTES.items()]
     tables["visibility"] = [{"token": t, "level": level, "description": d} for t, level, d in VISIBILITY]
     for channel, cal in sorted(calibration.items()):
@@ -198,18 +236,19 @@ def write_tables(root: Path, name: str, location: str, map_json: Path | None, li
     cv2.imwrite(str(root / "maps" / f"{map_token}.png"), drivable_mask(map_json, rows))
 
     by_frame = {r["frame"]: r for r in rows}
-    scene_of = {r["frame"]: int(r["scene"]) for r in rows}
-    scenes = sorted(set(scene_of.values()))
     sample_frames = [r["frame"] for r in rows if "annotations" in r]
+    scene_of = scene_chunks([r["frame"] for r in rows], {r["frame"]: int(r["scene"]) for r in rows}, sample_frames)
     sample_token = {f: token(name, "sample", f) for f in sample_frames}
     by_scene: dict[int, list[int]] = defaultdict(list)
     for f in sample_frames:
         by_scene[scene_of[f]].append(f)
+    scenes = sorted(by_scene)
+    splits = split_units(len(scenes))
+    names = official_names(splits)
     for index in scenes:
-        frames = by_scene.get(index, [])
-        if not frames:
-            continue
+        frames = by_scene[index]
         scene_token = token(name, "scene", index)
+        start_s, end_s = (by_frame[f]["timestamp"] / 1e6 for f in (frames[0], frames[-1]))
         for k, f in enumerate(frames):
             tables["sample"].append({
                 "token": sample_token[f], "timestamp": by_frame[f]["timestamp"], "scene_token": scene_token,
@@ -219,7 +258,7 @@ def write_tables(root: Path, name: str, location: str, map_json: Path | None, li
         tables["scene"].append({
             "token": scene_token, "log_token": log_token, "nbr_samples": len(frames),
             "first_sample_token": sample_token[frames[0]], "last_sample_token": sample_token[frames[-1]],
-            "name": _scene_name(name, index, len(scenes)), "description": f"{name}, {location}",
+            "name": names[index], "description": f"{name}, {location}, {start_s:.1f}-{end_s:.1f} s",
         })  # fmt: skip
 
     # sample_data: one chain per channel and scene; keyframes only where their sample exists.
@@ -287,16 +326,40 @@ def write_tables(root: Path, name: str, location: str, map_json: Path | None, li
     extension = [{"token": token(name, "traffic_control", scene_of[f], c["id"], f), "sample_token": sample_token[f],
                   **{k: v for k, v in c.items() if k != "id"}, "id": c["id"]}
                  for f in sample_frames for c in by_frame[f].get("traffic_control", [])]  # fmt: skip
-    _write_version(root, tables, {"sim_all": [s["name"] for s in tables["scene"]]}, extension)
+    tables["traffic_control"] = extension
+    files = _point_labels(root, name, tables, lidar_channel, key_frame_of, by_scene, by_frame)
+    split_of_scene = {token(name, "scene", index): split for index, split in zip(scenes, splits, strict=True)}
+    for part in write_versions(root, tables, split_of_scene).values():
+        for task in ("lidarseg", "panoptic"):
+            for record in part[task]:
+                (root / record["filename"]).write_bytes(files[f"{task}:{record['sample_data_token']}"])
 
 
-def _write_version(root: Path, tables: dict[str, list[dict[str, Any]]], splits: dict[str, list[str]],
-                   traffic_control: list[dict[str, Any]]) -> None:  # fmt: skip
-    folder = root / VERSION
-    folder.mkdir(parents=True, exist_ok=True)
-    for name, records in {**tables, "traffic_control": traffic_control}.items():
-        (folder / f"{name}.json").write_text(json.dumps(records, indent=0, separators=(",", ":")))
-    (folder / "splits.json").write_text(json.dumps(splits, indent=2) + "\n")
+def _point_labels(root: Path, name: str, tables: Tables, lidar_channel: str,
+                  key_frame_of: dict[tuple[str, int], int], by_scene: dict[int, list[int]],
+                  by_frame: dict[int, dict[str, Any]]) -> dict[str, bytes]:  # fmt: skip
+    """The ``lidarseg`` and ``panoptic`` records of the keyframe LiDAR sweeps (into ``tables``)
+    and their files' bytes by ``task:sample_data token``, from the per-point classes and
+    instances staged in ``rows/NNNNNN.lidar.npz``."""
+    files: dict[str, bytes] = {}
+    tables["lidarseg"], tables["panoptic"] = [], []
+    for frames in by_scene.values():
+        number_of = number_instances([[a["id"] for a in by_frame[f]["annotations"]] for f in frames])
+        for f in frames:
+            at = key_frame_of.get((lidar_channel, f))
+            staged = root / "rows" / f"{at:06d}.lidar.npz" if at is not None else None
+            if at is None or staged is None or not staged.is_file():
+                continue
+            with np.load(staged) as z:
+                semantic_class, instance_id = z["semantic_class"], z["instance_id"]
+            sd = token(name, "sample_data", lidar_channel, at)
+            panoptic = io.BytesIO()
+            np.savez_compressed(panoptic, data=panoptic_labels(semantic_class, instance_id, number_of))
+            files[f"lidarseg:{sd}"] = lidarseg_labels(semantic_class).tobytes()
+            files[f"panoptic:{sd}"] = panoptic.getvalue()
+            for task in ("lidarseg", "panoptic"):
+                tables[task].append({"token": sd, "sample_data_token": sd, "filename": ""})
+    return files
 
 
 def drivable_mask(map_json: Path | None, rows: list[dict[str, Any]]) -> npt.NDArray[np.uint8]:
@@ -318,119 +381,28 @@ def drivable_mask(map_json: Path | None, rows: list[dict[str, Any]]) -> npt.NDAr
     return mask
 
 
-def _read_tables(folder: Path) -> dict[str, list[dict[str, Any]]]:
-    missing = [t for t in TABLES if not (folder / f"{t}.json").is_file()]
-    if missing:
-        raise NuscenesError(f"{folder}: not a nuScenes version folder (no {missing[0]}.json)")
-    return {t: json.loads((folder / f"{t}.json").read_text()) for t in TABLES}
-
-
-def merge(out: Path, runs: list[Path], val: list[Path] | None = None, val_fraction: float = 0.25) -> dict[str, int]:
-    """Merge the ``nuscenes/`` folders of ``runs`` into the dataroot ``out``: files linked (or
-    copied across file systems), tables concatenated, ``splits.json`` with ``sim_train`` and
-    ``sim_val`` (the ``val`` runs, or the last ``val_fraction`` of them) and ``sim_all``."""
-    roots = []
-    for run in runs:
-        root = run / "nuscenes" if (run / "nuscenes" / VERSION).is_dir() else run
-        if not (root / VERSION).is_dir():
-            raise NuscenesError(f"{run}: no nuScenes export (expected {run}/nuscenes/{VERSION}; run it with "
-                                "outputs.nuscenes=true)")  # fmt: skip
-        roots.append(root)
-    if out.exists() and any(out.iterdir()):
-        raise NuscenesError(f"{out}: the output folder exists and is not empty")
-    partial = out.with_name(out.name + ".partial")
-    shutil.rmtree(partial, ignore_errors=True)
-    merged: dict[str, list[dict[str, Any]]] = {t: [] for t in TABLES}
-    seen: dict[str, set[str]] = defaultdict(set)
-    maps: dict[str, dict[str, Any]] = {}
-    scenes_of_run: list[list[str]] = []
-    traffic_control: list[dict[str, Any]] = []
-    for k, (run, root) in enumerate(zip(runs, roots, strict=True)):
-        tables = _retimed(_read_tables(root / VERSION), k)
-        extension = root / VERSION / "traffic_control.json"
-        traffic_control += json.loads(extension.read_text()) if extension.is_file() else []
-        logs = {log["logfile"] for log in tables["log"]}
-        clash = logs & seen["logfile"]
-        if clash:
-            raise NuscenesError(f"{run}: its log {sorted(clash)[0]} is already in the merge (the same run twice?)")
-        seen["logfile"] |= logs
-        for table, records in tables.items():
-            for record in records:
-                if table == "map":
-                    known = maps.setdefault(record["token"], {**record, "log_tokens": []})
-                    known["log_tokens"] = sorted(set(known["log_tokens"]) | set(record["log_tokens"]))
-                    continue
-                if record["token"] in seen[table]:
-                    continue  # categories, attributes, visibility, sensors: shared
-                seen[table].add(record["token"])
-                merged[table].append(record)
-        scenes_of_run.append([s["name"] for s in tables["scene"]])
-        for record in tables["sample_data"] + tables["map"]:
-            _link(root / record["filename"], partial / record["filename"])
-    merged["map"] = list(maps.values())
-    val_runs = {str(v.resolve()) for v in val} if val else None
-    if val_runs is None:
-        count = max(1, round(val_fraction * len(runs))) if len(runs) > 1 else 0
-        val_runs = {str(r.resolve()) for r in runs[len(runs) - count :]}
-    unknown = val_runs - {str(r.resolve()) for r in runs}
-    if unknown:
-        raise NuscenesError(f"--val {sorted(unknown)[0]}: not one of the runs merged")
-    splits: dict[str, list[str]] = {"sim_train": [], "sim_val": [], "sim_all": []}
-    for run, names in zip(runs, scenes_of_run, strict=True):
-        splits["sim_val" if str(run.resolve()) in val_runs else "sim_train"] += names
-        splits["sim_all"] += names
-    _write_version(partial, merged, splits, traffic_control)
-    if out.exists():
-        out.rmdir()  # empty, checked above
-    partial.replace(out)
-    return {"runs": len(runs), "scenes": len(merged["scene"]), "samples": len(merged["sample"]),
-            "annotations": len(merged["sample_annotation"])}  # fmt: skip
-
-
-DAY_US = 86_400_000_000
-
-
-def _retimed(tables: dict[str, list[dict[str, Any]]], days: int) -> dict[str, list[dict[str, Any]]]:
-    """The tables of the ``days``-th run of a merge moved that many days later: every run's
-    clock starts at the same simulated time, and the devkit orders scenes by their start."""
-    for table in ("sample", "sample_data", "ego_pose"):
-        for record in tables[table]:
-            record["timestamp"] += days * DAY_US
-    for log in tables["log"]:
-        log["date_captured"] = (datetime.date(1970, 1, 1) + datetime.timedelta(days=days)).isoformat()
-    return tables
-
-
-def _link(source: Path, target: Path) -> None:
-    target.parent.mkdir(parents=True, exist_ok=True)
-    if target.exists():
-        return
-    try:
-        os.link(source, target)
-    except OSError:
-        shutil.copy2(source, target)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m gtgen.nuscenes", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    m = sub.add_parser("merge", help="merge the nuScenes exports of several runs into one version")
+    m = sub.add_parser("merge", help="merge the nuScenes exports of several runs into one dataroot")
     m.add_argument("out", type=Path)
     m.add_argument("runs", type=Path, nargs="+")
-    m.add_argument("--val", type=Path, nargs="*", help="the runs of the validation split")
-    m.add_argument("--val-fraction", type=float, default=0.25, help="share of runs for validation (the last ones)")
+    m.add_argument("--val", type=Path, nargs="*", help="whole runs for val (the other runs: train)")
+    m.add_argument("--test", type=Path, nargs="*", help="whole runs for test (the other runs: train)")
+    m.add_argument("--val-fraction", type=float, default=None, help="share of whole runs for val (the last ones)")
     args = parser.parse_args(argv)
-    if not 0.0 <= args.val_fraction < 1.0:
+    if args.val_fraction is not None and not 0.0 <= args.val_fraction < 1.0:
         print(f"error: --val-fraction: expected a share in [0, 1), got {args.val_fraction}", file=sys.stderr)
         return 2
     try:
-        counts = merge(args.out, args.runs, args.val, args.val_fraction)
+        counts = merge(args.out, args.runs, args.val, args.test, args.val_fraction)
     except NuscenesError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     print(
-        f"{args.out}: {counts['runs']} runs, {counts['scenes']} scenes, {counts['samples']} samples, "
-        f"{counts['annotations']} annotations; splits sim_train, sim_val, sim_all in {args.out}/{VERSION}/splits.json"
+        f"{args.out}: {counts['runs']} runs, {counts['scenes']} scenes ({counts['train_scenes']} train, "
+        f"{counts['val_scenes']} val, {counts['test_scenes']} test), {counts['samples']} samples, "
+        f"{counts['annotations']} annotations; versions {VERSION} and {TEST_VERSION}"
     )
     return 0
 

@@ -3,9 +3,13 @@
 
 Prints one JSON object: the scenes the devkit lists, annotation counts per category, every
 token reference that does not resolve, each keyframe camera's boxes as the devkit projects
-them (``get_sample_data``, corners through ``view_points``), and with ``--eval`` the
-devkit's detection (mAP, NDS) and tracking (AMOTA) scores of the ground truth submitted
-as predictions. Renders a sample on the LiDAR and on each camera into OUT.
+them (``get_sample_data``, corners through ``view_points``), the radar sweeps its reader reads,
+the LiDAR points per nuScenes-lidarseg category and the panoptic instances as its readers load
+them, the share of points whose panoptic label equals the devkit's own
+``generate_panoptic_labels`` (from our lidarseg and boxes), the scenes of each official split
+(``nuscenes.utils.splits``) per version, and with ``--eval`` the devkit's detection (mAP, NDS)
+and tracking (AMOTA) scores of the ground truth submitted as predictions. Renders a sample
+(``render_sample``, and each channel, the LiDAR also with lidarseg and panoptic colours) into OUT.
 """
 
 from __future__ import annotations
@@ -32,10 +36,15 @@ from nuscenes.eval.detection.data_classes import (
 from nuscenes.eval.detection.evaluate import DetectionEval
 from nuscenes.eval.tracking.data_classes import TrackingBox, TrackingConfig
 from nuscenes.eval.tracking.evaluate import TrackingEval
+from nuscenes.panoptic.generate_panoptic_labels import generate_panoptic_labels
+from nuscenes.utils import splits as official
+from nuscenes.utils.data_classes import LidarPointCloud, RadarPointCloud
+from nuscenes.utils.data_io import load_bin_file, panoptic_to_lidarseg
 from nuscenes.utils.geometry_utils import BoxVisibility, view_points
 from nuscenes.utils.splits import get_scenes_of_custom_split
 
 VERSION = "v1.0-trainval"
+TEST_VERSION = "v1.0-test"
 
 
 def unresolved(nusc: NuScenes) -> list[str]:
@@ -91,20 +100,75 @@ def camera_boxes(nusc: NuScenes) -> list[dict[str, object]]:
 
 
 def render(nusc: NuScenes, out: Path) -> list[str]:
-    """A sample in the middle of the first scene: LiDAR (with boxes) and each camera."""
+    """A sample in the middle of the first scene: ``render_sample`` (every channel at once), each
+    channel with its boxes, and the LiDAR with its lidarseg and panoptic colours."""
     scene = nusc.scene[0]
     token = scene["first_sample_token"]
     for _ in range(scene["nbr_samples"] // 2):
         token = nusc.get("sample", token)["next"] or token
     sample = nusc.get("sample", token)
-    written = []
+    nusc.render_sample(token, out_path=str(out / "sample.png"), verbose=False)
+    written = [str(out / "sample.png")]
     for channel, sd_token in sorted(sample["data"].items()):
-        if nusc.get("sample_data", sd_token)["sensor_modality"] == "radar":
-            continue
         path = out / f"{channel}.png"
         nusc.render_sample_data(sd_token, with_anns=True, out_path=str(path), verbose=False)
         written.append(str(path))
+    lidar = sample["data"]["LIDAR_TOP"]
+    for kind in ("lidarseg", "panoptic"):
+        path = out / f"LIDAR_TOP_{kind}.png"
+        nusc.render_sample_data(lidar, show_lidarseg=kind == "lidarseg", show_panoptic=kind == "panoptic",
+                                out_path=str(path), verbose=False)  # fmt: skip
+        written.append(str(path))
     return written
+
+
+def radar_sweeps(nusc: NuScenes) -> dict[str, int]:
+    """Every radar file read by the devkit's reader: files and points."""
+    files = points = 0
+    for sd in nusc.sample_data:
+        if sd["sensor_modality"] == "radar":
+            points += RadarPointCloud.from_file(str(Path(nusc.dataroot) / sd["filename"])).nbr_points()
+            files += 1
+    return {"files": files, "points": points}
+
+
+def point_labels(nusc: NuScenes, out: Path) -> dict[str, object]:
+    """Points per lidarseg category (the devkit's reader), the panoptic labels' semantics against
+    lidarseg, instances per scene, and the share of points whose panoptic label the devkit's own
+    generator (points in boxes, from our lidarseg) gives the same."""
+    per_category: Counter[str] = Counter()
+    same_semantics = points = 0
+    instances: set[tuple[str, int]] = set()
+    for record in nusc.lidarseg:
+        sd = nusc.get("sample_data", record["sample_data_token"])
+        cloud = LidarPointCloud.from_file(str(Path(nusc.dataroot) / sd["filename"]))
+        labels = load_bin_file(str(Path(nusc.dataroot) / record["filename"]), type="lidarseg")
+        panoptic = load_bin_file(str(Path(nusc.dataroot) / nusc.get("panoptic", sd["token"])["filename"]),
+                                 type="panoptic")  # fmt: skip
+        assert len(labels) == len(panoptic) == cloud.nbr_points()
+        per_category.update(nusc.lidarseg_idx2name_mapping[int(i)] for i in labels)
+        same_semantics += int(np.sum(panoptic_to_lidarseg(panoptic) == labels))
+        points += len(labels)
+        scene = nusc.get("sample", sd["sample_token"])["scene_token"]
+        instances |= {(scene, int(v % 1000)) for v in np.unique(panoptic) if v % 1000}
+    ours = {r["sample_data_token"]: load_bin_file(str(Path(nusc.dataroot) / r["filename"]), type="panoptic")
+            for r in nusc.panoptic}  # fmt: skip
+    generate_panoptic_labels(nusc, str(out / "devkit_panoptic"))
+    agree = total = 0
+    for sd_token, labels in ours.items():
+        theirs = np.load(out / "devkit_panoptic" / "panoptic" / nusc.version / f"{sd_token}_panoptic.npz")["data"]
+        agree += int(np.sum(theirs == labels))
+        total += len(labels)
+    return {"sweeps": len(nusc.lidarseg), "points": points, "per_category": dict(per_category),
+            "panoptic_semantics_equal": same_semantics, "instances": len(instances),
+            "devkit_panoptic_agreement": agree / max(total, 1)}  # fmt: skip
+
+
+def official_splits(nusc: NuScenes) -> dict[str, list[str]]:
+    """The version's scenes in each official split list, as the frameworks' converters take them."""
+    names = [s["name"] for s in nusc.scene]
+    lists = {"train": official.train, "val": official.val, "test": official.test}
+    return {split: [n for n in names if n in scenes] for split, scenes in lists.items()}
 
 
 def submission(path: Path, boxes: object, score: str, samples: list[str]) -> Path:
@@ -174,20 +238,33 @@ def main() -> int:
     parser.add_argument("out", type=Path)
     parser.add_argument("--eval", default="")
     parser.add_argument("--no-render", action="store_true")
+    parser.add_argument("--lists", action="store_true", help="also print the devkit's official split lists")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
+    report: dict[str, object] = {}
     with open(os.devnull, "w") as quiet:
         stdout, sys.stdout = sys.stdout, quiet
         try:
             nusc = NuScenes(version=VERSION, dataroot=str(args.dataroot), verbose=False)
-            report: dict[str, object] = {
+            report |= {
                 "scenes": [s["name"] for s in nusc.scene],
                 "samples": len(nusc.sample),
                 "per_category": dict(Counter(a["category_name"] for a in nusc.sample_annotation)),
                 "unresolved": unresolved(nusc),
                 "camera_boxes": camera_boxes(nusc),
+                "radar": radar_sweeps(nusc),
+                "point_labels": point_labels(nusc, args.out),
+                "official_splits": {VERSION: official_splits(nusc)},
             }
             nusc.list_scenes()
+            if (args.dataroot / TEST_VERSION).is_dir():
+                test = NuScenes(version=TEST_VERSION, dataroot=str(args.dataroot), verbose=False)
+                report["official_splits"][TEST_VERSION] = official_splits(test)  # type: ignore[index]
+                report["test_unresolved"] = unresolved(test)
+                report["test_point_labels"] = len(test.lidarseg)
+                report["test_per_category"] = dict(Counter(a["category_name"] for a in test.sample_annotation))
+            if args.lists:
+                report["lists"] = {s: [int(n[-4:]) for n in getattr(official, s)] for s in ("train", "val", "test")}
             if not args.no_render:
                 report["rendered"] = render(nusc, args.out)
             if args.eval:

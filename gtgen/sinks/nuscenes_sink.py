@@ -3,13 +3,17 @@
 Each frame writes the files of the sensors that fired in it, under ``samples/<CHANNEL>/``
 when the file is its channel's keyframe (the firing nearest a LiDAR keyframe, every 0.5 s)
 and ``sweeps/<CHANNEL>/`` otherwise, and one record ``rows/<frame>.json`` with what the
-tables need (ego pose, files, and at keyframes the annotations). The tables are built from
-these records when the run closes, so a run that stops keeps its frames and one that
-continues takes up where they end.
+tables need (ego pose, files, and at keyframes the annotations), and for a ``LIDAR_TOP``
+keyframe sweep ``rows/<frame>.lidar.npz`` (``semantic_class`` and ``instance_id`` per point,
+for the point labels). The tables, ``lidarseg/`` and ``panoptic/`` are built from these records
+when the run closes, so a run that stops keeps its frames and one that continues takes up
+where they end; ``rows/`` and ``calibration.json`` (each sensor's ``calibrated_sensor``
+values) stay beside them for that.
 """
 
 from __future__ import annotations
 
+import io
 import json
 import shutil
 from dataclasses import dataclass
@@ -23,7 +27,9 @@ from gtgen.counting import count_hits
 from gtgen.frame import FrameRecord
 from gtgen.nuscenes import (
     KEYFRAME_S,
+    TEST_VERSION,
     TRAFFIC_CONTROL,
+    VERSION,
     attribute_of,
     calibration_record,
     category_of,
@@ -38,7 +44,7 @@ from gtgen.sinks.images import JPEG_QUALITY, FrameImages
 from networks.classes import SemanticClass
 from networks.geometry import SE3, yaw_to_rotation
 from sensors.camera import CameraOutput
-from sensors.lidar import LidarOutput
+from sensors.lidar import LidarOutput, LidarScan
 from sensors.radar import RadarOutput
 from sensors.sensor import SensorOutput, fires
 
@@ -119,6 +125,8 @@ class NuscenesSink:
                 points = np.column_stack([scan.xyz_lidar_m, scan.intensity * 255.0, scan.ring]).astype("<f4")
                 entry.update(filename=f"{stem}.pcd.bin", fileformat="pcd")
                 files[entry["filename"]] = points.tobytes()
+                if key is not None and channel == self._lidar_channel:
+                    files[f"rows/{record.frame_index:06d}.lidar.npz"] = _point_classes(scan)
             elif isinstance(output, RadarOutput):
                 entry.update(filename=f"{stem}.pcd", fileformat="pcd")
                 radar_R_ego = output.spec.ego_SE3_sensor.rotation.T
@@ -209,6 +217,13 @@ def _calibration(channel: str, output: SensorOutput) -> dict[str, Any]:
                               quaternion_wxyz(pose.rotation), intrinsic)  # fmt: skip
 
 
+def _point_classes(scan: LidarScan) -> bytes:
+    """``rows/<frame>.lidar.npz``: each point's class and instance (see :mod:`gtgen.nuscenes_lidarseg`)."""
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, semantic_class=scan.semantic_class, instance_id=scan.instance_id)
+    return buffer.getvalue()
+
+
 def _drop_after(partial: Path, keep_frames: int) -> None:
     """Remove the records of the frames a continued run makes again, and their files."""
     rows = partial / "rows"
@@ -218,8 +233,10 @@ def _drop_after(partial: Path, keep_frames: int) -> None:
         if path.stem.isdigit() and int(path.stem) >= keep_frames:
             for entry in json.loads(path.read_text())["data"]:
                 (partial / entry["filename"]).unlink(missing_ok=True)
+            (rows / f"{path.stem}.lidar.npz").unlink(missing_ok=True)
             path.unlink()
-    shutil.rmtree(partial / "v1.0", ignore_errors=True)
+    for folder in (VERSION, TEST_VERSION, "lidarseg", "panoptic"):
+        shutil.rmtree(partial / folder, ignore_errors=True)
 
 
 def _last_scene(rows: Path, keep_frames: int) -> int:

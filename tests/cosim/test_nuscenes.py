@@ -1,6 +1,7 @@
 """The nuScenes export read by the official nuscenes-devkit (in .venv-nuscenes, made by
-``make nuscenes-devkit``): two runs of the nuScenes rig merged into one version, loaded,
-rendered and scored by the devkit's own detection and tracking evaluations."""
+``make nuscenes-devkit``): two runs of the nuScenes rig, one alone and both merged into one
+dataroot, loaded, rendered (radar, lidarseg and panoptic too) and scored by the devkit's own
+detection and tracking evaluations; scene names checked against the devkit's split lists."""
 
 import json
 import subprocess
@@ -13,7 +14,7 @@ import pytest
 
 from cosim.loop import run
 from cosim.scenario import load_scenario
-from gtgen import nuscenes
+from gtgen import nuscenes, nuscenes_names
 from gtgen.load import load_labels
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -37,20 +38,72 @@ def export(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[Path], Path, 
         run(load_scenario(str(DATA / "tiny.yaml"), ["rig=nuscenes", f"seed={seed}", "frames=41"]), out, progress=False)
         runs.append(out)
     merged = root / "merged"
-    assert nuscenes.main(["merge", str(merged), *(str(r) for r in runs), "--val", str(runs[1])]) == 0
-    command = [str(DEVKIT), str(ROOT / "tests" / "nuscenes_devkit_check.py"), str(merged), str(root / "devkit"),
-               "--eval", "sim_all"]  # fmt: skip
+    assert nuscenes.main(["merge", str(merged), *(str(r) for r in runs)]) == 0
+    return runs, merged, devkit_check(merged, root / "devkit", "--eval", "sim_all", "--lists")
+
+
+def devkit_check(dataroot: Path, out: Path, *options: str) -> dict:
+    command = [str(DEVKIT), str(ROOT / "tests" / "nuscenes_devkit_check.py"), str(dataroot), str(out), *options]
     check = subprocess.run(command, capture_output=True, text=True, check=False)
     assert check.returncode == 0, check.stderr[-3000:]
-    return runs, merged, json.loads(check.stdout)
+    return json.loads(check.stdout)
 
 
-def test_the_devkit_loads_both_scenes_and_every_reference_resolves(export):
+def names(split: str, numbers: range) -> list[str]:
+    return [f"scene-{getattr(nuscenes_names, split.upper())[k]:04d}" for k in numbers]
+
+
+def test_the_scene_names_are_those_of_the_devkits_official_split_lists(export):
+    lists = export[2]["lists"]
+    assert lists == {s: list(getattr(nuscenes_names, s.upper())) for s in ("train", "val", "test")}
+
+
+def test_a_single_run_gives_train_val_and_test_scenes_by_their_official_names(export, tmp_path):
+    runs = export[0]
+    report = devkit_check(runs[0] / "nuscenes", tmp_path, "--no-render")
+    # 41 frames: 5 keyframes, in 3 scenes of 2, 2 and 1 (a run under a minute still gives three splits)
+    assert report["official_splits"] == {
+        nuscenes.VERSION: {"train": names("train", range(1)), "val": names("val", range(1)), "test": []},
+        nuscenes.TEST_VERSION: {"train": [], "val": [], "test": names("test", range(1))},
+    }
+    assert report["unresolved"] == report["test_unresolved"] == [] and report["samples"] == 4
+
+
+def test_the_devkit_loads_the_merged_scenes_and_every_reference_resolves(export):
     _, merged, report = export
-    assert report["scenes"] == ["tiny-s3", "tiny-s4"] and report["samples"] == 10
-    assert report["unresolved"] == []
+    # each run keeps its own splits: 1 train, 1 val, 1 test scene; the merge renames them
+    assert report["official_splits"] == {
+        nuscenes.VERSION: {"train": names("train", range(2)), "val": names("val", range(2)), "test": []},
+        nuscenes.TEST_VERSION: {"train": [], "val": [], "test": names("test", range(2))},
+    }
+    assert report["samples"] == 8 and report["unresolved"] == report["test_unresolved"] == []
     splits = json.loads((merged / nuscenes.VERSION / "splits.json").read_text())
-    assert splits == {"sim_train": ["tiny-s3"], "sim_val": ["tiny-s4"], "sim_all": ["tiny-s3", "tiny-s4"]}
+    assert splits["sim_train"] == names("train", range(2)) and splits["sim_val"] == names("val", range(2))
+    assert json.loads((merged / nuscenes.TEST_VERSION / "splits.json").read_text())["sim_test"] == names(
+        "test", range(2)
+    )
+
+
+def test_a_merge_by_whole_runs_puts_every_scene_of_a_run_in_one_split(export, tmp_path):
+    runs = export[0]
+    assert nuscenes.main(["merge", str(tmp_path / "m"), str(runs[0]), str(runs[1]), "--val", str(runs[1])]) == 0
+    splits = json.loads((tmp_path / "m" / nuscenes.VERSION / "splits.json").read_text())
+    assert splits["sim_train"] == names("train", range(3)) and splits["sim_val"] == names("val", range(3))
+    assert not (tmp_path / "m" / nuscenes.TEST_VERSION).exists()
+    lidarseg = json.loads((tmp_path / "m" / nuscenes.VERSION / "lidarseg.json").read_text())
+    assert len(lidarseg) == 10 and all((tmp_path / "m" / r["filename"]).is_file() for r in lidarseg)
+
+
+def test_the_devkit_reads_every_radar_sweep_and_the_point_labels(export):
+    _, merged, report = export
+    data = json.loads((merged / nuscenes.VERSION / "sample_data.json").read_text())
+    radar_files = sum(1 for d in data if "/RADAR_" in d["filename"])
+    assert report["radar"]["files"] == radar_files > 0 and report["radar"]["points"] > 0
+    labels = report["point_labels"]
+    assert labels["sweeps"] == 8 and labels["panoptic_semantics_equal"] == labels["points"] > 10_000
+    assert {"flat.driveable_surface", "vehicle.car", "static.manmade"} <= set(labels["per_category"])
+    assert labels["instances"] > 5 and labels["devkit_panoptic_agreement"] > 0.99
+    assert report["test_point_labels"] == 2  # one keyframe in each run's test scene
 
 
 def test_the_devkits_own_scores_of_the_ground_truth_are_perfect(export):
@@ -66,7 +119,7 @@ def test_annotations_per_category_equal_the_labels_at_the_keyframes(export):
         labels = load_labels(out / "labels.csv")
         at_keyframes = labels[(labels["frame"] % KEYFRAME_EVERY == 0) & labels["type"].isin(list(NATIVE))]
         expected.update(NATIVE[t] for t in at_keyframes["type"])
-    assert report["per_category"] == dict(expected)
+    assert Counter(report["per_category"]) + Counter(report["test_per_category"]) == expected
 
 
 def test_devkit_boxes_in_each_camera_land_on_the_labels_2d_boxes(export):
@@ -77,7 +130,9 @@ def test_devkit_boxes_in_each_camera_land_on_the_labels_2d_boxes(export):
         labels = load_labels(out / "labels.csv")
         labels_of[out.name] = labels
         for track in labels["id"].unique():
-            frame_of_instance[nuscenes.token(out.name, "instance", 0, int(track))] = (out.name, int(track), days)
+            for scene in range(3):  # 3 scenes per run
+                instance = nuscenes.token(out.name, "instance", scene, int(track))
+                frame_of_instance[instance] = (out.name, int(track), days)
     compared = 0
     for box in report["camera_boxes"]:
         left, top, right, bottom = box["box"]
@@ -97,17 +152,19 @@ def test_devkit_boxes_in_each_camera_land_on_the_labels_2d_boxes(export):
     assert {"CAM_FRONT", "CAM_BACK"} <= channels
 
 
-def test_the_rendered_sample_shows_the_lidar_and_six_cameras(export):
+def test_the_rendered_sample_shows_every_channel_and_the_lidars_point_labels(export):
     rendered = export[2]["rendered"]
-    assert sorted(Path(p).stem for p in rendered) == sorted(
-        ["LIDAR_TOP", "CAM_FRONT", "CAM_FRONT_LEFT", "CAM_FRONT_RIGHT", "CAM_BACK", "CAM_BACK_LEFT", "CAM_BACK_RIGHT"]
-    )
+    cameras = ["CAM_FRONT", "CAM_FRONT_LEFT", "CAM_FRONT_RIGHT", "CAM_BACK", "CAM_BACK_LEFT", "CAM_BACK_RIGHT"]
+    radars = ["RADAR_FRONT", "RADAR_FRONT_LEFT", "RADAR_FRONT_RIGHT", "RADAR_BACK_LEFT", "RADAR_BACK_RIGHT"]
+    lidar = ["LIDAR_TOP", "LIDAR_TOP_lidarseg", "LIDAR_TOP_panoptic"]
+    assert sorted(Path(p).stem for p in rendered) == sorted(["sample", *cameras, *radars, *lidar])
     assert all(cv2.imread(p) is not None for p in rendered)
 
 
 def test_sensors_fire_at_their_own_rates_and_files_sit_where_the_tables_say(export):
     _, merged, _ = export
-    data = json.loads((merged / nuscenes.VERSION / "sample_data.json").read_text())
+    data = [d for v in (nuscenes.VERSION, nuscenes.TEST_VERSION)
+            for d in json.loads((merged / v / "sample_data.json").read_text())]  # fmt: skip
     sensors = {s["token"]: s["channel"] for s in json.loads((merged / nuscenes.VERSION / "sensor.json").read_text())}
     calibrated = json.loads((merged / nuscenes.VERSION / "calibrated_sensor.json").read_text())
     channel_of = {c["token"]: sensors[c["sensor_token"]] for c in calibrated}
