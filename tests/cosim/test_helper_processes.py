@@ -34,7 +34,7 @@ def test_outputs_are_identical_with_and_without_the_traffic_and_writer_processes
     run(scenario, tmp_path / "inline", progress=False, one_process=True)
     run(scenario, tmp_path / "process", progress=False)
     inline = dataset_files(tmp_path / "inline")
-    assert any(name.startswith("kitti/image_2/") for name in inline)
+    assert any(name.startswith("kitti/training/image_2/") for name in inline)
     assert dataset_files(tmp_path / "process") == inline
 
 
