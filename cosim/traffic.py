@@ -30,7 +30,7 @@ from cosim.parking import ParkingArea, additional_xml, find_parking_areas, lane_
 from cosim.scenario import Scenario
 from cosim.state import WorldState
 from networks.cache import cache_dir, digest, intact, seal, take_notices
-from networks.sumo_tools import sumo_binary, sumo_home
+from networks.sumo_tools import sumo_binary, sumo_home, sumo_refusal
 from sensors.agents import Agents, EgoState
 
 if TYPE_CHECKING:
@@ -109,8 +109,9 @@ class Traffic:
         self._cache_notices = take_notices()
         try:
             libsumo.start(cmd)
-        except libsumo.TraCIException as err:
-            raise TrafficError(f"{net_path}: SUMO could not load the network: {err}") from err
+        except libsumo.TraCIException as err:  # libsumo says only "Process Error": ask the sumo binary why
+            reason = sumo_refusal(cmd[1:]) or str(err)
+            raise TrafficError(f"{net_path}: SUMO could not load the network: {reason}") from err
         self._variants = self._define_types()
         lights = scenario.street.traffic_lights
         self._signals: tuple[str, ...] = tuple(sorted(libsumo.trafficlight.getIDList())) if lights else ()

@@ -10,11 +10,11 @@ from xml.etree import ElementTree
 import shapely
 
 from networks.cache import cache_dir, digest, intact, scratch_dir, seal
-from networks.errors import NetconvertError, NetworkError
-from networks.sumo_tools import sumo_binary
+from networks.errors import NetconvertError, NetworkError, SumoRefusedError
+from networks.sumo_tools import sumo_binary, sumo_refusal
 from networks.world import lane_footprint, load_net
 
-CONVERT_VERSION = "7"
+CONVERT_VERSION = "8"
 
 # Sidewalks and crossings for pedestrians, smooth lane shapes, z kept from the file.
 IMPORT_OPTIONS: tuple[str, ...] = (
@@ -121,6 +121,12 @@ def import_opendrive(xodr_path: Path) -> Path:
         (scratch / "netconvert.log").replace(folder / "netconvert.log")
         _drop_header_comment(partial)
         _keep_off_motorways(partial, motorway_roads(source))
+        refusal = sumo_refusal(["-n", str(partial)])
+        if refusal:
+            refused = folder / "net.refused.xml"
+            partial.replace(refused)
+            raise SumoRefusedError(f"{xodr_path}: SUMO does not load the network converted from it ({refused}): "
+                                   f"{refusal}")  # fmt: skip
         partial.replace(net)
     seal(net)
     return net
@@ -142,13 +148,19 @@ def motorway_roads(xodr_path: Path) -> set[str]:
         roads = ElementTree.parse(xodr_path).getroot().iter("road")
     except ElementTree.ParseError:
         return set()
-    return {road.get("id", "") for road in roads if any(t.get("type") == "motorway" for t in road.iter("type"))}
+    return {road.get("id", "") for road in roads if _is_motorway(road)}
+
+
+def _is_motorway(road: ElementTree.Element) -> bool:
+    return any(t.get("type") == "motorway" for t in road.iter("type"))
 
 
 def _keep_off_motorways(net_path: Path, roads: set[str]) -> None:
-    """Close the lanes of motorway roads to bicycles, mopeds and pedestrians (netconvert gives
-    an OpenDRIVE driving lane to every vehicle class, whatever its road's type); lanes are
-    found by the road in their ``origId``."""
+    """Close the lanes of motorway roads that cars may use to bicycles, mopeds and pedestrians
+    (netconvert gives an OpenDRIVE driving lane to every vehicle class, whatever its road's
+    type); lanes are found by the road in their ``origId``. Lanes closed to cars (sidewalks,
+    bicycle lanes, shoulders) keep their permissions: no lane ends up open to nobody by this
+    edit, and every lane, edge and connection stays as netconvert wrote it."""
     if not roads:
         return
     tree = ElementTree.parse(net_path)
@@ -157,15 +169,27 @@ def _keep_off_motorways(net_path: Path, roads: set[str]) -> None:
         origin = next((p.get("value", "") for p in lane.iter("param") if p.get("key") == "origId"), "")
         if not any(part.rsplit("_", 1)[0] in roads for part in origin.split()):
             continue
-        if "allow" in lane.attrib:
-            kept = [c for c in lane.attrib["allow"].split() if c not in MOTORWAY_BANNED]
-            lane.set("allow", " ".join(kept))
+        allowed = _lane_classes(lane.attrib)
+        if "passenger" not in allowed or not allowed & set(MOTORWAY_BANNED):
+            continue
+        if "allow" in lane.attrib and "all" not in lane.attrib["allow"].split():
+            lane.set("allow", " ".join(c for c in lane.attrib["allow"].split() if c not in MOTORWAY_BANNED))
         else:
+            lane.attrib.pop("allow", None)
             banned = lane.get("disallow", "").split()
             lane.set("disallow", " ".join([*banned, *(c for c in MOTORWAY_BANNED if c not in banned)]))
         changed = True
     if changed:
         tree.write(net_path, encoding="UTF-8", xml_declaration=True)
+
+
+def _lane_classes(attrib: dict[str, str]) -> set[str]:
+    """The vehicle classes a ``<lane>`` of a SUMO network admits, of the ones this module edits."""
+    if "allow" in attrib:
+        allowed = set(attrib["allow"].split())
+        return {"passenger", *MOTORWAY_BANNED} if "all" in allowed else allowed
+    disallowed = set(attrib.get("disallow", "").split())
+    return set() if "all" in disallowed else {"passenger", *MOTORWAY_BANNED} - disallowed
 
 
 def conversion_notice(net_path: Path) -> str:
@@ -210,16 +234,29 @@ def _repair_signals(text: str) -> str:
 
 
 def _run_netconvert(xodr_path: Path, types_path: Path, out_path: Path, left_hand: bool = False) -> str:
-    """Run netconvert (as left-hand traffic if the file says so, or ``left_hand``); return ''
-    on success, else its reason on one line."""
+    """Run netconvert (as left-hand traffic if the file says so, or ``left_hand``), guessing no
+    sidewalks on the roads :func:`road_facts` names; return '' on success, else its reason on
+    one line. A road netconvert splits into several edges (at lane sections and speed changes:
+    ``1#0``, ``1#1``) is converted again with those edges' ids."""
+    bare, says_left_hand = road_facts(xodr_path)
+    exclude = [edge for road in bare for edge in (road, "-" + road)]
+    error = _netconvert(xodr_path, types_path, out_path, left_hand or says_left_hand, exclude)
+    if not error and bare:
+        edges = edges_of_roads(out_path, set(bare))
+        if not edges <= set(exclude):
+            error = _netconvert(xodr_path, types_path, out_path, left_hand or says_left_hand,
+                                sorted(edges | set(exclude)))  # fmt: skip
+    return error
+
+
+def _netconvert(xodr_path: Path, types_path: Path, out_path: Path, left_hand: bool, no_sidewalks: list[str]) -> str:
     cmd = [
         str(sumo_binary("netconvert")), "--opendrive-files", str(xodr_path), "--type-files", str(types_path),
         *IMPORT_OPTIONS, "-o", str(out_path),
     ]  # fmt: skip
-    fast, says_left_hand = road_facts(xodr_path)
-    if fast:
-        cmd += ["--sidewalks.guess.exclude", ",".join(fast)]
-    if left_hand or says_left_hand:
+    if no_sidewalks:
+        cmd += ["--sidewalks.guess.exclude", ",".join(no_sidewalks)]
+    if left_hand:
         cmd += ["--lefthand", "true"]
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     out_path.with_name("netconvert.log").write_text(proc.stderr)
@@ -228,9 +265,23 @@ def _run_netconvert(xodr_path: Path, types_path: Path, out_path: Path, left_hand
     return netconvert_reason(proc.stderr, proc.returncode)
 
 
+def edges_of_roads(net_path: Path, roads: set[str]) -> set[str]:
+    """Ids of the normal edges of a converted network with a lane of one of the OpenDRIVE
+    ``roads`` (by the road in the lane's ``origId``)."""
+    out = set()
+    for edge in ElementTree.parse(net_path).getroot().iter("edge"):
+        if edge.get("function"):
+            continue
+        origins = (p.get("value", "") for p in edge.iter("param") if p.get("key") == "origId")
+        if any(part.rsplit("_", 1)[0] in roads for origin in origins for part in origin.split()):
+            out.add(edge.get("id", ""))
+    return out
+
+
 def road_facts(xodr_path: Path) -> tuple[list[str], bool]:
-    """SUMO edge ids of roads whose lanes are all faster than a town street, and whether
-    every road keeps left (``rule="LHT"``, which netconvert does not read itself).
+    """Ids of the OpenDRIVE roads that get no guessed sidewalk (motorways, and roads whose
+    lanes are all faster than a town street), and whether every road keeps left
+    (``rule="LHT"``, which netconvert does not read itself).
 
     netconvert decides whether to guess a sidewalk from the road type's default speed,
     not from the lanes' own speed records, so motorways would get sidewalks otherwise.
@@ -239,13 +290,22 @@ def road_facts(xodr_path: Path) -> tuple[list[str], bool]:
         roads = list(ElementTree.parse(xodr_path).getroot().iter("road"))
     except ElementTree.ParseError:
         return [], False  # netconvert reports the broken file itself
-    fast = []
+    bare = []
     for road in roads:
-        speeds = [_float(s.get("max")) for s in road.iter("speed")]
-        if road.get("junction", "-1") == "-1" and speeds and min(speeds) > SIDEWALK_MAX_SPEED_MPS:
-            fast += [road.get("id", ""), "-" + road.get("id", "")]
+        speeds = [_speed_mps(s) for s in road.iter("speed")]
+        fast = bool(speeds) and min(speeds) > SIDEWALK_MAX_SPEED_MPS
+        if road.get("junction", "-1") == "-1" and (fast or _is_motorway(road)):
+            bare.append(road.get("id", ""))
     left_hand = bool(roads) and all(road.get("rule", "RHT").upper() == "LHT" for road in roads)
-    return fast, left_hand
+    return bare, left_hand
+
+
+_MPS_PER_UNIT = {"m/s": 1.0, "km/h": 1.0 / 3.6, "mph": 0.44704}
+
+
+def _speed_mps(record: ElementTree.Element) -> float:
+    """A ``<speed max=... unit=...>`` record in m/s (OpenDRIVE's default unit; 0 if unreadable)."""
+    return _float(record.get("max")) * _MPS_PER_UNIT.get((record.get("unit") or "m/s").strip(), 1.0)
 
 
 def _float(text: str | None) -> float:

@@ -11,3 +11,7 @@ class NetconvertError(NetworkError):
 
 class ToolNotFoundError(NetworkError):
     """A SUMO tool (netconvert, randomTrips) is missing from the installation."""
+
+
+class SumoRefusedError(NetworkError):
+    """SUMO does not load a network the project wrote."""

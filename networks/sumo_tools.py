@@ -7,6 +7,7 @@ libsumo, netconvert and SUMO's Python tools agree on one installation.
 from __future__ import annotations
 
 import os
+import subprocess
 from pathlib import Path
 
 from networks.errors import ToolNotFoundError
@@ -37,3 +38,16 @@ def sumo_tool(relative: str) -> Path:
     if not path.exists():
         raise ToolNotFoundError(f"{path}: SUMO tool script {relative!r} not found in the installation")
     return path
+
+
+def sumo_refusal(args: list[str]) -> str:
+    """Run the ``sumo`` binary with ``args`` (a network and what else a simulation loads) up to
+    its first step; return '' if it loads them, else SUMO's own first error message."""
+    quiet = [(o, v) for o, v in (("--end", "0"), ("--no-step-log", "true"), ("--no-warnings", "true")) if o not in args]
+    cmd = [str(sumo_binary("sumo")), *args, *(word for pair in quiet for word in pair)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if proc.returncode == 0:
+        return ""
+    lines = [ln.strip() for ln in proc.stderr.splitlines() if ln.strip()]
+    errors = [ln.removeprefix("Error: ") for ln in lines if ln.startswith("Error: ")]
+    return (errors or lines or [f"exit code {proc.returncode}"])[0]
