@@ -15,7 +15,8 @@ Elements (map frame, 2D polylines; ids stable for the network):
 
 The lane graph (``lanes``): per SUMO lane its edge, centre line, width, speed, allowed classes,
 successors and predecessors (through junctions), left and right neighbours. Also the polygons of
-the drivable area, the walkways (sidewalks and walking areas), the crossings and the junctions.
+the drivable area, the walkways (sidewalks and walking areas), the crossings and the junctions
+(each junction's area as polygons with holes: SUMO's outline of a junction may cross itself).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from shapely.geometry import LineString, Polygon
 from networks.geometry import SE3
 from networks.markings import PaintedLine, crossing_lanes, painted_lines, read_road_marks
 
-MAP_VERSION = "1"  # part of the cache key of a network's map.json
+MAP_VERSION = "2"  # part of the cache key of a network's map.json
 ELEMENT_TYPES = ("lane_divider", "edge_line", "stop_line", "road_boundary", "crossing", "lane_centre")
 RASTER_LAYERS = ("drivable", "lane_divider", "road_boundary", "crossing", "walkway", "car", "truck", "bus",
                  "motorcycle", "bicycle", "pedestrian")  # fmt: skip
@@ -89,7 +90,8 @@ class HdMap:
             outline = LineString(np.asarray(lane.getShape())[:, :2]).buffer(lane.getWidth() / 2.0, cap_style="flat")
             if not outline.is_empty:
                 self.crossings.append(outline)
-                add("crossing", np.asarray(outline.exterior.coords), lane=lane.getID())
+                for ring in _rings(outline, holes=False):
+                    add("crossing", ring, lane=lane.getID())
         self.lanes = _lane_graph(net, left_hand)
         for record in self.lanes:
             add("lane_centre", np.asarray(record.centre_m), lane=record.lane_id)
@@ -115,7 +117,7 @@ class HdMap:
         return {
             "elements": [element_json(e, e.points_m) for e in self.elements],
             "lanes": [{f.name: getattr(r, f.name) for f in fields(r)} for r in self.lanes],
-            "junctions": [{"id": jid, "outline": _round(np.asarray(p.exterior.coords))} for jid, p in self.junctions],
+            "junctions": [{"id": jid, "polygons": polygons_json(area)} for jid, area in self.junctions],
         }  # fmt: skip
 
     def view(
@@ -196,19 +198,31 @@ def element_json(element: MapElement, points: npt.NDArray[np.float64]) -> dict[s
     return out
 
 
-def _rings(area: shapely.Geometry) -> list[npt.NDArray[np.float64]]:
-    """The exterior and interior rings of every polygon of ``area``."""
+def _polygons(area: shapely.Geometry) -> list[Polygon]:
+    """The polygons of an area of any shape (a polygon, with holes or not, several, a collection)."""
+    return [part for part in shapely.get_parts(area) if part.geom_type == "Polygon" and not part.is_empty]
+
+
+def _rings(area: shapely.Geometry, holes: bool = True) -> list[npt.NDArray[np.float64]]:
+    """The exterior rings of every polygon of ``area``, and their interior rings (``holes``)."""
     out = []
-    for part in shapely.get_parts(area):
-        if part.geom_type == "Polygon" and not part.is_empty:
-            out.append(np.asarray(part.exterior.coords))
-            out += [np.asarray(ring.coords) for ring in part.interiors]
+    for part in _polygons(area):
+        out.append(np.asarray(part.exterior.coords))
+        out += [np.asarray(ring.coords) for ring in part.interiors] if holes else []
     return out
 
 
-def _areas(net: sumolib.net.Net) -> tuple[shapely.Geometry, shapely.Geometry, list[tuple[str, Polygon]]]:
+def polygons_json(area: shapely.Geometry) -> list[list[list[list[float]]]]:
+    """An area as the coordinates of a GeoJSON MultiPolygon: per polygon, its outline, then its
+    holes (closed rings of x, y, rounded to mm)."""
+    return [[_round(np.asarray(part.exterior.coords)), *(_round(np.asarray(r.coords)) for r in part.interiors)]
+            for part in _polygons(area)]  # fmt: skip
+
+
+def _areas(net: sumolib.net.Net) -> tuple[shapely.Geometry, shapely.Geometry, list[tuple[str, shapely.Geometry]]]:
     """The drivable area (lanes open to vehicles, parking lanes and junctions), the walkways
-    (sidewalks and walking areas) and the junction outlines."""
+    (sidewalks and walking areas) and the junctions' areas (an outline SUMO draws crossing
+    itself makes several polygons, or one with holes, as in the world mesh)."""
     drive, driven, sidewalks, corners = [], [], [], []
     for edge in net.getEdges(withInternal=True):
         function = edge.getFunction()
