@@ -62,13 +62,17 @@ def load_labels(path: Path) -> pd.DataFrame:
 
 
 def objects_from_table(rows: pd.DataFrame) -> tuple[ObjectBoxes, npt.NDArray[np.bool_]]:
-    """Label rows (``labels.csv`` columns) as ego-frame boxes and their ``seen`` flags."""
+    """Label rows (``labels.csv`` columns) as ego-frame boxes and their ``seen`` flags (tables
+    without ``pitch`` and ``roll`` columns, from earlier versions, give level boxes)."""
+    level = np.zeros(len(rows))
     boxes = ObjectBoxes(
         rows["id"].to_numpy(),
         rows["class_id"].to_numpy(),
         rows[["x", "y", "z"]].to_numpy(),
         rows[["l", "w", "h"]].to_numpy(),
         rows["rotation_z"].to_numpy(),
+        rows["pitch"].to_numpy(np.float64) if "pitch" in rows else level,
+        rows["roll"].to_numpy(np.float64) if "roll" in rows else level,
         rows[["vx", "vy", "vz"]].to_numpy(),
         rows["parked"].to_numpy().astype(bool),
     )

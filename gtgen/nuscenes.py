@@ -22,7 +22,7 @@ x forward, z up) and ``ego_pose`` places it in the map frame; sensor frames as i
 ``calibrated_sensor`` (cameras: x right, y down, z forward). Timestamps are the simulation
 clock in microseconds. Keyframes come every 0.5 s from the first LiDAR, which is the
 ``LIDAR_TOP`` channel; a sensor's keyframe is its firing nearest the LiDAR keyframe. Boxes
-are those of the labels (yaw about the ego's up axis), put into the map frame.
+are those of the labels (with their pitch and roll), put into the map frame.
 ``num_radar_pts`` counts the returns in the radars' keyframe sweeps. A radar sweep with no
 return holds one invalid cluster (``invalid_state`` 1), which the devkit's default filters
 drop: its reader cannot read an empty file.

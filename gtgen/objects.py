@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from networks.geometry import wrap_angle, yaw_to_rotation
+from networks.geometry import rotations_from_rpy, rpy_from_rotations
 from networks.records import check_arrays
 from sensors.agents import Agents, EgoState
 
@@ -20,8 +20,11 @@ class ObjectBoxes:
     ``track_id: (N,) uint32`` stable over a scene and equal to the sensors' instance id;
     ``semantic_class: (N,) uint8`` (:class:`networks.classes.SemanticClass`, from the simulator);
     ``center_ego_m: (N, 3) float64`` box centres; ``lwh_m: (N, 3) float64``;
-    ``yaw_ego_rad: (N,) float64`` about the ego's +z; ``velocity_ego_mps: (N, 3) float64``
-    the object's velocity minus the ego's, expressed in the ego frame; ``parked: (N,) bool``.
+    ``yaw_ego_rad``, ``pitch_ego_rad``, ``roll_ego_rad: (N,) float64`` the box's orientation in
+    the ego frame, ``ego_R_box = Rz(yaw) @ Ry(pitch) @ Rx(roll)`` (a vehicle on a slope the ego
+    is not on is pitched; seen from a pitched ego, a vehicle heading across it is rolled);
+    ``velocity_ego_mps: (N, 3) float64`` the object's velocity minus the ego's, expressed in the
+    ego frame; ``parked: (N,) bool``.
     """
 
     track_id: npt.NDArray[np.uint32]
@@ -29,14 +32,16 @@ class ObjectBoxes:
     center_ego_m: npt.NDArray[np.float64]
     lwh_m: npt.NDArray[np.float64]
     yaw_ego_rad: npt.NDArray[np.float64]
+    pitch_ego_rad: npt.NDArray[np.float64]
+    roll_ego_rad: npt.NDArray[np.float64]
     velocity_ego_mps: npt.NDArray[np.float64]
     parked: npt.NDArray[np.bool_]
 
     def __post_init__(self) -> None:
         check_arrays(
             self, track_id=(np.uint32, ("N",)), semantic_class=(np.uint8, ("N",)), center_ego_m=(np.float64, ("N", 3)),
-            lwh_m=(np.float64, ("N", 3)), yaw_ego_rad=(np.float64, ("N",)), velocity_ego_mps=(np.float64, ("N", 3)),
-            parked=(np.bool_, ("N",)),
+            lwh_m=(np.float64, ("N", 3)), yaw_ego_rad=(np.float64, ("N",)), pitch_ego_rad=(np.float64, ("N",)),
+            roll_ego_rad=(np.float64, ("N",)), velocity_ego_mps=(np.float64, ("N", 3)), parked=(np.bool_, ("N",)),
         )  # fmt: skip
 
     def footprints_xy(self) -> npt.NDArray[np.float64]:
@@ -53,17 +58,25 @@ class ObjectBoxes:
 
     @classmethod
     def seen_from(cls, ego: EgoState, agents: Agents) -> ObjectBoxes:
-        """The agents as the ego sees them: boxes in its frame (yaw only), velocities relative to it."""
+        """The agents as the ego sees them: boxes in its frame (their whole orientation relative
+        to the ego's), velocities relative to it."""
         ego_SE3_map = ego.map_SE3_ego().inverse()
+        roll, pitch, yaw = rpy_from_rotations(ego_SE3_map.rotation @ agents.rotations())
         return cls(
             agents.instance_id, agents.semantic_class, ego_SE3_map.transform_from(agents.center_map_m), agents.lwh_m,
-            wrap_angle(agents.yaw_map_rad - ego.yaw_map_rad),
-            ego_SE3_map.rotate(agents.velocity_map_mps - ego.velocity_map_mps), agents.parked,
+            yaw, pitch, roll, ego_SE3_map.rotate(agents.velocity_map_mps - ego.velocity_map_mps), agents.parked,
         )  # fmt: skip
 
     def rotations(self) -> npt.NDArray[np.float64]:
-        """``(N, 3, 3)`` ego_R_box (yaw only)."""
-        return yaw_to_rotation(self.yaw_ego_rad)
+        """``(N, 3, 3)`` ego_R_box."""
+        return rotations_from_rpy(self.roll_ego_rad, self.pitch_ego_rad, self.yaw_ego_rad)
+
+    def upright_lwh_m(self) -> npt.NDArray[np.float64]:
+        """``(N, 3)`` length, width, height of the smallest box turned by yaw only (about the
+        ego's z, at the same centre) that holds the box: the box of formats without pitch and
+        roll (KITTI). Equal to ``lwh_m`` for a box level with the ego."""
+        within_yaw = rotations_from_rpy(self.roll_ego_rad, self.pitch_ego_rad, np.zeros(len(self)))
+        return np.asarray(np.einsum("nij,nj->ni", np.abs(within_yaw), self.lwh_m))
 
     def __len__(self) -> int:
         return int(self.track_id.shape[0])
@@ -75,6 +88,8 @@ class ObjectBoxes:
             self.center_ego_m[mask],
             self.lwh_m[mask],
             self.yaw_ego_rad[mask],
+            self.pitch_ego_rad[mask],
+            self.roll_ego_rad[mask],
             self.velocity_ego_mps[mask],
             self.parked[mask],
         )
@@ -83,8 +98,7 @@ class ObjectBoxes:
 def points_in_boxes(
     xyz_ego_m: npt.NDArray[np.floating], boxes: ObjectBoxes, index: npt.NDArray[np.intp], tolerance_m: float = 0.0
 ) -> npt.NDArray[np.bool_]:
-    """Whether each point lies inside box ``index[i]`` (yaw-only boxes, ``tolerance_m`` slack)."""
+    """Whether each point lies inside box ``index[i]`` (its whole orientation, ``tolerance_m`` slack)."""
     d = np.asarray(xyz_ego_m, dtype=np.float64) - boxes.center_ego_m[index]
-    c, s = np.cos(boxes.yaw_ego_rad[index]), np.sin(boxes.yaw_ego_rad[index])
-    local = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], d[:, 2]], axis=1)
+    local = np.einsum("nji,nj->ni", boxes.rotations()[index], d)  # box_R_ego @ d
     return np.asarray(np.all(np.abs(local) <= boxes.lwh_m[index] / 2.0 + tolerance_m, axis=1))

@@ -1,7 +1,8 @@
 """Camera geometry of the labels: projected (amodal) 2D boxes, truncation, KITTI alpha.
 
-All functions take every object at once. Boxes are the labels' ego-frame boxes (yaw only);
-the camera model is :mod:`sensors.pinhole`.
+All functions take every object at once. Boxes are the labels' ego-frame boxes (their whole
+orientation: the 2D box is the projection of the pitched or rolled box); KITTI's rotation_y
+and alpha are those of the yaw; the camera model is :mod:`sensors.pinhole`.
 """
 
 from __future__ import annotations

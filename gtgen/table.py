@@ -21,8 +21,9 @@ REFERENCE_COLUMNS = [
 CAMERA_EXTRA_COLUMNS = [
     "camera_visible_px", "visible_fraction", "visibility_bin", "modal_left", "modal_top", "modal_right", "modal_bottom",
 ]  # fmt: skip
-EXTRA_COLUMNS = ["class_id", "parked", "distance", "lidar_points", "radar_points", *CAMERA_EXTRA_COLUMNS, "seen",
-                 "ttc", "ego_length", "ego_width", "path_distance", "hazard_event"]  # fmt: skip
+EXTRA_COLUMNS = ["pitch", "roll", "class_id", "parked", "distance", "lidar_points", "radar_points",
+                 *CAMERA_EXTRA_COLUMNS, "seen", "ttc", "ego_length", "ego_width", "path_distance",
+                 "hazard_event"]  # fmt: skip
 COLUMNS = REFERENCE_COLUMNS + EXTRA_COLUMNS
 
 # Columns of every camera after the first: "<camera name>_<column>".
@@ -45,7 +46,7 @@ def label_table(labels: FrameLabels) -> dict[str, npt.NDArray[np.generic]]:
         "type": CLASS_NAMES[o.semantic_class],
         "l": o.lwh_m[:, 0], "w": o.lwh_m[:, 1], "h": o.lwh_m[:, 2],
         "x": o.center_ego_m[:, 0], "y": o.center_ego_m[:, 1], "z": o.center_ego_m[:, 2],
-        "rotation_z": o.yaw_ego_rad,
+        "rotation_z": o.yaw_ego_rad, "pitch": o.pitch_ego_rad, "roll": o.roll_ego_rad,
         "vx": o.velocity_ego_mps[:, 0], "vy": o.velocity_ego_mps[:, 1], "vz": o.velocity_ego_mps[:, 2],
         "class_id": o.semantic_class,
         "parked": o.parked.astype(np.int8),

@@ -144,6 +144,26 @@ def box_rotations(yaw_rad: npt.ArrayLike, pitch_rad: npt.ArrayLike) -> FloatArra
     return np.asarray(rz @ ry)
 
 
+def rotations_from_rpy(roll_rad: npt.ArrayLike, pitch_rad: npt.ArrayLike, yaw_rad: npt.ArrayLike) -> FloatArray:
+    """``(N, 3, 3)`` rotations ``Rz(yaw) @ Ry(pitch) @ Rx(roll)`` of ``(N,)`` angles (as
+    :func:`rotation_from_rpy`, for many at once)."""
+    roll, pitch, yaw = (np.atleast_1d(np.asarray(a, dtype=np.float64)) for a in (roll_rad, pitch_rad, yaw_rad))
+    cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    out = np.empty((yaw.shape[0], 3, 3))
+    out[:, 0, 0], out[:, 0, 1], out[:, 0, 2] = cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr
+    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr
+    out[:, 2, 0], out[:, 2, 1], out[:, 2, 2] = -sp, cp * sr, cp * cr
+    return out
+
+
+def rpy_from_rotations(rotations: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``(N,)`` roll, pitch, yaw of ``(N, 3, 3)`` rotations, with each rotation
+    ``Rz(yaw) @ Ry(pitch) @ Rx(roll)`` (yaw in [-pi, pi), pitch in [-pi/2, pi/2])."""
+    r = np.asarray(rotations, dtype=np.float64).reshape(-1, 3, 3)
+    pitch = np.arcsin(np.clip(-r[:, 2, 0], -1.0, 1.0))
+    return np.arctan2(r[:, 2, 1], r[:, 2, 2]), pitch, wrap_angle(np.arctan2(r[:, 1, 0], r[:, 0, 0]))
+
+
 def place_in_boxes(
     unit_points: FloatArray, center_m: FloatArray, lwh_m: FloatArray, rotations: FloatArray
 ) -> FloatArray:

@@ -115,6 +115,7 @@ def box_update(ns: int, labels: FrameLabels, signal_states: dict[int, str] | Non
     o = labels.objects
     states = signal_states or {}
     entities = []
+    ego_R_box = o.rotations()
     for i in range(len(o)):
         cls = SemanticClass(int(o.semantic_class[i]))
         state = states.get(int(o.track_id[i]))
@@ -122,7 +123,7 @@ def box_update(ns: int, labels: FrameLabels, signal_states: dict[int, str] | Non
         event = labels.hazard_event[i] if labels.hazard_event else ""
         if event:
             r, g, b = HAZARD_RGB
-        box_pose = pose(SE3.from_xyz_rpy(o.center_ego_m[i], yaw=float(o.yaw_ego_rad[i])))
+        box_pose = pose(SE3(ego_R_box[i], o.center_ego_m[i]))
         size = Vector3(x=float(o.lwh_m[i, 0]), y=float(o.lwh_m[i, 1]), z=float(o.lwh_m[i, 2]))
         cube = CubePrimitive(pose=box_pose, size=size, color=Color(r=r, g=g, b=b, a=0.35 if labels.seen[i] else 0.08))
         metadata = {"class": cls.label, "lidar_points": str(int(labels.lidar_points[i])),

@@ -198,12 +198,15 @@ class KittiSink:
         record: FrameRecord, cam_SE3_ego: SE3, cam_labels: CameraLabels, types: dict[SemanticClass, str]
     ) -> str:
         """One line per object the camera's image holds and a sensor saw. The 3D box (metres,
-        4 decimals) is grown by ``KITTI_MARGIN_M`` on every side and lifted by it; the 2D box,
-        truncation and alpha keep KITTI's 2 decimals."""
+        4 decimals) is the box turned by yaw only that holds the object's box (KITTI has no
+        pitch or roll: on a slope it is longer and taller than the object), grown by
+        ``KITTI_MARGIN_M`` on every side and lifted by it; the 2D box, truncation and alpha keep
+        KITTI's 2 decimals."""
         labels, o = record.labels, record.labels.objects
-        lifted_bottom = o.lwh_m[:, 2] / 2 - KITTI_MARGIN_M
+        upright = o.upright_lwh_m()
+        lifted_bottom = upright[:, 2] / 2 - KITTI_MARGIN_M
         location = cam_SE3_ego.transform_from(o.center_ego_m - np.column_stack([np.zeros((len(o), 2)), lifted_bottom]))
-        dims = o.lwh_m + np.array([2 * KITTI_MARGIN_M, 2 * KITTI_MARGIN_M, 0.0])
+        dims = upright + np.array([2 * KITTI_MARGIN_M, 2 * KITTI_MARGIN_M, 0.0])
         boxes = cam_labels.boxes
         rows = []
         for i in np.flatnonzero(np.isfinite(boxes.clipped_px[:, 0]) & labels.seen):

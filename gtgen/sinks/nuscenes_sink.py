@@ -42,7 +42,7 @@ from gtgen.nuscenes import (
 from gtgen.sinks.folder import PartialFolder
 from gtgen.sinks.images import JPEG_QUALITY, FrameImages
 from networks.classes import SemanticClass
-from networks.geometry import SE3, yaw_to_rotation
+from networks.geometry import SE3
 from sensors.camera import CameraOutput
 from sensors.lidar import LidarOutput, LidarScan
 from sensors.radar import RadarOutput
@@ -166,7 +166,7 @@ class NuscenesSink:
             fraction = np.maximum(fraction, np.nan_to_num(cam.visibility.fraction))
         map_SE3_ego: SE3 = record.map_SE3_ego
         centre = map_SE3_ego.transform_from(o.center_ego_m)
-        rotations = map_SE3_ego.rotation @ yaw_to_rotation(o.yaw_ego_rad)
+        rotations = map_SE3_ego.rotation @ o.rotations()
         speed = np.linalg.norm((o.velocity_ego_mps + ego_velocity_ego)[:, :2], axis=1)
         out, control = [], []
         states = record.signals.state_of()

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from gtgen.objects import ObjectBoxes
 from gtgen.projection import camera_boxes
-from networks.geometry import SE3
+from networks.geometry import SE3, rotation_from_rpy
 from sensors.pinhole import Pinhole, box_corners
 
 # ego (x fwd, y left, z up) -> optical (x right, y down, z fwd)
@@ -41,17 +41,21 @@ def boxes_in(cam, b):
     return camera_boxes(cam.pinhole, cam.ego_SE3_cam, b)
 
 
-def boxes(centers, yaws, lwh=(4.5, 1.9, 1.6)):
+def boxes(centers, yaws, lwh=(4.5, 1.9, 1.6), pitch=0.0, roll=0.0):
     n = len(centers)
     return ObjectBoxes(
         np.arange(1, n + 1), np.full(n, 10), np.asarray(centers, float), np.tile(lwh, (n, 1)), np.asarray(yaws, float),
-        np.zeros((n, 3)), np.zeros(n, bool),
+        np.full(n, pitch), np.full(n, roll), np.zeros((n, 3)), np.zeros(n, bool),
     )  # fmt: skip
 
 
 def cv2_corners(cam, b):
+    """The boxes' corners (turned by each box's roll, pitch, yaw written out as one rotation
+    matrix) projected with OpenCV."""
     cam_SE3_ego = cam.ego_SE3_cam.inverse()
-    corners = box_corners(b.center_ego_m, b.lwh_m, b.rotations()).reshape(-1, 3)
+    rotations = np.stack([rotation_from_rpy(r, p, y) for r, p, y in zip(b.roll_ego_rad, b.pitch_ego_rad, b.yaw_ego_rad,
+                                                                        strict=True)])  # fmt: skip
+    corners = box_corners(b.center_ego_m, b.lwh_m, rotations).reshape(-1, 3)
     rvec, _ = cv2.Rodrigues(cam_SE3_ego.rotation)
     uv, _ = cv2.projectPoints(corners, rvec, cam_SE3_ego.translation, cam.K, None)
     return uv.reshape(len(b), 8, 2)
@@ -60,10 +64,12 @@ def cv2_corners(cam, b):
 @settings(max_examples=60, deadline=None)
 @given(
     st.floats(6.0, 60.0), st.floats(-15.0, 15.0), st.floats(-1.0, 1.5), st.floats(-math.pi, math.pi),
+    st.floats(-0.3, 0.3), st.floats(-0.2, 0.2),
 )  # fmt: skip
-def test_projected_box_matches_opencv_project_points(x, y, z, yaw):
+def test_projected_box_matches_opencv_project_points(x, y, z, yaw, pitch, roll):
+    """The 2D box is the projection of the box with its pitch and roll (a truck on a ramp)."""
     cam = Cam()
-    b = boxes([[x, y, z]], [yaw])
+    b = boxes([[x, y, z]], [yaw], pitch=pitch, roll=roll)
     uv = cv2_corners(cam, b)[0]
     got = boxes_in(cam, b).amodal_px[0]
     expected = [uv[:, 0].min(), uv[:, 1].min(), uv[:, 0].max(), uv[:, 1].max()]

@@ -4,7 +4,15 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from networks.geometry import SE3, quaternion_xyzw_from_rotation, rotation_from_quaternion_xyzw, wrap_angle
+from networks.geometry import (
+    SE3,
+    quaternion_xyzw_from_rotation,
+    rotation_from_quaternion_xyzw,
+    rotation_from_rpy,
+    rotations_from_rpy,
+    rpy_from_rotations,
+    wrap_angle,
+)
 
 angles = st.floats(-math.pi, math.pi, allow_nan=False)
 coords = st.floats(-1e3, 1e3, allow_nan=False)
@@ -61,3 +69,13 @@ def test_wrap_angle_stays_in_range_and_keeps_direction(a):
     w = float(wrap_angle(a))
     assert -math.pi <= w < math.pi
     assert math.isclose(math.cos(w), math.cos(a), abs_tol=1e-9) and math.isclose(math.sin(w), math.sin(a), abs_tol=1e-9)
+
+
+@settings(max_examples=200)
+@given(angles, st.floats(-1.5, 1.5), angles)
+def test_many_rotations_from_roll_pitch_yaw_are_the_single_one_and_read_back(roll, pitch, yaw):
+    many = rotations_from_rpy([roll], [pitch], [yaw])
+    assert np.allclose(many[0], rotation_from_rpy(roll, pitch, yaw), atol=1e-12)
+    r, p, y = rpy_from_rotations(many)
+    assert np.allclose(rotations_from_rpy(r, p, y), many, atol=1e-9)
+    assert math.isclose(float(p[0]), pitch, abs_tol=1e-9)
