@@ -1,11 +1,10 @@
-"""The agents of a frame (struct of arrays), the ego, and their low-poly meshes, one instance
-id each.
+"""The agents of a frame (struct of arrays), the ego, and their meshes, one instance id each.
 
-Each agent class has a template mesh (car: body, cabin and wheels; truck: cab, cargo box,
-chassis and wheels; bus; motorcycle and bicycle with a rider; pedestrian with legs, torso,
-arms and head). Templates are drawn in metres at a nominal size, then normalised into the
-unit box ``[-0.5, 0.5]^3`` (x forward, y left, z up), so that scaling by an agent's l/w/h
-keeps the whole mesh inside its box. Classes without a template get the plain box.
+Each agent is drawn with its class's body type that fits its size (:mod:`sensors.bodies`:
+sedans to pickups, box trucks and semi-trailers, city buses and coaches, riders, walkers in
+their gait), normalised into the unit box ``[-0.5, 0.5]^3`` (x forward, y left, z up), so
+that scaling by an agent's l/w/h keeps the whole mesh inside its box. Classes without a body
+get the plain box.
 """
 
 from __future__ import annotations
@@ -19,6 +18,8 @@ from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations, place_in_boxes
 from networks.mesh import BOX_TRIANGLES, ClassedMesh
 from networks.records import check_arrays
+from sensors.bodies import BODIES, Body, body_of, pose_of
+from sensors.parts import Part
 from sensors.pinhole import UNIT_CORNERS
 
 
@@ -128,134 +129,72 @@ class EgoState:
 class AgentMeshes:
     """All agents merged into one mesh: ``vertices_m: (V, 3) float32`` in the map frame,
     ``triangles: (M, 3) int32``; ``triangle_instance: (M,) uint32`` and
-    ``triangle_class: (M,) uint8`` tell which agent each triangle belongs to."""
+    ``triangle_class: (M,) uint8`` tell which agent each triangle belongs to,
+    ``triangle_part: (M,) uint8`` what it is made of (:class:`~sensors.parts.Part`)."""
 
     vertices_m: npt.NDArray[np.float32]
     triangles: npt.NDArray[np.int32]
     triangle_instance: npt.NDArray[np.uint32]
     triangle_class: npt.NDArray[np.uint8]
+    triangle_part: npt.NDArray[np.uint8]
 
     def __post_init__(self) -> None:
         check_arrays(self, vertices_m=(np.float32, ("V", 3)), triangles=(np.int32, ("M", 3)),
-                     triangle_instance=(np.uint32, ("M",)), triangle_class=(np.uint8, ("M",)))  # fmt: skip
+                     triangle_instance=(np.uint32, ("M",)), triangle_class=(np.uint8, ("M",)),
+                     triangle_part=(np.uint8, ("M",)))  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
 class MeshTemplate:
-    """A class's mesh in the unit box: ``unit_vertices: (V, 3) float64`` within
-    ``[-0.5, 0.5]^3`` (x forward, y left, z up), ``triangles: (T, 3) int32``."""
+    """A body's mesh in the unit box: ``unit_vertices: (V, 3) float64`` within
+    ``[-0.5, 0.5]^3`` (x forward, y left, z up), ``triangles: (T, 3) int32`` and the
+    ``triangle_part: (T,) uint8`` each is made of (:class:`~sensors.parts.Part`)."""
 
     unit_vertices: npt.NDArray[np.float64]
     triangles: npt.NDArray[np.int32]
+    triangle_part: npt.NDArray[np.uint8]
 
     def __post_init__(self) -> None:
         if np.abs(self.unit_vertices).max() > 0.5 + 1e-12:
             raise ValueError("MeshTemplate: vertices must lie in the unit box")
         if self.triangles.min() < 0 or self.triangles.max() >= self.unit_vertices.shape[0]:
             raise ValueError("MeshTemplate: triangle index out of range")
+        if self.triangle_part.shape != (self.triangles.shape[0],):
+            raise ValueError("MeshTemplate: one part per triangle")
 
 
-BOX_TEMPLATE = MeshTemplate(UNIT_CORNERS, np.asarray(BOX_TRIANGLES, dtype=np.int32))
-
-Part = tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]
-
-
-def _extrude(profile_xz: list[tuple[float, float]], y0: float, y1: float) -> Part:
-    """Closed prism of a convex, counter-clockwise x-z profile between y0 and y1 (metres)."""
-    p = np.asarray(profile_xz, dtype=np.float64)
-    k = p.shape[0]
-    near = np.column_stack([p[:, 0], np.full(k, y0), p[:, 1]])
-    far = np.column_stack([p[:, 0], np.full(k, y1), p[:, 1]])
-    i = np.arange(1, k - 1)
-    caps = [np.stack([np.zeros_like(i), i, i + 1], 1), np.stack([np.full_like(i, k), k + i + 1, k + i], 1)]
-    j = np.arange(k)
-    jn = (j + 1) % k
-    sides = [np.stack([j, k + j, jn], 1), np.stack([jn, k + j, k + jn], 1)]
-    return np.concatenate([near, far]), np.concatenate(caps + sides).astype(np.int32)
+BOX_TEMPLATE = MeshTemplate(UNIT_CORNERS, np.asarray(BOX_TRIANGLES, dtype=np.int32),
+                            np.full(len(BOX_TRIANGLES), int(Part.PAINT), np.uint8))  # fmt: skip
 
 
-def _cuboid(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float) -> Part:
-    return _extrude([(x0, z0), (x1, z0), (x1, z1), (x0, z1)], y0, y1)
+def _unit_templates(body: Body) -> tuple[MeshTemplate, ...]:
+    """Every pose of a body, normalised together into the unit box (one scale for all poses,
+    so a walker's limbs swing inside its box without the body changing size)."""
+    pieces = [body.build(p) for p in range(body.poses)]
+    lo = np.min([p.vertices.min(axis=0) for p in pieces], axis=0)
+    hi = np.max([p.vertices.max(axis=0) for p in pieces], axis=0)
+    centre, extent = (lo + hi) / 2.0, np.maximum(hi - lo, 1e-6)
+    out = []
+    for p in pieces:
+        unit = np.clip((p.vertices - centre) / extent, -0.5, 0.5)
+        out.append(MeshTemplate(unit, p.triangles, p.parts))
+    return tuple(out)
 
 
-def _wheel(x: float, radius: float, y0: float, y1: float, sides: int = 6) -> Part:
-    """A wheel as a prism of ``sides`` sides, one corner on the ground."""
-    step = 2.0 * np.pi / sides
-    a = np.arange(sides) * step + (1.5 * np.pi) % step
-    return _extrude([(x + radius * np.cos(t), radius + radius * np.sin(t)) for t in a], y0, y1)
+_TEMPLATE_CACHE: dict[tuple[int, int], tuple[MeshTemplate, ...]] = {}
 
 
-def _template(lwh_m: tuple[float, float, float], parts: list[Part]) -> MeshTemplate:
-    """Merge parts drawn in metres (x, y centred, z up from the ground) into a unit template."""
-    offsets = np.cumsum([0] + [v.shape[0] for v, _ in parts[:-1]])
-    verts = np.concatenate([v for v, _ in parts])
-    tris = np.concatenate([t + off for (_, t), off in zip(parts, offsets, strict=True)])
-    unit = verts / np.asarray(lwh_m) - np.array([0.0, 0.0, 0.5])
-    return MeshTemplate(unit, tris.astype(np.int32))
-
-
-def _axles(xs: tuple[float, ...], radius: float, y_in: float, y_out: float) -> list[Part]:
-    return [_wheel(x, radius, s * y_in, s * y_out) for x in xs for s in (-1.0, 1.0)]
-
-
-def _car() -> MeshTemplate:
-    body = _extrude([(-2.25, 0.3), (2.15, 0.3), (2.25, 0.55), (2.2, 0.85), (-2.2, 0.92), (-2.25, 0.6)], -0.9, 0.9)
-    cabin = _extrude([(-1.75, 0.9), (1.0, 0.9), (0.15, 1.5), (-1.35, 1.5)], -0.78, 0.78)
-    return _template((4.5, 1.8, 1.5), [body, cabin, *_axles((1.4, -1.4), 0.32, 0.66, 0.88)])
-
-
-def _truck() -> MeshTemplate:
-    cab = _extrude([(2.3, 0.55), (3.75, 0.55), (3.75, 2.0), (3.45, 2.8), (2.3, 2.8)], -1.2, 1.2)
-    cargo = _cuboid(-3.75, 2.15, -1.25, 1.25, 0.95, 3.2)
-    chassis = _cuboid(-3.6, 3.6, -0.9, 0.9, 0.55, 0.95)
-    return _template((7.5, 2.5, 3.2), [cab, cargo, chassis, *_axles((2.9, -1.9, -2.95), 0.5, 0.7, 1.2)])
-
-
-def _bus() -> MeshTemplate:
-    body = _extrude([(-6.0, 0.35), (6.0, 0.35), (6.0, 3.0), (5.75, 3.4), (-5.9, 3.4), (-6.0, 3.1)], -1.25, 1.25)
-    return _template((12.0, 2.5, 3.4), [body, *_axles((4.3, -3.6), 0.5, 0.8, 1.22)])
-
-
-def _rider(x_hip: float, z_seat: float, lean_m: float) -> list[Part]:
-    """Legs, leaning torso and head of a seated rider (metres)."""
-    legs = _cuboid(x_hip - 0.05, x_hip + 0.35, -0.18, 0.18, z_seat - 0.45, z_seat)
-    torso = _extrude([(x_hip - 0.15, z_seat), (x_hip + 0.15, z_seat), (x_hip + 0.15 + lean_m, z_seat + 0.6),
-                      (x_hip - 0.12 + lean_m, z_seat + 0.6)], -0.2, 0.2)  # fmt: skip
-    head = _cuboid(x_hip + lean_m - 0.1, x_hip + lean_m + 0.12, -0.1, 0.1, z_seat + 0.62, z_seat + 0.85)
-    return [legs, torso, head]
-
-
-def _motorcycle() -> MeshTemplate:
-    frame = _extrude([(-0.75, 0.4), (0.55, 0.35), (0.8, 0.85), (0.55, 0.95), (-0.7, 0.8)], -0.18, 0.18)
-    bars = _cuboid(0.45, 0.6, -0.38, 0.38, 0.95, 1.05)
-    wheels = [_wheel(x, 0.3, -0.07, 0.07) for x in (-0.75, 0.75)]
-    return _template((2.2, 0.8, 1.7), [frame, bars, *wheels, *_rider(-0.3, 0.85, 0.2)])
-
-
-def _bicycle() -> MeshTemplate:
-    frame = _extrude([(-0.45, 0.35), (0.5, 0.35), (0.35, 0.75), (-0.3, 0.8)], -0.03, 0.03)
-    bars = _cuboid(0.35, 0.45, -0.28, 0.28, 0.95, 1.0)
-    wheels = [_wheel(x, 0.34, -0.03, 0.03) for x in (-0.55, 0.55)]
-    return _template((1.8, 0.6, 1.75), [frame, bars, *wheels, *_rider(-0.3, 0.9, 0.25)])
-
-
-def _pedestrian() -> MeshTemplate:
-    legs = [_cuboid(-0.08, 0.08, s * 0.03, s * 0.15, 0.0, 0.85) for s in (-1.0, 1.0)]
-    torso = _cuboid(-0.12, 0.12, -0.19, 0.19, 0.85, 1.45)
-    arms = [_cuboid(-0.06, 0.06, s * 0.19, s * 0.25, 0.8, 1.42) for s in (-1.0, 1.0)]
-    head = _cuboid(-0.1, 0.1, -0.09, 0.09, 1.5, 1.75)
-    return _template((0.3, 0.5, 1.75), [*legs, torso, *arms, head])
-
-
-TEMPLATES: dict[int, MeshTemplate] = {
-    int(SemanticClass.CAR): _car(),
-    int(SemanticClass.TRUCK): _truck(),
-    int(SemanticClass.BUS): _bus(),
-    int(SemanticClass.MOTORCYCLE): _motorcycle(),
-    int(SemanticClass.BICYCLE): _bicycle(),
-    int(SemanticClass.PEDESTRIAN): _pedestrian(),
-}
-"""Template mesh per agent class; other classes are drawn as their box."""
+def template_of(semantic_class: int, body: int, pose: int) -> MeshTemplate:
+    """The unit mesh of a class's body type in a pose (:mod:`sensors.bodies`); the box for
+    classes without bodies."""
+    bodies = BODIES.get(int(semantic_class))
+    if not bodies:
+        return BOX_TEMPLATE
+    key = (int(semantic_class), int(body))
+    if key not in _TEMPLATE_CACHE:
+        _TEMPLATE_CACHE[key] = _unit_templates(bodies[body])
+    poses = _TEMPLATE_CACHE[key]
+    return poses[pose % len(poses)]
 
 
 AGENT_LIFT_M = 0.03
@@ -264,32 +203,49 @@ sensor resolves, which keeps every return off the road out of every box and ever
 an agent inside its box, under strict point-in-box tests of the exported labels."""
 
 
-def agent_meshes(agents: Agents, templates: dict[int, MeshTemplate] | None = None) -> AgentMeshes:
-    """All agents' template meshes, scaled to their l/w/h (less :data:`AGENT_LIFT_M` at the
-    bottom) and posed; one pass per class."""
-    table = TEMPLATES if templates is None else templates
+def body_keys(agents: Agents) -> npt.NDArray[np.int64]:
+    """``(N, 3)`` class, body type and pose of each agent (:func:`sensors.bodies.body_of`,
+    :func:`sensors.bodies.pose_of`): the pose from the distance along its heading, so a
+    walker's legs move with the ground it covers and stand still when it does."""
+    keys = np.zeros((len(agents), 3), np.int64)
+    speed = np.linalg.norm(agents.velocity_map_mps[:, :2], axis=1)
+    along = agents.center_map_m[:, 0] * np.cos(agents.yaw_map_rad) + agents.center_map_m[:, 1] * np.sin(agents.yaw_map_rad)
+    for i in range(len(agents)):
+        c = int(agents.semantic_class[i])
+        keys[i] = (c, body_of(c, agents.lwh_m[i], int(agents.instance_id[i])), pose_of(c, float(speed[i]), float(along[i])))
+    return keys
+
+
+def agent_meshes(agents: Agents) -> AgentMeshes:
+    """All agents' body meshes, scaled to their l/w/h (less :data:`AGENT_LIFT_M` at the
+    bottom) and posed; one pass per body type and pose."""
     rotations = agents.rotations()
     mesh_center = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
     mesh_lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
-    verts, tris, inst, cls = [], [], [], []
+    keys = body_keys(agents)
+    verts, tris, inst, cls, parts = [], [], [], [], []
     offset = 0
-    for c in np.unique(agents.semantic_class):
-        mask = agents.semantic_class == c
-        group, template = agents.select(mask), table.get(int(c), BOX_TEMPLATE)
-        n, v, t = len(group), template.unit_vertices.shape[0], template.triangles.shape[0]
+    groups, group_of = np.unique(keys, axis=0, return_inverse=True) if len(agents) else (keys, np.zeros(0, np.intp))
+    for g, (c, body, pose) in enumerate(groups.tolist()):
+        mask = group_of.ravel() == g
+        template = template_of(c, body, pose)
+        ids = agents.instance_id[mask]
+        n, v, t = len(ids), template.unit_vertices.shape[0], template.triangles.shape[0]
         posed = place_in_boxes(template.unit_vertices, mesh_center[mask], mesh_lwh[mask], rotations[mask])
         verts.append(posed.reshape(-1, 3))
         tris.append(
             (template.triangles[None] + offset + v * np.arange(n, dtype=np.int32)[:, None, None]).reshape(-1, 3)
         )
-        inst.append(np.repeat(group.instance_id, t))
+        inst.append(np.repeat(ids, t))
         cls.append(np.full(n * t, c, np.uint8))
+        parts.append(np.tile(template.triangle_part, n))
         offset += n * v
     if not verts:
         return AgentMeshes(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros(0, np.uint32),
-                           np.zeros(0, np.uint8))  # fmt: skip
-    return AgentMeshes(np.concatenate(verts).astype(np.float32), np.concatenate(tris).astype(np.int32),
-                       np.concatenate(inst), np.concatenate(cls))  # fmt: skip
+                           np.zeros(0, np.uint8), np.zeros(0, np.uint8))  # fmt: skip
+    order = np.argsort(np.concatenate(inst), kind="stable")  # an agent's triangles contiguous
+    return AgentMeshes(np.concatenate(verts).astype(np.float32), np.concatenate(tris).astype(np.int32)[order],
+                       np.concatenate(inst)[order], np.concatenate(cls)[order], np.concatenate(parts)[order])  # fmt: skip
 
 
 def as_classed_mesh(meshes: AgentMeshes) -> ClassedMesh:

@@ -19,8 +19,10 @@ import numpy.typing as npt
 
 from networks.geometry import SE3
 from networks.records import check_arrays
-from sensors.agents import EgoState
+from sensors.agents import Agents, EgoState
 from sensors.errors import SensorConfigError, SensorError
+from sensors.hits import RayHits
+from sensors.photo import SUBPIXEL_OFFSETS, AgentBoxes, Supersamples
 from sensors.pinhole import EGO_AXES_R_OPTICAL, Pinhole
 from sensors.rays import sensor_rays
 from sensors.shading import Shading
@@ -31,6 +33,11 @@ if TYPE_CHECKING:
     from sensors.engine import Scene
 
 F64 = npt.NDArray[np.float64]
+SHADING_STYLES = ("realistic", "flat")
+SHADOW_RANGE_M = 120.0
+"""Beyond this distance no shadow ray is cast: the sun is taken as visible."""
+SHADOW_LIFT_M = 0.02
+"""Shadow rays start this far off the surface, towards the camera's side of it."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -47,8 +54,12 @@ class CameraSpec:
     mount_rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
     range_m: float = 200.0
     rate_hz: float = 20.0
+    shading: str = "realistic"  # or "flat": one colour per class and face, no shadows, faster
 
     def __post_init__(self) -> None:
+        if self.shading not in SHADING_STYLES:
+            raise SensorConfigError(f"camera {self.name}: shading must be one of {', '.join(SHADING_STYLES)}, "
+                                    f"got {self.shading!r}")  # fmt: skip
         if not (8 <= self.width_px <= 8192 and 8 <= self.height_px <= 8192):
             raise SensorConfigError(f"camera {self.name}: width_px and height_px must be 8..8192")
         if not 1.0 <= self.hfov_deg <= 170.0:
@@ -122,7 +133,9 @@ class Camera:
         return sensor_rays(map_SE3_ego.compose(self.spec.ego_SE3_sensor), self._dirs_cam)
 
     def sense(self, scene: Scene, ego: EgoState, weather: Weather, rng: np.random.Generator) -> CameraOutput:
-        """Render one frame; the seed of the image noise (night, rain, fog) is drawn from ``rng``."""
+        """Render one frame; the seed of the image noise is drawn from ``rng``. The realistic
+        style also casts a shadow ray towards the sun per pixel and four sub-pixel rays at
+        pixels holding an edge (anti-aliasing); labels use the centre rays only."""
         map_SE3_ego = ego.map_SE3_ego()
         map_SE3_cam = map_SE3_ego.compose(self.spec.ego_SE3_sensor)
         hits = scene.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, self._dirs_cam)
@@ -131,13 +144,87 @@ class Camera:
         depth[far] = 0.0
         hits.instance_id[far] = 0  # the frame's own arrays; shading paints sky over these pixels
         hits.semantic_class[far] = 0
-        seed = int(rng.integers(0, 2**63)) if weather.noise_sigma > 0 else None
         map_R_cam = map_SE3_cam.rotation.astype(np.float32)
-        shading = Shading(self.spec.pinhole, self.spec.range_m, map_R_cam, hits.normal, weather, seed)
         h, w = self.shape
+        if self.spec.shading == "flat":
+            seed = int(rng.integers(0, 2**63)) if weather.noise_sigma > 0 else None
+            shading = Shading(self.spec.pinhole, self.spec.range_m, map_R_cam, hits.normal, weather, seed)
+        else:
+            seed = int(rng.integers(0, 2**63))
+            hits.part[far] = 0
+            origin = map_SE3_cam.translation
+            dirs_map = np.asarray(cv2.transform(self._dirs_cam.reshape(-1, 1, 3), map_R_cam), np.float32).reshape(-1, 3)
+            sun_lit = sun_visibility(scene, origin, dirs_map, hits.range_m, hits.normal, weather)
+            extra = self._supersamples(scene, map_SE3_cam, hits, weather)
+            shading = Shading(self.spec.pinhole, self.spec.range_m, map_R_cam, hits.normal, weather, seed,
+                              part=hits.part, origin_map_m=np.asarray(origin, np.float64), sun_lit=sun_lit,
+                              boxes=boxes_in_view(scene.agents, hits.instance_id), extra=extra)  # fmt: skip
         frame = CameraFrame(depth.reshape(h, w), hits.instance_id.reshape(h, w), hits.semantic_class.reshape(h, w),
                             shading)  # fmt: skip
         return CameraOutput(self.spec, frame)
+
+    def _supersamples(self, scene: Scene, map_SE3_cam: SE3, hits: RayHits, weather: Weather) -> Supersamples:
+        """Four sub-pixel rays at every pixel whose class, instance, part or depth differs from
+        a neighbour's."""
+        h, w = self.shape
+        pixel = np.flatnonzero(edge_pixels(hits, h, w)).astype(np.int64)
+        v, u = np.divmod(pixel, w)
+        offsets = SUBPIXEL_OFFSETS
+        su = (u[:, None] + offsets[None, :, 0]).ravel()
+        sv = (v[:, None] + offsets[None, :, 1]).ravel()
+        dirs_cam = self.spec.pinhole.pixel_directions(su, sv).astype(np.float32)
+        sub = scene.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, dirs_cam)
+        far = sub.range_m > np.float32(self.spec.range_m)
+        sub.range_m[far] = np.inf
+        dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), map_SE3_cam.rotation.astype(np.float32)),
+                              np.float32).reshape(-1, 3)  # fmt: skip
+        lit = sun_visibility(scene, map_SE3_cam.translation, dirs_map, sub.range_m, sub.normal, weather)
+        return Supersamples(pixel, dirs_cam, sub.range_m, sub.semantic_class, sub.instance_id, sub.part, sub.normal, lit)
+
+
+def edge_pixels(hits: RayHits, h: int, w: int) -> npt.NDArray[np.bool_]:
+    """``(H * W,)`` pixels that differ from their right or lower neighbour in class, instance
+    or part, or whose range jumps by more than 3 %."""
+    key = (hits.semantic_class.astype(np.int64) << 40) | (hits.part.astype(np.int64) << 32) | hits.instance_id
+    key = key.reshape(h, w)
+    rng_m = np.minimum(hits.range_m, np.float32(1e4)).reshape(h, w)
+    edge = np.zeros((h, w), np.bool_)
+    for a, b in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1, :], np.s_[1:, :])):
+        diff = (key[a] != key[b]) | (np.abs(rng_m[a] - rng_m[b]) > np.float32(0.03) * np.minimum(rng_m[a], rng_m[b]))
+        edge[a] |= diff
+        edge[b] |= diff
+    return edge.ravel()
+
+
+def sun_visibility(scene: Scene, origin_map_m: F64, dirs_map: npt.NDArray[np.float32], range_m: npt.NDArray[np.float32],
+                   normal: npt.NDArray[np.float32], weather: Weather) -> npt.NDArray[np.bool_]:  # fmt: skip
+    """``(N,)`` whether the sun reaches each hit point (a shadow ray towards it hits nothing).
+    Misses, points beyond :data:`SHADOW_RANGE_M` and surfaces facing away count as lit; with no
+    sun (night) every point is lit and no ray is cast."""
+    lit = np.ones(range_m.shape[0], np.bool_)
+    if weather.sun_gain <= 0:
+        return lit
+    sun = np.asarray(weather.sun_dir_map, np.float32)
+    sun /= np.linalg.norm(sun)
+    near = np.isfinite(range_m) & (range_m < np.float32(SHADOW_RANGE_M))
+    facing = np.einsum("ij,ij->i", normal, dirs_map)
+    towards_cam = np.where((facing > 0)[:, None], -normal, normal)
+    near &= towards_cam @ sun > 0
+    at = np.flatnonzero(near)
+    if len(at) == 0:
+        return lit
+    rays = np.empty((len(at), 6), np.float32)
+    rays[:, :3] = origin_map_m.astype(np.float32) + dirs_map[at] * range_m[at, None] + towards_cam[at] * np.float32(SHADOW_LIFT_M)
+    rays[:, 3:] = sun
+    lit[at] = ~np.isfinite(scene.cast(rays).range_m)
+    return lit
+
+
+def boxes_in_view(agents: Agents, instance_id: npt.NDArray[np.uint32]) -> AgentBoxes:
+    """The boxes of the agents seen in the frame (their contact shadows and lower parts)."""
+    seen = np.isin(agents.instance_id, np.unique(instance_id))
+    a = agents.select(seen)
+    return AgentBoxes(a.instance_id, a.center_map_m, a.lwh_m, a.yaw_map_rad)
 
 
 DEPTH_PNG_MAX_UNITS = 65535

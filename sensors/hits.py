@@ -12,12 +12,14 @@ import numpy.typing as npt
 class RayHits:
     """Per ray: ``range_m: (N,) float32`` (inf where nothing was hit),
     ``semantic_class: (N,) uint8``, ``instance_id: (N,) uint32`` (0: static world),
-    ``normal: (N, 3) float32`` unit surface normals in the rays' frame."""
+    ``normal: (N, 3) float32`` unit surface normals in the rays' frame, ``part: (N,) uint8``
+    what the surface is made of (:class:`sensors.parts.Part`; 0: the static world, by class)."""
 
     range_m: npt.NDArray[np.float32]
     semantic_class: npt.NDArray[np.uint8]
     instance_id: npt.NDArray[np.uint32]
     normal: npt.NDArray[np.float32]
+    part: npt.NDArray[np.uint8]
 
     @property
     def hit(self) -> npt.NDArray[np.bool_]:

@@ -128,6 +128,7 @@ class MitsubaScene:
         self._class_of_row = np.concatenate([static.triangle_class, meshes.triangle_class, [0]]).astype(np.uint8)
         self._instance_of_row = np.concatenate([np.zeros(n_static, np.uint32), meshes.triangle_instance, [0]])
         self._instance_of_row = self._instance_of_row.astype(np.uint32)
+        self._part_of_row = np.concatenate([np.zeros(n_static, np.uint8), meshes.triangle_part, [0]]).astype(np.uint8)
         agent_normals = _face_normals(meshes.vertices_m, meshes.triangles)
         self._normal_of_row = np.concatenate([engine._static_normals, agent_normals, np.zeros((1, 3), np.float32)])
         self._normal_of_row = np.ascontiguousarray(self._normal_of_row).view(_NORMAL).ravel()
@@ -171,7 +172,8 @@ class MitsubaScene:
         range_m = t.numpy().astype(np.float32, copy=False)
         rows = row.numpy()
         normals = np.take(self._normal_of_row, rows).view(np.float32).reshape(-1, 3)  # 12-byte rows, taken whole
-        return RayHits(range_m, np.take(self._class_of_row, rows), np.take(self._instance_of_row, rows), normals)
+        return RayHits(range_m, np.take(self._class_of_row, rows), np.take(self._instance_of_row, rows), normals,
+                       np.take(self._part_of_row, rows))  # fmt: skip
 
     def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
         return _hits_alone(self.agent_meshes, rays, instance_id)

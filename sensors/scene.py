@@ -104,6 +104,9 @@ class FrameScene:
         self._instance_of_row = np.concatenate(
             [np.zeros(static.triangle_class.shape[0], np.uint32), meshes.triangle_instance, [0]]
         ).astype(np.uint32)
+        self._part_of_row = np.concatenate(
+            [np.zeros(static.triangle_class.shape[0], np.uint8), meshes.triangle_part, [0]]
+        ).astype(np.uint8)
         self.cast_raw(np.zeros((1, 6), np.float32))  # builds the BVH
 
     def _add(self, vertices: npt.NDArray[np.floating[Any]], triangles: npt.NDArray[np.integer[Any]]) -> int:
@@ -134,7 +137,7 @@ class FrameScene:
         np.minimum(row, self._nothing_row, out=row)  # misses (INVALID_ID) -> the last row
         t_hit[geometry == np.uint32(INVALID_ID)] = np.inf
         normal = result["primitive_normals"].numpy()
-        return RayHits(t_hit, self._class_of_row[row], self._instance_of_row[row], normal)
+        return RayHits(t_hit, self._class_of_row[row], self._instance_of_row[row], normal, self._part_of_row[row])
 
     def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
         """Whether ray ``i`` hits agent ``instance_id[i]`` with every other agent (and the

@@ -23,6 +23,7 @@ from networks.classes import SemanticClass
 from networks.records import check_arrays
 from sensors.hits import RayHits
 from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAINT_BGR
+from sensors.photo import AgentBoxes, Supersamples, shade_photo
 from sensors.pinhole import Pinhole
 from sensors.weather import Weather, haze_fraction, image_noise, sky_bgr
 
@@ -107,6 +108,13 @@ class Shading:
     weather: Weather
     noise_seed: int | None
     faces: StreetFaces | None = None  # signal heads and signs whose fronts it draws (None: none in view)
+    # the realistic style's inputs (None: the flat style): the part per pixel, the camera's
+    # position, the sun's visibility per pixel, the boxes of agents in view, sub-pixel rays
+    part: npt.NDArray[np.uint8] | None = None
+    origin_map_m: npt.NDArray[np.float64] | None = None
+    sun_lit: npt.NDArray[np.bool_] | None = None
+    boxes: AgentBoxes | None = None
+    extra: Supersamples | None = None
 
     def __post_init__(self) -> None:
         pixels = self.pinhole.width_px * self.pinhole.height_px
@@ -114,8 +122,11 @@ class Shading:
 
 
 def shade_frame(frame: CameraFrame) -> npt.NDArray[np.uint8]:
-    """The shaded ``(H, W, 3) uint8`` image of a rendered frame (see :class:`Shading`)."""
+    """The shaded ``(H, W, 3) uint8`` image of a rendered frame (see :class:`Shading`):
+    realistic (:func:`sensors.photo.shade_photo`) or flat."""
     sh = frame.shading
+    if sh.part is not None:
+        return shade_photo(frame)
     dirs_cam = sh.pinhole.image_directions()
     depth = frame.depth_m.ravel()
     hit = depth > 0

@@ -133,7 +133,8 @@ def add_spurious_returns(
     cls = np.where(spurious, np.uint8(0), hits.semantic_class)
     inst = np.where(spurious, np.uint32(0), hits.instance_id)
     normal = np.where(spurious[:, None], -rays[:, 3:6], hits.normal).astype(np.float32)
-    return RayHits(range_m.astype(np.float32), cls, inst, normal), spurious
+    part = np.where(spurious, np.uint8(0), hits.part)
+    return RayHits(range_m.astype(np.float32), cls, inst, normal, part), spurious
 
 
 def lidar_intensity_factor(weather: Weather, range_m: npt.NDArray[np.floating]) -> npt.NDArray[np.float64]:

@@ -1,0 +1,552 @@
+"""Body types of road users: meshes with the parts detectors learn, generated here.
+
+Every body is drawn in metres at its nominal size (x forward, y left, z up from the ground,
+centred in x and y), every triangle tagged with its :class:`~sensors.parts.Part`, then
+normalised into the unit box ``[-0.5, 0.5]^3``: scaled to an agent's l/w/h it stays inside
+its box, so every LiDAR point of an agent stays inside its label.
+
+Cars come as sedan, hatchback, estate, SUV, van and pickup; trucks as a box truck and a
+tractor with a semi-trailer; buses as a city bus and a coach; motorcycles and bicycles with a
+rider (the cyclist pedalling); pedestrians in a walking cycle. An agent's body type is the one
+whose nominal size fits its l/w/h best, ties broken by its instance id, so it is stable over
+its track (:func:`body_of`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import shapely
+from shapely.geometry import Polygon
+from shapely.geometry.polygon import orient
+
+from networks.classes import SemanticClass
+from sensors.parts import Part
+
+F64 = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Piece:
+    """Triangles in metres: ``vertices (V, 3)``, ``triangles (T, 3) int32``, ``parts (T,) uint8``."""
+
+    vertices: F64
+    triangles: npt.NDArray[np.int32]
+    parts: npt.NDArray[np.uint8]
+
+
+def merge(pieces: list[Piece]) -> Piece:
+    offsets = np.cumsum([0] + [p.vertices.shape[0] for p in pieces[:-1]])
+    return Piece(
+        np.concatenate([p.vertices for p in pieces]),
+        np.concatenate([p.triangles + o for p, o in zip(pieces, offsets, strict=True)]).astype(np.int32),
+        np.concatenate([p.parts for p in pieces]).astype(np.uint8),
+    )
+
+
+PartOf = int | Callable[[float, float], int]
+"""A part, or a function of a side face's outward normal (x, z) giving its part."""
+
+
+def prism(outline_xz: list[tuple[float, float]], half_width: float | Callable[[float], float], cap: int,
+          side: PartOf, y_centre: float = 0.0, hole: list[tuple[float, float]] | None = None) -> Piece:  # fmt: skip
+    """A side outline (any simple polygon, optionally with one hole) extruded across y,
+    ``half_width`` a constant or a function of z (tumblehome). ``cap``: the part of the two
+    flat faces; ``side``: the part of the faces around the outline."""
+    poly = orient(Polygon(outline_xz, [hole] if hole else None), 1.0)
+    rings = [np.asarray(poly.exterior.coords[:-1])] + [np.asarray(r.coords[:-1]) for r in poly.interiors]
+    pts = np.concatenate(rings)
+    index = {(round(x, 9), round(z, 9)): i for i, (x, z) in enumerate(pts)}
+    k = pts.shape[0]
+    hw = np.array([half_width(z) if callable(half_width) else half_width for z in pts[:, 1]])
+    left = np.column_stack([pts[:, 0], y_centre + hw, pts[:, 1]])
+    right = np.column_stack([pts[:, 0], y_centre - hw, pts[:, 1]])
+    tris, parts = [], []
+    for t in shapely.constrained_delaunay_triangles(poly).geoms:
+        a, b, c = (index[(round(x, 9), round(z, 9))] for x, z in t.exterior.coords[:3])
+        tris += [(a, b, c), (k + a, k + c, k + b)]
+        parts += [cap, cap]
+    start = 0
+    for ring in rings:
+        n = ring.shape[0]
+        for j in range(n):
+            a, b = start + j, start + (j + 1) % n
+            dx, dz = pts[b] - pts[a]
+            length = math.hypot(dx, dz) or 1.0
+            part = side(dz / length, -dx / length) if callable(side) else side
+            tris += [(a, k + a, b), (b, k + a, k + b)]
+            parts += [part, part]
+        start += n
+    return Piece(np.concatenate([left, right]), np.asarray(tris, np.int32), np.asarray(parts, np.uint8))
+
+
+def box(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float, part: int) -> Piece:
+    return prism([(x0, z0), (x1, z0), (x1, z1), (x0, z1)], (y1 - y0) / 2, part, part, (y0 + y1) / 2)
+
+
+def circle(cx: float, cz: float, r: float, sides: int, start: float = 0.0) -> list[tuple[float, float]]:
+    return [(cx + r * math.cos(start + 2 * math.pi * i / sides), cz + r * math.sin(start + 2 * math.pi * i / sides))
+            for i in range(sides)]  # fmt: skip
+
+
+def tube(p0: F64, p1: F64, r0: float, r1: float, part: int, sides: int = 6) -> Piece:
+    """A tapered rod between two 3D points, closed at both ends."""
+    a, b = np.asarray(p0, np.float64), np.asarray(p1, np.float64)
+    axis = b - a
+    axis /= np.linalg.norm(axis) or 1.0
+    helper = np.array([0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    u = np.cross(axis, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    ang = 2 * np.pi * np.arange(sides) / sides
+    ring = np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * v
+    verts = np.concatenate([a + r0 * ring, b + r1 * ring])
+    j = np.arange(sides)
+    jn = (j + 1) % sides
+    sides_t = np.concatenate([np.stack([j, jn, sides + j], 1), np.stack([jn, sides + jn, sides + j], 1)])
+    i = np.arange(1, sides - 1)
+    caps = np.concatenate([np.stack([np.zeros_like(i), i + 1, i], 1), np.stack([np.full_like(i, sides), sides + i, sides + i + 1], 1)])
+    tris = np.concatenate([sides_t, caps]).astype(np.int32)
+    return Piece(verts, tris, np.full(tris.shape[0], part, np.uint8))
+
+
+def blob(centre: tuple[float, float, float], radii: tuple[float, float, float], part: int, rings: int = 4,
+         segments: int = 8) -> Piece:  # fmt: skip
+    """A low-poly ellipsoid (heads, helmets)."""
+    verts = [(0.0, 0.0, -1.0)]
+    for i in range(1, rings):
+        phi = -np.pi / 2 + np.pi * i / rings
+        for s in range(segments):
+            th = 2 * np.pi * s / segments
+            verts.append((math.cos(phi) * math.cos(th), math.cos(phi) * math.sin(th), math.sin(phi)))
+    verts.append((0.0, 0.0, 1.0))
+    v = np.asarray(verts) * np.asarray(radii) + np.asarray(centre)
+    tris = []
+    top = len(verts) - 1
+    for s in range(segments):
+        sn = (s + 1) % segments
+        tris.append((0, 1 + sn, 1 + s))
+        for i in range(rings - 2):
+            a, b = 1 + i * segments, 1 + (i + 1) * segments
+            tris += [(a + s, a + sn, b + s), (a + sn, b + sn, b + s)]
+        last = 1 + (rings - 2) * segments
+        tris.append((last + s, last + sn, top))
+    t = np.asarray(tris, np.int32)
+    return Piece(v, t, np.full(t.shape[0], part, np.uint8))
+
+
+def wheel(x: float, r: float, y_in: float, y_out: float, sides: int = 14) -> list[Piece]:
+    """A tyre with a rim on its outer face (``y_out`` is the outer face, either side)."""
+    width = abs(y_out - y_in)
+    sign = 1.0 if y_out > y_in else -1.0
+    tyre = prism(circle(x, r, r, sides), width / 2 - 0.01, Part.TYRE, Part.TYRE, (y_in + y_out) / 2 - sign * 0.01)
+    rim = prism(circle(x, r, 0.62 * r, sides), 0.01, Part.RIM, Part.RIM, y_out - sign * 0.01)
+    hub = prism(circle(x, r, 0.18 * r, 6), 0.004, Part.TRIM, Part.TRIM, y_out - sign * 0.001 - 0.003 * sign)
+    return [tyre, rim, hub]
+
+
+def ring_wheel(x: float, r: float, half_width: float, sides: int = 16) -> list[Piece]:
+    """A thin bicycle wheel: a tyre ring on a rim ring, open spokes, a hub."""
+    tyre = prism(circle(x, r, r, sides), half_width, Part.TYRE, Part.TYRE, hole=circle(x, r, 0.9 * r, sides))
+    rim = prism(circle(x, r, 0.9 * r, sides), half_width * 0.6, Part.RIM, Part.RIM, hole=circle(x, r, 0.84 * r, sides))
+    hub = prism(circle(x, r, 0.06, 6), half_width * 1.5, Part.FRAME, Part.FRAME)
+    return [tyre, rim, hub]
+
+
+def _under(nx: float, nz: float) -> int:
+    return int(Part.UNDERBODY) if nz < -0.6 else int(Part.PAINT)
+
+
+@dataclass(frozen=True, slots=True)
+class CarShape:
+    """A car's side profile in metres; x forward from the centre, z up from the ground."""
+
+    l: float
+    w: float
+    h: float
+    wheel_r: float
+    axle_front: float  # x of the front axle
+    axle_rear: float
+    clearance: float  # sill height
+    nose_z: float  # top of the front face
+    belt_z: float  # bonnet's rear end, at the windscreen's base
+    windscreen_x: float  # x of the windscreen's base
+    roof_front_x: float
+    roof_rear_x: float
+    rear_glass_x: float  # x of the rear window's base
+    deck_z: float  # height of the boot lid / tailgate top at the rear
+    tail_slope: float = 0.12  # how far back the rear face leans (m)
+    bed: bool = False  # a pickup's load bed behind the cab
+
+
+CAR_SHAPES: dict[str, CarShape] = {
+    "sedan": CarShape(4.7, 1.82, 1.45, 0.32, 1.42, -1.38, 0.2, 0.72, 0.9, 0.95, -0.15, -1.05, -1.65, 0.95),
+    "hatchback": CarShape(4.1, 1.78, 1.48, 0.31, 1.3, -1.25, 0.2, 0.72, 0.9, 0.8, -0.2, -1.5, -1.95, 0.98, 0.05),
+    "estate": CarShape(4.8, 1.83, 1.5, 0.32, 1.45, -1.4, 0.2, 0.74, 0.92, 0.95, -0.1, -2.05, -2.28, 1.0, 0.04),
+    "suv": CarShape(4.6, 1.88, 1.72, 0.37, 1.38, -1.35, 0.3, 0.95, 1.08, 0.85, -0.1, -1.85, -2.2, 1.15, 0.04),
+    "van": CarShape(4.9, 1.95, 1.95, 0.33, 1.6, -1.5, 0.26, 1.0, 1.12, 1.45, 0.95, -2.33, -2.36, 1.2, 0.02),
+    "pickup": CarShape(5.3, 1.9, 1.8, 0.38, 1.75, -1.6, 0.32, 1.0, 1.1, 1.15, 0.25, -0.65, -0.72, 1.1, 0.02, True),
+}  # fmt: skip
+
+
+def _arch(cx: float, r: float, reverse: bool = False) -> list[tuple[float, float]]:
+    """An arch's outline over a wheel at ``cx`` (radius ``r`` plus clearance), rear to front."""
+    ra = r + 0.06
+    pts = [(cx + ra * math.cos(a), r + ra * math.sin(a)) for a in np.linspace(math.pi, 0.0, 7)]
+    return pts[::-1] if reverse else pts
+
+
+def car(s: CarShape) -> Piece:
+    hl, hw = s.l / 2, s.w / 2 - 0.02
+    r = s.wheel_r
+    bl = hl - 0.03  # the body's ends: lamps, plates and bumpers stand out of them to the full length
+    deck_x = -bl + s.tail_slope
+    lower = [(-bl, s.clearance + 0.14), (-bl + 0.25, s.clearance), *_arch(s.axle_rear, r),
+             (s.axle_rear + r + 0.2, s.clearance - 0.02), (s.axle_front - r - 0.2, s.clearance - 0.02),
+             *_arch(s.axle_front, r), (bl - 0.2, s.clearance + 0.06), (bl, s.clearance + 0.22),
+             (bl - 0.02, s.nose_z - 0.06), (bl - 0.18, s.nose_z), (s.windscreen_x, s.belt_z),
+             (s.rear_glass_x, s.belt_z + 0.04), (deck_x, s.deck_z), (-bl, s.deck_z - 0.12)]  # fmt: skip
+    if s.bed:
+        lower = lower[:-3] + [(s.rear_glass_x, s.belt_z), (-bl, s.belt_z)]
+    body_hw = hw
+
+    def tumble(z: float) -> float:
+        return body_hw - max(0.0, z - s.belt_z + 0.15) * 0.15
+
+    pieces = [prism(lower, tumble, Part.PAINT, _under)]
+    roof_z = s.h
+    green = [(s.rear_glass_x, s.belt_z + 0.03), (s.windscreen_x, s.belt_z - 0.01), (s.roof_front_x, roof_z),
+             (s.roof_rear_x, roof_z)]  # fmt: skip
+    cabin_hw0 = tumble(s.belt_z) - 0.03
+
+    def cabin(z: float) -> float:
+        return cabin_hw0 - (z - s.belt_z) * 0.28
+
+    def glass_or_roof(nx: float, nz: float) -> int:
+        return int(Part.PAINT) if nz > 0.85 or nz < -0.85 else int(Part.GLASS)
+
+    pieces.append(prism(green, cabin, Part.GLASS, glass_or_roof))
+    # pillars over the side glass: A along the windscreen, B in the middle, C at the rear
+    out = 0.006
+
+    def pillar_w(z: float) -> float:
+        return cabin(z) + out
+
+    t = 0.07
+    pieces.append(prism([(s.windscreen_x, s.belt_z), (s.windscreen_x - t * 1.6, s.belt_z), (s.roof_front_x - t, roof_z - 0.02),
+                         (s.roof_front_x + 0.01, roof_z - 0.02)], pillar_w, Part.PAINT, Part.PAINT))  # fmt: skip
+    bx = (s.windscreen_x + s.roof_rear_x) / 2 - 0.1
+    pieces.append(prism([(bx - 0.05, s.belt_z), (bx + 0.05, s.belt_z), (bx + 0.05, roof_z - 0.02), (bx - 0.05, roof_z - 0.02)],
+                        pillar_w, Part.TRIM, Part.TRIM))  # fmt: skip
+    c_len = 0.3 if s.roof_rear_x - s.rear_glass_x > 0.25 else 0.12
+    pieces.append(prism([(s.rear_glass_x, s.belt_z + 0.03), (s.rear_glass_x + c_len + 0.25, s.belt_z + 0.03),
+                         (s.roof_rear_x + c_len * 0.5, roof_z - 0.02), (s.roof_rear_x, roof_z - 0.02)],
+                        pillar_w, Part.PAINT, Part.PAINT))  # fmt: skip
+    # body-colour skirt line, bumpers' black lower parts
+    pieces.append(box(bl - 0.12, hl - 0.005, -hw + 0.05, hw - 0.05, s.clearance + 0.02, s.clearance + 0.2, Part.TRIM))
+    pieces.append(box(-hl + 0.005, -bl + 0.14, -hw + 0.05, hw - 0.05, s.clearance + 0.02, s.clearance + 0.2, Part.TRIM))
+    # front: grille, headlamps, plate
+    fz = s.clearance + 0.22
+    nose = s.nose_z - 0.06
+    pieces.append(box(bl - 0.06, hl - 0.01, -0.42 * hw, 0.42 * hw, fz + 0.1, nose - 0.06, Part.TRIM))
+    for side in (-1.0, 1.0):
+        y0, y1 = sorted((side * 0.52 * hw, side * 0.9 * hw))
+        pieces.append(box(bl - 0.12, hl - 0.015, y0, y1, nose - 0.15, nose - 0.04, Part.HEADLAMP))
+        ty0, ty1 = sorted((side * 0.62 * hw, side * 0.95 * hw))
+        tz = min(s.deck_z - 0.2, s.belt_z) if not s.bed else s.belt_z - 0.2
+        pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.16, tz, Part.TAIL_LAMP))
+        my0, my1 = sorted((side * (hw - 0.12), side * hw))
+        pieces.append(box(s.windscreen_x - 0.2, s.windscreen_x - 0.05, my0, my1, s.belt_z + 0.02, s.belt_z + 0.14,
+                          Part.TRIM))  # fmt: skip
+    pieces.append(box(hl - 0.04, hl, -0.26, 0.26, fz - 0.04, fz + 0.07, Part.PLATE))
+    pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, s.clearance + 0.25, s.clearance + 0.37, Part.PLATE))
+    if s.bed:  # the open bed's floor, seen from above, and its tailgate
+        pieces.append(box(-hl + 0.05, s.rear_glass_x - 0.05, -hw + 0.08, hw - 0.08, s.belt_z - 0.02, s.belt_z + 0.005,
+                          Part.TRIM))  # fmt: skip
+    for x in (s.axle_front, s.axle_rear):
+        for side in (-1.0, 1.0):
+            pieces += wheel(x, r, side * (hw - 0.24), side * (hw - 0.02))
+    # the underside between the wheels, dark
+    pieces.append(box(s.axle_rear + r, s.axle_front - r, -hw + 0.15, hw - 0.15, 0.12, s.clearance, Part.UNDERBODY))
+    return merge(pieces)
+
+
+def box_truck(l: float = 8.0, w: float = 2.5, h: float = 3.5, trailer: bool = False) -> Piece:
+    """A rigid box truck, or a tractor with a box semi-trailer."""
+    hl, hw = l / 2, w / 2 - 0.01
+    cab_l = 2.2
+    cab_x1 = hl
+    cab_x0 = hl - cab_l
+    cab_top = min(h - 0.05, 3.0) if not trailer else min(h - 0.2, 3.1)
+    cab = [(cab_x0, 0.55), (cab_x1, 0.55), (cab_x1, 1.5), (cab_x1 - 0.12, 2.4), (cab_x1 - 0.3, cab_top), (cab_x0, cab_top)]
+
+    def cab_part(nx: float, nz: float) -> int:
+        return int(Part.PAINT)
+
+    pieces = [prism(cab, hw - 0.03, Part.PAINT, cab_part)]
+    # windscreen and side windows over the cab
+    pieces.append(prism([(cab_x1 - 0.02, 1.55), (cab_x1 + 0.001, 1.55), (cab_x1 - 0.11, 2.38), (cab_x1 - 0.13, 2.38)],
+                        hw - 0.12, Part.GLASS, Part.GLASS))  # fmt: skip
+    pieces.append(box(cab_x0 + 0.9, cab_x1 - 0.35, -hw + 0.005, hw - 0.005, 1.6, 2.35, Part.GLASS))
+    pieces.append(box(cab_x1 - 0.05, cab_x1 + 0.0, -0.7 * hw, 0.7 * hw, 0.75, 1.35, Part.TRIM))  # grille
+    for side in (-1.0, 1.0):
+        y0, y1 = sorted((side * 0.72 * hw, side * 0.95 * hw))
+        pieces.append(box(cab_x1 - 0.05, cab_x1, y0, y1, 0.7, 0.9, Part.HEADLAMP))
+        m0, m1 = sorted((side * (hw - 0.06), side * hw))
+        pieces.append(box(cab_x1 - 0.4, cab_x1 - 0.3, m0, m1, 1.6, 2.2, Part.TRIM))  # mirror arms
+    pieces.append(box(cab_x1 - 0.04, cab_x1, -0.26, 0.26, 0.58, 0.7, Part.PLATE))
+    pieces.append(box(cab_x1 - 0.15, cab_x1, -hw + 0.02, hw - 0.02, 0.45, 0.7, Part.TRIM))  # bumper
+    gap = 0.35
+    box_x1 = cab_x0 - (0.9 if trailer else gap)
+    box_z0 = 1.2 if trailer else 1.05
+    pieces.append(box(-hl, box_x1, -hw, hw, box_z0, h, Part.CARGO))
+    pieces.append(box(-hl + 0.2, hl - 0.3, -0.45, 0.45, 0.5, box_z0, Part.UNDERBODY))  # chassis
+    for side in (-1.0, 1.0):  # side guards and rear lamps
+        y0, y1 = sorted((side * (hw - 0.06), side * (hw - 0.01)))
+        pieces.append(box(-hl + 1.8, box_x1 - 0.6, y0, y1, 0.5, box_z0, Part.TRIM))
+        t0, t1 = sorted((side * 0.7 * hw, side * 0.95 * hw))
+        pieces.append(box(-hl, -hl + 0.05, t0, t1, box_z0 - 0.3, box_z0 - 0.12, Part.TAIL_LAMP))
+    pieces.append(box(-hl, -hl + 0.06, -hw + 0.05, hw - 0.05, box_z0 - 0.35, box_z0 - 0.05, Part.TRIM))
+    pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, box_z0 - 0.48, box_z0 - 0.36, Part.PLATE))
+    r = 0.5
+    axles = [hl - 1.2]
+    axles += [-hl + 1.3, -hl + 2.6, -hl + 3.9] if trailer else [-hl + 1.8]
+    if trailer:
+        axles.append(cab_x0 - 0.3)
+    for x in axles:
+        for side in (-1.0, 1.0):
+            pieces += wheel(x, r, side * (hw - 0.32), side * (hw - 0.04))
+    return merge(pieces)
+
+
+def bus(l: float = 12.0, w: float = 2.55, h: float = 3.2, coach: bool = False) -> Piece:
+    hl, hw = l / 2, w / 2 - 0.01
+    floor = 0.35 if not coach else 0.45
+    body = [(-hl, floor), (hl, floor), (hl, h - 0.4), (hl - 0.15, h), (-hl + 0.1, h), (-hl, h - 0.2)]
+    pieces = [prism(body, hw - 0.02, Part.PAINT, _under)]
+    win0, win1 = (1.05, h - 0.3) if not coach else (1.75, h - 0.25)
+    # side windows as glass panels with pillars, a windscreen to low down, doors on the right
+    for side in (-1.0, 1.0):
+        y0, y1 = sorted((side * (hw - 0.02), side * hw))
+        pieces.append(box(-hl + 0.6, hl - 0.8, y0, y1, win0, win1, Part.GLASS))
+        for x in np.arange(-hl + 0.6, hl - 0.7, 1.4 if not coach else 1.2):
+            pieces.append(box(x - 0.06, x + 0.06, *sorted((side * (hw - 0.021), side * (hw + 0.0))), win0, win1, Part.PAINT))
+        t0, t1 = sorted((side * 0.75 * hw, side * 0.95 * hw))
+        pieces.append(box(hl - 0.03, hl, t0, t1, 0.6, 0.8, Part.HEADLAMP))
+        pieces.append(box(-hl, -hl + 0.03, t0, t1, 0.7, 1.1, Part.TAIL_LAMP))
+    pieces.append(box(hl - 0.02, hl + 0.0, -hw + 0.1, hw - 0.1, 1.0 if not coach else 1.3, h - 0.45, Part.GLASS))
+    pieces.append(box(-hl, -hl + 0.02, -hw + 0.25, hw - 0.25, h - 1.2, h - 0.35, Part.GLASS))
+    if not coach:
+        for x in (hl - 1.4, 0.3):  # doors on the kerb side (right)
+            pieces.append(box(x - 0.6, x + 0.6, -hw - 0.0, -hw + 0.025, floor + 0.05, h - 0.35, Part.GLASS))
+    else:
+        pieces.append(box(-hl + 2.5, hl - 3.0, -hw, hw, floor + 0.1, 1.3, Part.CARGO))  # luggage bay doors
+    pieces.append(box(hl - 0.04, hl, -0.26, 0.26, 0.45, 0.57, Part.PLATE))
+    pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, 0.45, 0.57, Part.PLATE))
+    pieces.append(box(hl - 0.1, hl, -hw + 0.02, hw - 0.02, floor, floor + 0.25, Part.TRIM))
+    r = 0.5
+    for x in (hl - 2.6, -hl + 3.2) if not coach else (hl - 2.6, -hl + 2.6, -hl + 3.9):
+        for side in (-1.0, 1.0):
+            pieces += wheel(x, r, side * (hw - 0.32), side * (hw - 0.03))
+    return merge(pieces)
+
+
+# People -----------------------------------------------------------------------------------
+
+GAIT_PHASES = 8
+"""Walking and pedalling poses per cycle (plus one standing pose)."""
+STRIDE_M = 1.4
+"""Distance walked over one gait cycle (two steps) at a normal pace."""
+
+
+def person(phase: float | None, height: float = 1.75, build: float = 1.0, seated: str | None = None,
+           pedal_phase: float = 0.0) -> list[Piece]:  # fmt: skip
+    """A person standing (``phase`` None) or walking at gait ``phase`` (radians), centred at the
+    hips in x-y, feet on z = 0; ``seated``: 'bicycle' or 'motorcycle' for a rider (hips at the
+    seat, x = 0 at the seat, hands forward)."""
+    s = height / 1.75
+    hip_z = 0.92 * s
+    shoulder_z = 1.45 * s
+    hip_w = 0.1 * s * build
+    sh_w = 0.19 * s * build
+    pieces: list[Piece] = []
+    leg_len_thigh, leg_len_shin = 0.45 * s, 0.45 * s
+    if seated is None:
+        swing = 0.0 if phase is None else 0.42
+        for side, sgn in ((1.0, 1.0), (-1.0, -1.0)):
+            a = 0.0 if phase is None else swing * math.sin(phase + (0 if sgn > 0 else math.pi))
+            knee_bend = 0.0 if phase is None else max(0.0, 0.6 * math.sin(phase + (0 if sgn > 0 else math.pi) - 1.2))
+            hip = np.array([0.0, side * hip_w, hip_z])
+            knee = hip + leg_len_thigh * np.array([math.sin(a), 0.0, -math.cos(a)])
+            b = a - knee_bend
+            ankle = knee + leg_len_shin * np.array([math.sin(b), 0.0, -math.cos(b)])
+            ankle[2] = max(ankle[2], 0.07 * s)
+            pieces.append(tube(hip, knee, 0.085 * s * build, 0.06 * s * build, Part.TROUSERS))
+            pieces.append(tube(knee, ankle, 0.06 * s * build, 0.045 * s, Part.TROUSERS))
+            pieces.append(box(ankle[0] - 0.06 * s, ankle[0] + 0.16 * s, side * hip_w - 0.045 * s, side * hip_w + 0.045 * s,
+                              ankle[2] - 0.07 * s, ankle[2] + 0.02 * s, Part.SHOES))  # fmt: skip
+    else:
+        seat = np.array([0.0, 0.0, hip_z])
+        for side in (1.0, -1.0):
+            if seated == "bicycle":
+                ph = pedal_phase + (0 if side > 0 else math.pi)
+                foot = np.array([0.28 + 0.17 * math.cos(ph), side * 0.12 * s, 0.3 + 0.17 * math.sin(ph)])
+            else:
+                foot = np.array([0.35, side * 0.2 * s, hip_z - 0.55 * s])
+            hip = seat + np.array([0.0, side * hip_w, 0.0])
+            d = np.linalg.norm(foot - hip)
+            reach = leg_len_thigh + leg_len_shin
+            mid = (hip + foot) / 2
+            bend = math.sqrt(max(reach**2 / 4 - d**2 / 4, 0.0))
+            knee = mid + np.array([bend, 0.0, 0.3 * bend])
+            pieces.append(tube(hip, knee, 0.085 * s, 0.06 * s, Part.TROUSERS))
+            pieces.append(tube(knee, foot, 0.06 * s, 0.045 * s, Part.TROUSERS))
+            pieces.append(box(foot[0] - 0.05, foot[0] + 0.13, foot[1] - 0.04, foot[1] + 0.04, foot[2] - 0.06, foot[2] + 0.02,
+                              Part.SHOES))  # fmt: skip
+    lean = 0.0 if seated is None else (0.32 if seated == "bicycle" else 0.22)
+    chest = np.array([lean * (shoulder_z - hip_z), 0.0, shoulder_z])
+    pieces.append(tube(np.array([0.0, 0.0, hip_z - 0.05 * s]), chest - np.array([0, 0, 0.02]), 0.15 * s * build,
+                       0.19 * s * build, Part.TOP, sides=8))  # fmt: skip
+    neck = chest + np.array([0.0, 0.0, 0.06 * s])
+    head_c = neck + np.array([0.02, 0.0, 0.13 * s])
+    pieces.append(tube(chest, neck, 0.05 * s, 0.05 * s, Part.SKIN))
+    pieces.append(blob(tuple(head_c), (0.1 * s, 0.085 * s, 0.115 * s), Part.SKIN if seated != "motorcycle" else Part.PAINT))
+    if seated != "motorcycle":
+        pieces.append(blob(tuple(head_c + np.array([-0.015, 0.0, 0.035 * s])), (0.1 * s, 0.09 * s, 0.09 * s), Part.HAIR))
+    for side in (1.0, -1.0):
+        shoulder = chest + np.array([0.0, side * sh_w, -0.03 * s])
+        if seated is None:
+            a = 0.0 if phase is None else -0.35 * math.sin(phase + (0 if side > 0 else math.pi))
+            elbow = shoulder + 0.3 * s * np.array([math.sin(a), 0.03 * side, -math.cos(a)])
+            hand = elbow + 0.27 * s * np.array([math.sin(a + 0.25 * abs(a) + 0.1), 0.0, -math.cos(a + 0.1)])
+        else:
+            hand = np.array([0.55 if seated == "bicycle" else 0.5, side * 0.25, hip_z + 0.25 * s])
+            elbow = (shoulder + hand) / 2 + np.array([0.0, side * 0.04, -0.08])
+        pieces.append(tube(shoulder, elbow, 0.05 * s * build, 0.042 * s * build, Part.TOP))
+        pieces.append(tube(elbow, hand, 0.042 * s * build, 0.035 * s, Part.TOP))
+        pieces.append(blob(tuple(hand), (0.04 * s, 0.03 * s, 0.045 * s), Part.SKIN, rings=3, segments=6))
+    return pieces
+
+
+def pedestrian(phase: float | None, build: float = 1.0) -> Piece:
+    return merge(person(phase, 1.75, build))
+
+
+def bicycle(pedal_phase: float) -> Piece:
+    wheel_r = 0.34
+    rear, front = -0.5, 0.55
+    bb = np.array([0.0, 0.0, 0.3])  # bottom bracket
+    seat = np.array([-0.18, 0.0, 0.9])
+    head = np.array([0.42, 0.0, 0.85])
+    pieces = ring_wheel(rear, wheel_r, 0.02) + ring_wheel(front, wheel_r, 0.02)
+    axle_r = np.array([rear, 0.0, wheel_r])
+    axle_f = np.array([front, 0.0, wheel_r])
+    for a, b in ((bb, seat), (bb, head), (seat + [0, 0, -0.1], head), (bb, axle_r), (seat + [0, 0, -0.08], axle_r),
+                 (head, axle_f)):  # fmt: skip
+        pieces.append(tube(np.asarray(a, float), np.asarray(b, float), 0.02, 0.02, Part.FRAME, sides=4))
+    pieces.append(tube(head, head + [0.0, 0.0, 0.12], 0.02, 0.02, Part.FRAME, sides=4))
+    pieces.append(tube(head + [0.08, -0.28, 0.12], head + [0.08, 0.28, 0.12], 0.015, 0.015, Part.FRAME, sides=4))
+    pieces.append(box(seat[0] - 0.1, seat[0] + 0.12, -0.06, 0.06, seat[2], seat[2] + 0.04, Part.TRIM))
+    rider = person(None, 1.72, 1.0, "bicycle", pedal_phase)
+    rider = [Piece(p.vertices + np.array([seat[0], 0.0, seat[2] + 0.03 - 0.92 * 1.72 / 1.75]), p.triangles, p.parts)
+             for p in rider]  # fmt: skip
+    return merge(pieces + rider)
+
+
+def motorcycle() -> Piece:
+    r = 0.3
+    pieces = wheel(-0.72, r, -0.06, 0.06) + wheel(0.75, r, -0.05, 0.05)
+    pieces += wheel(-0.72, r, 0.06, -0.06)[1:] + wheel(0.75, r, 0.05, -0.05)[1:]  # rims on both sides
+    pieces.append(prism([(-0.45, 0.3), (0.3, 0.3), (0.45, 0.55), (0.2, 0.7), (-0.35, 0.62)], 0.16, Part.FRAME, Part.FRAME))
+    pieces.append(prism([(-0.05, 0.72), (0.5, 0.72), (0.45, 0.92), (0.05, 0.95)], 0.17, Part.PAINT, Part.PAINT))  # tank
+    pieces.append(prism([(-0.75, 0.75), (-0.05, 0.78), (-0.05, 0.86), (-0.7, 0.88)], 0.14, Part.TRIM, Part.TRIM))  # seat
+    pieces.append(prism([(-0.95, 0.62), (-0.7, 0.7), (-0.7, 0.85), (-0.92, 0.8)], 0.12, Part.PAINT, Part.PAINT))  # tail
+    pieces.append(box(-0.96, -0.92, -0.08, 0.08, 0.68, 0.76, Part.TAIL_LAMP))
+    pieces.append(tube(np.array([0.75, 0.0, r]), np.array([0.5, 0.0, 1.0]), 0.035, 0.035, Part.CHROME, sides=4))
+    pieces.append(prism([(0.55, 0.85), (0.72, 0.85), (0.7, 1.05), (0.55, 1.05)], 0.12, Part.PAINT, Part.PAINT))  # fairing
+    pieces.append(box(0.7, 0.74, -0.06, 0.06, 0.88, 0.98, Part.HEADLAMP))
+    pieces.append(tube(np.array([0.5, -0.36, 1.02]), np.array([0.5, 0.36, 1.02]), 0.02, 0.02, Part.TRIM, sides=4))
+    rider = person(None, 1.75, 1.1, "motorcycle")
+    rider = [Piece(p.vertices + np.array([-0.45, 0.0, 0.86 - 0.92]), p.triangles, p.parts) for p in rider]
+    return merge(pieces + rider)
+
+
+# Body types per class ----------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Body:
+    """A body type: its name, nominal l/w/h (m), share among its class, and its mesh builder
+    (given a pose index: the gait or pedal phase, or 0 for rigid bodies)."""
+
+    name: str
+    lwh_m: tuple[float, float, float]
+    share: float
+    build: Callable[[int], Piece]
+    poses: int = 1
+
+
+def _pose_phase(pose: int) -> float | None:
+    return None if pose == 0 else 2 * math.pi * (pose - 1) / GAIT_PHASES
+
+
+BODIES: dict[int, tuple[Body, ...]] = {
+    int(SemanticClass.CAR): tuple(
+        Body(name, (s.l, s.w, s.h), share, lambda _p, s=s: car(s))
+        for name, s, share in (("sedan", CAR_SHAPES["sedan"], 0.3), ("hatchback", CAR_SHAPES["hatchback"], 0.25),
+                               ("estate", CAR_SHAPES["estate"], 0.12), ("suv", CAR_SHAPES["suv"], 0.2),
+                               ("van", CAR_SHAPES["van"], 0.07), ("pickup", CAR_SHAPES["pickup"], 0.06))  # fmt: skip
+    ),
+    int(SemanticClass.TRUCK): (
+        Body("box_truck", (8.0, 2.5, 3.4), 0.6, lambda _p: box_truck(8.0, 2.5, 3.4)),
+        Body("semi_trailer", (11.5, 2.5, 3.8), 0.4, lambda _p: box_truck(11.5, 2.5, 3.8, trailer=True)),
+    ),
+    int(SemanticClass.BUS): (
+        Body("city_bus", (12.0, 2.55, 3.1), 0.7, lambda _p: bus(12.0, 2.55, 3.1)),
+        Body("coach", (12.5, 2.55, 3.3), 0.3, lambda _p: bus(12.5, 2.55, 3.3, coach=True)),
+    ),
+    int(SemanticClass.MOTORCYCLE): (Body("motorcycle", (2.2, 0.8, 1.6), 1.0, lambda _p: motorcycle()),),
+    int(SemanticClass.BICYCLE): (
+        Body("bicycle", (1.8, 0.62, 1.75), 1.0, lambda p: bicycle(2 * math.pi * p / GAIT_PHASES), GAIT_PHASES),
+    ),
+    int(SemanticClass.PEDESTRIAN): (
+        Body("adult", (0.7, 0.6, 1.75), 0.7, lambda p: pedestrian(_pose_phase(p)), GAIT_PHASES + 1),
+        Body("adult_broad", (0.72, 0.68, 1.75), 0.3, lambda p: pedestrian(_pose_phase(p), 1.15), GAIT_PHASES + 1),
+    ),
+}
+"""Body types per agent class; classes not here are drawn as their box."""
+
+
+FIT_SLACK = 0.12
+"""Body types within this much of the best fit (sum of |log| size ratios) are all candidates."""
+
+
+def body_of(semantic_class: int, lwh_m: F64, instance_id: int) -> int:
+    """The index in :data:`BODIES` of an agent's body type: the best fit to its size, chosen
+    among the near-best by its id, weighted by the types' shares (stable over its track)."""
+    bodies = BODIES.get(int(semantic_class), ())
+    if len(bodies) <= 1:
+        return 0
+    nominal = np.log(np.asarray([b.lwh_m for b in bodies]))
+    misfit = np.abs(nominal - np.log(np.maximum(lwh_m, 1e-3))[None, :]).sum(axis=1)
+    near = np.flatnonzero(misfit <= misfit.min() + FIT_SLACK)
+    shares = np.asarray([bodies[i].share for i in near])
+    u = ((int(instance_id) * 2654435761) % 2**32) / 2**32
+    return int(near[min(int(np.searchsorted(np.cumsum(shares) / shares.sum(), u, side="right")), len(near) - 1)])
+
+
+def pose_of(semantic_class: int, speed_mps: float, along_m: float) -> int:
+    """The pose index of a walking pedestrian or a pedalling cyclist: the phase of its cycle
+    from the distance it has come along its heading (``along_m``), 0 (standing) below
+    0.2 m/s for pedestrians."""
+    if semantic_class == int(SemanticClass.PEDESTRIAN):
+        if speed_mps < 0.2:
+            return 0
+        return 1 + int(math.floor(along_m / STRIDE_M * GAIT_PHASES)) % GAIT_PHASES
+    if semantic_class == int(SemanticClass.BICYCLE):
+        return int(math.floor(along_m / 2.2 * GAIT_PHASES)) % GAIT_PHASES  # one crank turn per 2.2 m
+    return 0

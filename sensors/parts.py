@@ -1,0 +1,163 @@
+"""Surface parts: what each agent triangle is made of, and the one material table that the
+camera, the LiDAR and the radar read.
+
+The static world's triangles are :attr:`Part.SURFACE`: their material is their class's
+(:mod:`sensors.materials`). An agent's triangles carry the part they belong to (paint, glass,
+tyre, lamp, plate, skin, cloth, ...), so a car's windows look dark and glossy to the camera,
+return weakly to the LiDAR, and its plate shines back to both.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+import numpy.typing as npt
+
+
+class Part(IntEnum):
+    """What a triangle is made of (uint8 per triangle, per ray hit)."""
+
+    SURFACE = 0  # the static world: material by class
+    PAINT = 1  # vehicle body paint, colour per instance
+    GLASS = 2
+    TYRE = 3
+    RIM = 4
+    HEADLAMP = 5
+    TAIL_LAMP = 6
+    PLATE = 7  # retro-reflective number plate
+    TRIM = 8  # black plastic: bumpers' lower parts, grilles, mirrors' housings, seats
+    CHROME = 9
+    SKIN = 10
+    HAIR = 11
+    TOP = 12  # upper clothes, colour per instance
+    TROUSERS = 13  # lower clothes, colour per instance
+    SHOES = 14
+    FRAME = 15  # bicycle and motorcycle frames, dark metal
+    CARGO = 16  # box bodies of trucks, light colours per instance
+    UNDERBODY = 17  # the dark underside and arch linings
+
+
+@dataclass(frozen=True, slots=True)
+class PartMaterial:
+    """A part's material: ``albedo_bgr`` (0..1; None: a colour per instance from a palette),
+    ``specular`` (0..1 strength of the sun's highlight), ``shininess`` (Blinn-Phong exponent),
+    ``mirror`` (0..1 of the surroundings reflected at normal incidence, rising to 1 at grazing
+    angles), ``emissive`` (0..1: glows by night), LiDAR ``reflectivity`` (0..1) and
+    ``radar`` (0..1, relative cross-section per unit area)."""
+
+    albedo_bgr: tuple[float, float, float] | None
+    specular: float
+    shininess: float
+    mirror: float
+    emissive: float
+    reflectivity: float
+    radar: float
+
+
+# Sources for the LiDAR column: automotive paint returns 0.3-0.6 at 905 nm by colour, glass
+# mostly transmits (a weak return), tyres (carbon black) about 0.05, retro-reflective plates
+# saturate; skin 0.4-0.5, cloth 0.2-0.6 (Velodyne calibrated-reflectivity notes; Kashani et al.,
+# "A review of LiDAR radiometric processing", Sensors 2015).
+MATERIALS: dict[Part, PartMaterial] = {
+    Part.PAINT: PartMaterial(None, 0.6, 60.0, 0.08, 0.0, 0.45, 1.0),
+    Part.GLASS: PartMaterial((0.06, 0.055, 0.05), 0.9, 200.0, 0.12, 0.0, 0.08, 0.3),
+    Part.TYRE: PartMaterial((0.05, 0.05, 0.05), 0.05, 8.0, 0.0, 0.0, 0.05, 0.2),
+    Part.RIM: PartMaterial((0.55, 0.55, 0.56), 0.5, 40.0, 0.1, 0.0, 0.6, 1.0),
+    Part.HEADLAMP: PartMaterial((0.8, 0.8, 0.78), 0.9, 150.0, 0.3, 1.0, 0.7, 0.5),
+    Part.TAIL_LAMP: PartMaterial((0.08, 0.06, 0.55), 0.8, 120.0, 0.15, 1.0, 0.6, 0.5),
+    Part.PLATE: PartMaterial((0.85, 0.85, 0.85), 0.2, 20.0, 0.0, 0.0, 0.95, 0.8),
+    Part.TRIM: PartMaterial((0.07, 0.07, 0.075), 0.15, 15.0, 0.0, 0.0, 0.1, 0.6),
+    Part.CHROME: PartMaterial((0.6, 0.6, 0.62), 0.9, 120.0, 0.5, 0.0, 0.7, 1.0),
+    Part.SKIN: PartMaterial(None, 0.1, 10.0, 0.0, 0.0, 0.45, 0.15),
+    Part.HAIR: PartMaterial(None, 0.2, 20.0, 0.0, 0.0, 0.2, 0.1),
+    Part.TOP: PartMaterial(None, 0.05, 5.0, 0.0, 0.0, 0.4, 0.15),
+    Part.TROUSERS: PartMaterial(None, 0.05, 5.0, 0.0, 0.0, 0.3, 0.15),
+    Part.SHOES: PartMaterial((0.08, 0.08, 0.09), 0.2, 20.0, 0.0, 0.0, 0.15, 0.1),
+    Part.FRAME: PartMaterial((0.18, 0.18, 0.2), 0.5, 40.0, 0.05, 0.0, 0.5, 0.8),
+    Part.CARGO: PartMaterial(None, 0.2, 20.0, 0.0, 0.0, 0.55, 1.0),
+    Part.UNDERBODY: PartMaterial((0.04, 0.04, 0.04), 0.0, 1.0, 0.0, 0.0, 0.05, 0.8),
+}
+
+# Car paint by real-world frequency (BASF/Axalta global colour popularity reports, 2020-2024:
+# white about 35 %, black 20 %, grey 18 %, silver 9 %, blue 8 %, red 7 %, others 3 %): BGR 0..1.
+PAINT_PALETTE: tuple[tuple[tuple[float, float, float], float], ...] = (
+    ((0.86, 0.86, 0.85), 0.21), ((0.93, 0.93, 0.94), 0.14),   # white, pearl
+    ((0.04, 0.04, 0.045), 0.14), ((0.08, 0.07, 0.07), 0.06),  # black, dark
+    ((0.36, 0.36, 0.37), 0.10), ((0.22, 0.22, 0.23), 0.08),   # grey, graphite
+    ((0.62, 0.62, 0.63), 0.09),                               # silver
+    ((0.45, 0.22, 0.08), 0.05), ((0.25, 0.12, 0.05), 0.03),   # blue, dark blue
+    ((0.07, 0.07, 0.55), 0.05), ((0.06, 0.05, 0.3), 0.02),    # red, dark red
+    ((0.15, 0.3, 0.15), 0.01), ((0.45, 0.55, 0.6), 0.01), ((0.05, 0.45, 0.75), 0.01),  # green, beige, orange
+)  # fmt: skip
+CARGO_PALETTE: tuple[tuple[tuple[float, float, float], float], ...] = (
+    ((0.9, 0.9, 0.9), 0.5), ((0.75, 0.76, 0.78), 0.2), ((0.55, 0.3, 0.1), 0.1), ((0.1, 0.35, 0.75), 0.1),
+    ((0.2, 0.45, 0.2), 0.1),
+)  # fmt: skip
+SKIN_PALETTE = (((0.55, 0.66, 0.85), 0.4), ((0.42, 0.55, 0.75), 0.3), ((0.3, 0.42, 0.6), 0.2), ((0.18, 0.26, 0.38), 0.1))
+HAIR_PALETTE = (((0.05, 0.06, 0.07), 0.5), ((0.08, 0.15, 0.25), 0.3), ((0.3, 0.5, 0.65), 0.1), ((0.6, 0.6, 0.6), 0.1))
+TOP_PALETTE = (
+    ((0.1, 0.1, 0.1), 0.25), ((0.85, 0.85, 0.85), 0.12), ((0.45, 0.25, 0.1), 0.15), ((0.3, 0.3, 0.32), 0.12),
+    ((0.15, 0.15, 0.6), 0.08), ((0.2, 0.4, 0.2), 0.07), ((0.6, 0.65, 0.75), 0.08), ((0.1, 0.5, 0.8), 0.05),
+    ((0.5, 0.2, 0.5), 0.04), ((0.15, 0.6, 0.85), 0.04),
+)  # fmt: skip
+TROUSERS_PALETTE = (((0.35, 0.2, 0.1), 0.4), ((0.08, 0.08, 0.08), 0.3), ((0.3, 0.3, 0.3), 0.15),
+                    ((0.45, 0.55, 0.6), 0.15))  # fmt: skip
+
+
+def _palette(entries: tuple[tuple[tuple[float, float, float], float], ...], size: int = 64) -> npt.NDArray[np.float32]:
+    """``(size, 3)`` colours in proportion to their weights: index by ``instance % size``."""
+    weights = np.asarray([w for _, w in entries], np.float64)
+    counts = np.floor(weights / weights.sum() * size).astype(int)
+    counts[np.argmax(weights)] += size - counts.sum()
+    rows = np.concatenate([np.repeat([c], n, axis=0) for (c, _), n in zip(entries, counts, strict=True)])
+    order = np.random.default_rng(7).permutation(size)  # neighbouring ids do not share a colour
+    return rows[order].astype(np.float32)
+
+
+PALETTES: dict[Part, npt.NDArray[np.float32]] = {
+    Part.PAINT: _palette(PAINT_PALETTE),
+    Part.CARGO: _palette(CARGO_PALETTE),
+    Part.SKIN: _palette(SKIN_PALETTE),
+    Part.HAIR: _palette(HAIR_PALETTE),
+    Part.TOP: _palette(TOP_PALETTE),
+    Part.TROUSERS: _palette(TROUSERS_PALETTE),
+}
+"""Colours of the parts coloured per instance; each part hashes the id differently."""
+
+PALETTE_SALT = {Part.PAINT: 0, Part.CARGO: 11, Part.SKIN: 23, Part.HAIR: 31, Part.TOP: 41, Part.TROUSERS: 53}
+
+
+def _column(name: str) -> npt.NDArray[np.float32]:
+    out = np.zeros(256, np.float32)
+    for part, m in MATERIALS.items():
+        out[int(part)] = getattr(m, name)
+    return out
+
+
+SPECULAR_BY_PART = _column("specular")
+SHININESS_BY_PART = np.maximum(_column("shininess"), 1.0)
+MIRROR_BY_PART = _column("mirror")
+EMISSIVE_BY_PART = _column("emissive")
+REFLECTIVITY_BY_PART = _column("reflectivity")
+RADAR_BY_PART = _column("radar")
+HAS_PALETTE = np.zeros(256, np.bool_)
+HAS_PALETTE[[int(p) for p in PALETTES]] = True
+ALBEDO_BGR_BY_PART = np.zeros((256, 3), np.float32)
+for _part, _m in MATERIALS.items():
+    if _m.albedo_bgr is not None:
+        ALBEDO_BGR_BY_PART[int(_part)] = _m.albedo_bgr
+
+
+def part_albedo(part: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.float32]:
+    """``(N, 3)`` BGR albedo of agent parts (0 rows for :attr:`Part.SURFACE`)."""
+    out = ALBEDO_BGR_BY_PART[part]
+    for p, palette in PALETTES.items():
+        mine = np.flatnonzero(part == p)
+        if len(mine):
+            key = (instance_id[mine].astype(np.uint64) * np.uint64(2654435761) >> np.uint64(7)) + np.uint64(
+                PALETTE_SALT[p]
+            )
+            out[mine] = palette[(key % np.uint64(palette.shape[0])).astype(np.intp)]
+    return out

@@ -1,0 +1,134 @@
+"""Procedural surface textures: albedo from where a ray hits, no image files.
+
+Every function takes hit points in the map frame (metres) and returns a per-point factor or
+colour, deterministic in the point (the same wall looks the same from every frame). Asphalt
+has grain and worn patches, paving its joints, kerbs their stones, facades floors, windows and
+doors in a style per wall, grass and canopies their mottling.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+F32 = npt.NDArray[np.float32]
+
+
+def hash01(ix: npt.NDArray[np.int64], iy: npt.NDArray[np.int64], seed: int) -> F32:
+    """A float in [0, 1) per integer lattice point, well mixed (an integer hash)."""
+    h = (ix * 374761393 + iy * 668265263 + seed * 2147483647) & 0xFFFFFFFF
+    h = ((h ^ (h >> 13)) * 1274126177) & 0xFFFFFFFF
+    h ^= h >> 16
+    return (h & 0xFFFFFF).astype(np.float32) / np.float32(16777216.0)
+
+
+def value_noise(x: F32, y: F32, seed: int) -> F32:
+    """Smooth noise in [0, 1) with features one unit apart."""
+    fx, fy = np.floor(x), np.floor(y)
+    ix, iy = fx.astype(np.int64), fy.astype(np.int64)
+    tx, ty = x - fx, y - fy
+    tx = tx * tx * (np.float32(3.0) - np.float32(2.0) * tx)
+    ty = ty * ty * (np.float32(3.0) - np.float32(2.0) * ty)
+    a, b = hash01(ix, iy, seed), hash01(ix + 1, iy, seed)
+    c, d = hash01(ix, iy + 1, seed), hash01(ix + 1, iy + 1, seed)
+    top = a + (b - a) * tx
+    return np.asarray(top + (c + (d - c) * tx - top) * ty, np.float32)
+
+
+def fbm(x: F32, y: F32, seed: int, octaves: int = 3, scale: float = 1.0) -> F32:
+    """Fractal noise in about [0, 1): octaves of :func:`value_noise`, each half the size."""
+    total = np.zeros_like(x, dtype=np.float32)
+    amp, norm = 1.0, 0.0
+    f = np.float32(1.0 / scale)
+    for o in range(octaves):
+        total += np.float32(amp) * value_noise(x * f, y * f, seed + o)
+        norm += amp
+        amp *= 0.5
+        f *= np.float32(2.0)
+    return total / np.float32(norm)
+
+
+def asphalt(p: F32) -> F32:
+    """``(N,)`` brightness factor of asphalt: fine grain, patches of wear and repair."""
+    x, y = p[:, 0], p[:, 1]
+    grain = value_noise(x * 9.0, y * 9.0, 3) - np.float32(0.5)
+    patches = fbm(x, y, 5, 3, 7.0) - np.float32(0.5)
+    return np.asarray(np.float32(1.0) + np.float32(0.14) * grain + np.float32(0.25) * patches, np.float32)
+
+
+def paving(p: F32, tile_m: float = 0.5) -> F32:
+    """Brightness factor of paving slabs: joints and a shade per slab."""
+    x, y = p[:, 0] / np.float32(tile_m), p[:, 1] / np.float32(tile_m)
+    fx, fy = x - np.floor(x), y - np.floor(y)
+    joint = (np.minimum(fx, 1 - fx) < 0.04) | (np.minimum(fy, 1 - fy) < 0.04)
+    slab = hash01(np.floor(x).astype(np.int64), np.floor(y).astype(np.int64), 17)
+    out = np.float32(0.9) + np.float32(0.2) * slab + np.float32(0.1) * (value_noise(p[:, 0] * 6, p[:, 1] * 6, 2) - 0.5)
+    out[joint] *= np.float32(0.55)
+    return np.asarray(out, np.float32)
+
+
+def kerb(p: F32) -> F32:
+    """Kerb stones one metre long."""
+    s = p[:, 0] + p[:, 1]
+    f = s - np.floor(s)
+    out = np.float32(0.92) + np.float32(0.15) * hash01(np.floor(s).astype(np.int64), np.zeros(len(s), np.int64), 21)
+    out[np.minimum(f, 1 - f) < 0.02] *= np.float32(0.5)
+    return np.asarray(out, np.float32)
+
+
+def greenery(p: F32, seed: int) -> F32:
+    """Mottling of grass or leaves."""
+    return np.asarray(
+        np.float32(0.6) + np.float32(0.9) * fbm(p[:, 0], p[:, 1] + p[:, 2], seed, 3, 1.5), np.float32
+    )
+
+
+FACADE_BGR = np.array(
+    [[0.72, 0.8, 0.86], [0.85, 0.86, 0.86], [0.25, 0.32, 0.55], [0.55, 0.6, 0.65], [0.45, 0.5, 0.52],
+     [0.6, 0.72, 0.82], [0.35, 0.42, 0.6], [0.78, 0.78, 0.74], [0.5, 0.55, 0.62], [0.3, 0.3, 0.32]],
+    np.float32,
+)  # fmt: skip
+"""Plaster, white, brick, grey render, concrete, sandstone, red-brown brick, cream, ... (BGR)."""
+
+
+def facade(p: F32, normal: F32) -> tuple[F32, npt.NDArray[np.bool_], npt.NDArray[np.bool_]]:
+    """Albedo ``(N, 3)`` of building walls with a style per wall (colour, window size and
+    spacing, a shop front on the ground floor), and which points are window glass and which
+    are lit at night (``(N,)`` bools). Roofs (normals up) are dark."""
+    nx, ny = normal[:, 0], normal[:, 1]
+    horiz = np.sqrt(nx * nx + ny * ny) + np.float32(1e-6)
+    tx, ty = -ny / horiz, nx / horiz  # along the wall
+    s = p[:, 0] * tx + p[:, 1] * ty
+    offset = p[:, 0] * nx / horiz + p[:, 1] * ny / horiz  # which wall: its distance from the origin
+    angle = np.round(np.arctan2(ny, nx) * np.float32(8.0 / np.pi)).astype(np.int64)
+    wall = hash01(np.round(offset / np.float32(2.0)).astype(np.int64), angle, 41)
+    style = np.floor(wall * 10).astype(np.intp)
+    albedo = FACADE_BGR[style] * (np.float32(0.9) + np.float32(0.2) * value_noise(s * 3, p[:, 2] * 3, 4)[:, None])
+    floor_h = np.float32(3.2)
+    bay = np.float32(2.2) + np.float32(1.6) * hash01(style.astype(np.int64), np.zeros(len(s), np.int64), 5)
+    win_w = np.float32(0.45) + np.float32(0.25) * wall
+    u = s / bay
+    fu = u - np.floor(u)
+    z = p[:, 2]
+    storey = np.floor(z / floor_h)
+    fz = z / floor_h - storey
+    window = (np.abs(fu - np.float32(0.5)) < win_w / 2) & (fz > np.float32(0.32)) & (fz < np.float32(0.85)) & (storey >= 1)
+    shop = (storey < 1) & (fz > np.float32(0.12)) & (fz < np.float32(0.8)) & (np.abs(fu - np.float32(0.5)) < 0.42) & (wall > 0.35)
+    frame = (np.abs(np.abs(fu - np.float32(0.5)) - win_w / 2) < 0.03) & (fz > 0.3) & (fz < 0.87) & (storey >= 1)
+    ledge = (storey >= 1) & (fz > np.float32(0.28)) & (fz < np.float32(0.32)) & (np.abs(fu - 0.5) < win_w / 2 + 0.06)
+    glass = window | shop
+    albedo[frame | ledge] = np.float32(0.8)
+    albedo[glass] = np.float32(0.06) + np.float32(0.05) * hash01(np.floor(u).astype(np.int64), storey.astype(np.int64), 7)[glass, None]
+    roof = normal[:, 2] > np.float32(0.7)
+    albedo[roof] = np.array([0.22, 0.22, 0.24], np.float32)
+    glass &= ~roof
+    lit = glass & (hash01(np.floor(u).astype(np.int64) + 1000 * angle, storey.astype(np.int64), 13) < np.float32(0.35))
+    return np.asarray(albedo, np.float32), glass, lit
+
+
+def clouds(dirs: F32) -> F32:
+    """``(N,)`` cloud cover 0..1 of sky directions (unit, map frame)."""
+    up = np.maximum(dirs[:, 2], np.float32(0.02))
+    x, y = dirs[:, 0] / up, dirs[:, 1] / up
+    c = fbm(x * 2.0, y * 2.0, 61, 4, 1.0)
+    return np.asarray(np.clip((c - np.float32(0.45)) * np.float32(2.5), 0.0, 1.0), np.float32)
