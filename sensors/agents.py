@@ -209,10 +209,16 @@ def body_keys(agents: Agents) -> npt.NDArray[np.int64]:
     walker's legs move with the ground it covers and stand still when it does."""
     keys = np.zeros((len(agents), 3), np.int64)
     speed = np.linalg.norm(agents.velocity_map_mps[:, :2], axis=1)
-    along = agents.center_map_m[:, 0] * np.cos(agents.yaw_map_rad) + agents.center_map_m[:, 1] * np.sin(agents.yaw_map_rad)
+    along = agents.center_map_m[:, 0] * np.cos(agents.yaw_map_rad) + agents.center_map_m[:, 1] * np.sin(
+        agents.yaw_map_rad
+    )
     for i in range(len(agents)):
         c = int(agents.semantic_class[i])
-        keys[i] = (c, body_of(c, agents.lwh_m[i], int(agents.instance_id[i])), pose_of(c, float(speed[i]), float(along[i])))
+        keys[i] = (
+            c,
+            body_of(c, agents.lwh_m[i], int(agents.instance_id[i])),
+            pose_of(c, float(speed[i]), float(along[i])),
+        )
     return keys
 
 
@@ -244,8 +250,13 @@ def agent_meshes(agents: Agents) -> AgentMeshes:
         return AgentMeshes(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros(0, np.uint32),
                            np.zeros(0, np.uint8), np.zeros(0, np.uint8))  # fmt: skip
     order = np.argsort(np.concatenate(inst), kind="stable")  # an agent's triangles contiguous
-    return AgentMeshes(np.concatenate(verts).astype(np.float32), np.concatenate(tris).astype(np.int32)[order],
-                       np.concatenate(inst)[order], np.concatenate(cls)[order], np.concatenate(parts)[order])  # fmt: skip
+    return AgentMeshes(
+        np.concatenate(verts).astype(np.float32),
+        np.concatenate(tris).astype(np.int32)[order],
+        np.concatenate(inst)[order],
+        np.concatenate(cls)[order],
+        np.concatenate(parts)[order],
+    )
 
 
 def as_classed_mesh(meshes: AgentMeshes) -> ClassedMesh:

@@ -52,8 +52,14 @@ PartOf = int | Callable[[float, float], int]
 """A part, or a function of a side face's outward normal (x, z) giving its part."""
 
 
-def prism(outline_xz: list[tuple[float, float]], half_width: float | Callable[[float], float], cap: int,
-          side: PartOf, y_centre: float = 0.0, hole: list[tuple[float, float]] | None = None) -> Piece:  # fmt: skip
+def prism(
+    outline_xz: list[tuple[float, float]],
+    half_width: float | Callable[[float], float],
+    cap: int,
+    side: PartOf,
+    y_centre: float = 0.0,
+    hole: list[tuple[float, float]] | None = None,
+) -> Piece:
     """A side outline (any simple polygon, optionally with one hole) extruded across y,
     ``half_width`` a constant or a function of z (tumblehome). ``cap``: the part of the two
     flat faces; ``side``: the part of the faces around the outline."""
@@ -89,8 +95,10 @@ def box(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float, part: 
 
 
 def circle(cx: float, cz: float, r: float, sides: int, start: float = 0.0) -> list[tuple[float, float]]:
-    return [(cx + r * math.cos(start + 2 * math.pi * i / sides), cz + r * math.sin(start + 2 * math.pi * i / sides))
-            for i in range(sides)]  # fmt: skip
+    return [
+        (cx + r * math.cos(start + 2 * math.pi * i / sides), cz + r * math.sin(start + 2 * math.pi * i / sides))
+        for i in range(sides)
+    ]
 
 
 def tube(p0: F64, p1: F64, r0: float, r1: float, part: int, sides: int = 6) -> Piece:
@@ -109,13 +117,16 @@ def tube(p0: F64, p1: F64, r0: float, r1: float, part: int, sides: int = 6) -> P
     jn = (j + 1) % sides
     sides_t = np.concatenate([np.stack([j, jn, sides + j], 1), np.stack([jn, sides + jn, sides + j], 1)])
     i = np.arange(1, sides - 1)
-    caps = np.concatenate([np.stack([np.zeros_like(i), i + 1, i], 1), np.stack([np.full_like(i, sides), sides + i, sides + i + 1], 1)])
+    caps = np.concatenate(
+        [np.stack([np.zeros_like(i), i + 1, i], 1), np.stack([np.full_like(i, sides), sides + i, sides + i + 1], 1)]
+    )
     tris = np.concatenate([sides_t, caps]).astype(np.int32)
     return Piece(verts, tris, np.full(tris.shape[0], part, np.uint8))
 
 
-def blob(centre: tuple[float, float, float], radii: tuple[float, float, float], part: int, rings: int = 4,
-         segments: int = 8) -> Piece:  # fmt: skip
+def blob(
+    centre: tuple[float, float, float], radii: tuple[float, float, float], part: int, rings: int = 4, segments: int = 8
+) -> Piece:
     """A low-poly ellipsoid (heads, helmets)."""
     verts = [(0.0, 0.0, -1.0)]
     for i in range(1, rings):
@@ -143,9 +154,10 @@ def wheel(x: float, r: float, y_in: float, y_out: float, sides: int = 14) -> lis
     """A tyre with a rim on its outer face (``y_out`` is the outer face, either side)."""
     width = abs(y_out - y_in)
     sign = 1.0 if y_out > y_in else -1.0
-    tyre = prism(circle(x, r, r, sides), width / 2 - 0.01, Part.TYRE, Part.TYRE, (y_in + y_out) / 2 - sign * 0.01)
-    rim = prism(circle(x, r, 0.62 * r, sides), 0.01, Part.RIM, Part.RIM, y_out - sign * 0.01)
-    hub = prism(circle(x, r, 0.18 * r, 6), 0.004, Part.TRIM, Part.TRIM, y_out - sign * 0.001 - 0.003 * sign)
+    # outwards, each face a few millimetres beyond the last (no two parts share a plane)
+    tyre = prism(circle(x, r, r, sides), width / 2 - 0.008, Part.TYRE, Part.TYRE, (y_in + y_out) / 2 - sign * 0.008)
+    rim = prism(circle(x, r, 0.62 * r, sides), 0.011, Part.RIM, Part.RIM, y_out - sign * 0.014)
+    hub = prism(circle(x, r, 0.18 * r, 6), 0.0025, Part.TRIM, Part.TRIM, y_out + sign * 0.0015)
     return [tyre, rim, hub]
 
 
@@ -165,9 +177,9 @@ def _under(nx: float, nz: float) -> int:
 class CarShape:
     """A car's side profile in metres; x forward from the centre, z up from the ground."""
 
-    l: float
-    w: float
-    h: float
+    length: float
+    width: float
+    height: float
     wheel_r: float
     axle_front: float  # x of the front axle
     axle_rear: float
@@ -190,7 +202,7 @@ CAR_SHAPES: dict[str, CarShape] = {
     "suv": CarShape(4.6, 1.88, 1.72, 0.37, 1.38, -1.35, 0.3, 0.95, 1.08, 0.85, -0.1, -1.85, -2.2, 1.15, 0.04),
     "van": CarShape(4.9, 1.95, 1.95, 0.33, 1.6, -1.5, 0.26, 1.0, 1.12, 1.45, 0.95, -2.33, -2.36, 1.2, 0.02),
     "pickup": CarShape(5.3, 1.9, 1.8, 0.38, 1.75, -1.6, 0.32, 1.0, 1.1, 1.15, 0.25, -0.65, -0.72, 1.1, 0.02, True),
-}  # fmt: skip
+}
 
 
 def _arch(cx: float, r: float, reverse: bool = False) -> list[tuple[float, float]]:
@@ -201,35 +213,63 @@ def _arch(cx: float, r: float, reverse: bool = False) -> list[tuple[float, float
 
 
 def car(s: CarShape) -> Piece:
-    hl, hw = s.l / 2, s.w / 2 - 0.02
+    hl, hw = s.length / 2, s.width / 2 - 0.02
     r = s.wheel_r
     bl = hl - 0.03  # the body's ends: lamps, plates and bumpers stand out of them to the full length
     deck_x = -bl + s.tail_slope
-    lower = [(-bl, s.clearance + 0.14), (-bl + 0.25, s.clearance), *_arch(s.axle_rear, r),
-             (s.axle_rear + r + 0.2, s.clearance - 0.02), (s.axle_front - r - 0.2, s.clearance - 0.02),
-             *_arch(s.axle_front, r), (bl - 0.2, s.clearance + 0.06), (bl, s.clearance + 0.22),
-             (bl - 0.02, s.nose_z - 0.06), (bl - 0.18, s.nose_z), (s.windscreen_x, s.belt_z),
-             (s.rear_glass_x, s.belt_z + 0.04), (deck_x, s.deck_z), (-bl, s.deck_z - 0.12)]  # fmt: skip
+    lower = [
+        (-bl, s.clearance + 0.14),
+        (-bl + 0.25, s.clearance),
+        *_arch(s.axle_rear, r),
+        (s.axle_rear + r + 0.2, s.clearance - 0.02),
+        (s.axle_front - r - 0.2, s.clearance - 0.02),
+        *_arch(s.axle_front, r),
+        (bl - 0.2, s.clearance + 0.06),
+        (bl, s.clearance + 0.22),
+        (bl - 0.02, s.nose_z - 0.06),
+        (bl - 0.18, s.nose_z),
+        (s.windscreen_x, s.belt_z),
+        (s.rear_glass_x, s.belt_z + 0.04),
+        (deck_x, s.deck_z),
+        (-bl, s.deck_z - 0.12),
+    ]
     if s.bed:
-        lower = lower[:-3] + [(s.rear_glass_x, s.belt_z), (-bl, s.belt_z)]
+        lower = [*lower[:-3], (s.rear_glass_x, s.belt_z), (-bl, s.belt_z)]
     body_hw = hw
 
     def tumble(z: float) -> float:
         return body_hw - max(0.0, z - s.belt_z + 0.15) * 0.15
 
     pieces = [prism(lower, tumble, Part.PAINT, _under)]
-    roof_z = s.h
-    green = [(s.rear_glass_x, s.belt_z + 0.03), (s.windscreen_x, s.belt_z - 0.01), (s.roof_front_x, roof_z),
-             (s.roof_rear_x, roof_z)]  # fmt: skip
+    roof_z = s.height
+    green = [
+        (s.rear_glass_x, s.belt_z + 0.03),
+        (s.windscreen_x, s.belt_z - 0.01),
+        (s.roof_front_x, roof_z),
+        (s.roof_rear_x, roof_z),
+    ]
     cabin_hw0 = tumble(s.belt_z) - 0.03
 
     def cabin(z: float) -> float:
         return cabin_hw0 - (z - s.belt_z) * 0.28
 
     def glass_or_roof(nx: float, nz: float) -> int:
-        return int(Part.PAINT) if nz > 0.85 or nz < -0.85 else int(Part.GLASS)
+        # the roof and the rear face are paint: the rear window is a panel set into it
+        return int(Part.PAINT) if nz > 0.85 or nz < -0.85 or nx < -0.2 else int(Part.GLASS)
 
     pieces.append(prism(green, cabin, Part.GLASS, glass_or_roof))
+    # the rear window: narrower than the rear face, framed by thick pillars, inset from the roof
+    a = np.array([s.rear_glass_x, s.belt_z + 0.03])
+    b = np.array([s.roof_rear_x, roof_z])
+    along = (b - a) / np.linalg.norm(b - a)
+    outward = np.array([-along[1], along[0]])
+    if outward[0] > 0:
+        outward = -outward
+    a0, b0 = a + along * 0.05 + outward * 0.003, b - along * 0.07 + outward * 0.003
+    a1, b1 = a0 + outward * 0.006, b0 + outward * 0.006
+    pieces.append(
+        prism([tuple(a0), tuple(b0), tuple(b1), tuple(a1)], lambda z: 0.72 * cabin(z), Part.GLASS, Part.GLASS)
+    )
     # pillars over the side glass: A along the windscreen, B in the middle, C at the rear
     out = 0.006
 
@@ -237,15 +277,47 @@ def car(s: CarShape) -> Piece:
         return cabin(z) + out
 
     t = 0.07
-    pieces.append(prism([(s.windscreen_x, s.belt_z), (s.windscreen_x - t * 1.6, s.belt_z), (s.roof_front_x - t, roof_z - 0.02),
-                         (s.roof_front_x + 0.01, roof_z - 0.02)], pillar_w, Part.PAINT, Part.PAINT))  # fmt: skip
+    pieces.append(
+        prism(
+            [
+                (s.windscreen_x, s.belt_z),
+                (s.windscreen_x - t * 1.6, s.belt_z),
+                (s.roof_front_x - t, roof_z - 0.02),
+                (s.roof_front_x + 0.01, roof_z - 0.02),
+            ],
+            pillar_w,
+            Part.PAINT,
+            Part.PAINT,
+        )
+    )
     bx = (s.windscreen_x + s.roof_rear_x) / 2 - 0.1
-    pieces.append(prism([(bx - 0.05, s.belt_z), (bx + 0.05, s.belt_z), (bx + 0.05, roof_z - 0.02), (bx - 0.05, roof_z - 0.02)],
-                        pillar_w, Part.TRIM, Part.TRIM))  # fmt: skip
+    pieces.append(
+        prism(
+            [
+                (bx - 0.05, s.belt_z + 0.005),
+                (bx + 0.05, s.belt_z + 0.005),
+                (bx + 0.05, roof_z - 0.027),
+                (bx - 0.05, roof_z - 0.027),
+            ],
+            pillar_w,
+            Part.TRIM,
+            Part.TRIM,
+        )
+    )
     c_len = 0.3 if s.roof_rear_x - s.rear_glass_x > 0.25 else 0.12
-    pieces.append(prism([(s.rear_glass_x, s.belt_z + 0.03), (s.rear_glass_x + c_len + 0.25, s.belt_z + 0.03),
-                         (s.roof_rear_x + c_len * 0.5, roof_z - 0.02), (s.roof_rear_x, roof_z - 0.02)],
-                        pillar_w, Part.PAINT, Part.PAINT))  # fmt: skip
+    pieces.append(
+        prism(
+            [
+                (s.rear_glass_x, s.belt_z + 0.03),
+                (s.rear_glass_x + c_len + 0.25, s.belt_z + 0.03),
+                (s.roof_rear_x + c_len * 0.5, roof_z - 0.02),
+                (s.roof_rear_x, roof_z - 0.02),
+            ],
+            pillar_w,
+            Part.PAINT,
+            Part.PAINT,
+        )
+    )
     # body-colour skirt line, bumpers' black lower parts
     pieces.append(box(bl - 0.12, hl - 0.005, -hw + 0.05, hw - 0.05, s.clearance + 0.02, s.clearance + 0.2, Part.TRIM))
     pieces.append(box(-hl + 0.005, -bl + 0.14, -hw + 0.05, hw - 0.05, s.clearance + 0.02, s.clearance + 0.2, Part.TRIM))
@@ -260,13 +332,15 @@ def car(s: CarShape) -> Piece:
         tz = min(s.deck_z - 0.2, s.belt_z) if not s.bed else s.belt_z - 0.2
         pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.16, tz, Part.TAIL_LAMP))
         my0, my1 = sorted((side * (hw - 0.12), side * hw))
-        pieces.append(box(s.windscreen_x - 0.2, s.windscreen_x - 0.05, my0, my1, s.belt_z + 0.02, s.belt_z + 0.14,
-                          Part.TRIM))  # fmt: skip
+        pieces.append(
+            box(s.windscreen_x - 0.2, s.windscreen_x - 0.05, my0, my1, s.belt_z + 0.02, s.belt_z + 0.14, Part.TRIM)
+        )
     pieces.append(box(hl - 0.04, hl, -0.26, 0.26, fz - 0.04, fz + 0.07, Part.PLATE))
     pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, s.clearance + 0.25, s.clearance + 0.37, Part.PLATE))
     if s.bed:  # the open bed's floor, seen from above, and its tailgate
-        pieces.append(box(-hl + 0.05, s.rear_glass_x - 0.05, -hw + 0.08, hw - 0.08, s.belt_z - 0.02, s.belt_z + 0.005,
-                          Part.TRIM))  # fmt: skip
+        pieces.append(
+            box(-hl + 0.05, s.rear_glass_x - 0.05, -hw + 0.08, hw - 0.08, s.belt_z - 0.02, s.belt_z + 0.005, Part.TRIM)
+        )
     for x in (s.axle_front, s.axle_rear):
         for side in (-1.0, 1.0):
             pieces += wheel(x, r, side * (hw - 0.24), side * (hw - 0.02))
@@ -275,42 +349,51 @@ def car(s: CarShape) -> Piece:
     return merge(pieces)
 
 
-def box_truck(l: float = 8.0, w: float = 2.5, h: float = 3.5, trailer: bool = False) -> Piece:
+def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: bool = False) -> Piece:
     """A rigid box truck, or a tractor with a box semi-trailer."""
-    hl, hw = l / 2, w / 2 - 0.01
+    hl, hw = length / 2, width / 2 - 0.01
     cab_l = 2.2
     cab_x1 = hl
     cab_x0 = hl - cab_l
     cab_top = min(h - 0.05, 3.0) if not trailer else min(h - 0.2, 3.1)
-    cab = [(cab_x0, 0.55), (cab_x1, 0.55), (cab_x1, 1.5), (cab_x1 - 0.12, 2.4), (cab_x1 - 0.3, cab_top), (cab_x0, cab_top)]
+    face = cab_x1 - 0.02  # the cab's front: lamps, plate, grille and bumper stand out of it
+    cab = [(cab_x0, 0.55), (face, 0.55), (face, 1.5), (face - 0.12, 2.4), (face - 0.3, cab_top), (cab_x0, cab_top)]
 
     def cab_part(nx: float, nz: float) -> int:
         return int(Part.PAINT)
 
     pieces = [prism(cab, hw - 0.03, Part.PAINT, cab_part)]
     # windscreen and side windows over the cab
-    pieces.append(prism([(cab_x1 - 0.02, 1.55), (cab_x1 + 0.001, 1.55), (cab_x1 - 0.11, 2.38), (cab_x1 - 0.13, 2.38)],
-                        hw - 0.12, Part.GLASS, Part.GLASS))  # fmt: skip
+    pieces.append(
+        prism(
+            [(face - 0.02, 1.55), (face + 0.004, 1.55), (face - 0.116, 2.38), (face - 0.14, 2.38)],
+            hw - 0.12,
+            Part.GLASS,
+            Part.GLASS,
+        )
+    )
     pieces.append(box(cab_x0 + 0.9, cab_x1 - 0.35, -hw + 0.005, hw - 0.005, 1.6, 2.35, Part.GLASS))
-    pieces.append(box(cab_x1 - 0.05, cab_x1 + 0.0, -0.7 * hw, 0.7 * hw, 0.75, 1.35, Part.TRIM))  # grille
+    pieces.append(box(cab_x1 - 0.05, cab_x1 - 0.01, -0.7 * hw, 0.7 * hw, 0.75, 1.35, Part.TRIM))  # grille
     for side in (-1.0, 1.0):
         y0, y1 = sorted((side * 0.72 * hw, side * 0.95 * hw))
-        pieces.append(box(cab_x1 - 0.05, cab_x1, y0, y1, 0.7, 0.9, Part.HEADLAMP))
+        pieces.append(box(cab_x1 - 0.05, cab_x1, y0, y1, 0.72, 0.9, Part.HEADLAMP))
         m0, m1 = sorted((side * (hw - 0.06), side * hw))
-        pieces.append(box(cab_x1 - 0.4, cab_x1 - 0.3, m0, m1, 1.6, 2.2, Part.TRIM))  # mirror arms
-    pieces.append(box(cab_x1 - 0.04, cab_x1, -0.26, 0.26, 0.58, 0.7, Part.PLATE))
-    pieces.append(box(cab_x1 - 0.15, cab_x1, -hw + 0.02, hw - 0.02, 0.45, 0.7, Part.TRIM))  # bumper
+        pieces.append(box(cab_x1 - 0.4, cab_x1 - 0.3, m0, m1, 1.63, 2.2, Part.TRIM))  # mirror arms
+    pieces.append(box(cab_x1 - 0.04, cab_x1, -0.26, 0.26, 0.58, 0.69, Part.PLATE))
+    pieces.append(box(cab_x1 - 0.15, cab_x1 - 0.005, -hw + 0.02, hw - 0.02, 0.45, 0.7, Part.TRIM))  # bumper
     gap = 0.35
     box_x1 = cab_x0 - (0.9 if trailer else gap)
     box_z0 = 1.2 if trailer else 1.05
-    pieces.append(box(-hl, box_x1, -hw, hw, box_z0, h, Part.CARGO))
-    pieces.append(box(-hl + 0.2, hl - 0.3, -0.45, 0.45, 0.5, box_z0, Part.UNDERBODY))  # chassis
-    for side in (-1.0, 1.0):  # side guards and rear lamps
-        y0, y1 = sorted((side * (hw - 0.06), side * (hw - 0.01)))
-        pieces.append(box(-hl + 1.8, box_x1 - 0.6, y0, y1, 0.5, box_z0, Part.TRIM))
+    pieces.append(box(-hl + 0.02, box_x1, -hw, hw, box_z0, h, Part.CARGO))
+    pieces.append(box(-hl + 0.2, hl - 0.3, -0.45, 0.45, 0.5, box_z0 - 0.01, Part.UNDERBODY))  # chassis
+    rear_axle = -hl + (1.3 if trailer else 1.8)
+    for side in (-1.0, 1.0):  # side guards between the wheels, rear lamps
+        y0, y1 = sorted((side * (hw - 0.09), side * (hw - 0.05)))
+        guard_x0 = (-hl + 4.5) if trailer else rear_axle + 0.6
+        pieces.append(box(guard_x0, hl - 1.8, y0, y1, 0.5, box_z0 - 0.02, Part.TRIM))
         t0, t1 = sorted((side * 0.7 * hw, side * 0.95 * hw))
         pieces.append(box(-hl, -hl + 0.05, t0, t1, box_z0 - 0.3, box_z0 - 0.12, Part.TAIL_LAMP))
-    pieces.append(box(-hl, -hl + 0.06, -hw + 0.05, hw - 0.05, box_z0 - 0.35, box_z0 - 0.05, Part.TRIM))
+    pieces.append(box(-hl + 0.01, -hl + 0.06, -hw + 0.05, hw - 0.05, box_z0 - 0.35, box_z0 - 0.05, Part.TRIM))
     pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, box_z0 - 0.48, box_z0 - 0.36, Part.PLATE))
     r = 0.5
     axles = [hl - 1.2]
@@ -323,33 +406,53 @@ def box_truck(l: float = 8.0, w: float = 2.5, h: float = 3.5, trailer: bool = Fa
     return merge(pieces)
 
 
-def bus(l: float = 12.0, w: float = 2.55, h: float = 3.2, coach: bool = False) -> Piece:
-    hl, hw = l / 2, w / 2 - 0.01
+def bus(length: float = 12.0, width: float = 2.55, h: float = 3.2, coach: bool = False) -> Piece:
+    hl, hw = length / 2, width / 2 - 0.01
     floor = 0.35 if not coach else 0.45
-    body = [(-hl, floor), (hl, floor), (hl, h - 0.4), (hl - 0.15, h), (-hl + 0.1, h), (-hl, h - 0.2)]
-    pieces = [prism(body, hw - 0.02, Part.PAINT, _under)]
+    r = 0.5
+    axles = (hl - 2.6, -hl + 3.2) if not coach else (hl - 2.6, -hl + 2.6, -hl + 3.9)
+    bl = hl - 0.02  # the body's ends: lamps, glass, plates stand out of them
+    bottom: list[tuple[float, float]] = [(-bl, floor)]
+    for x in sorted(axles):
+        bottom += [(x - r - 0.06, floor), *_arch(x, r)[1:-1], (x + r + 0.06, floor)]
+    body = [*bottom, (bl, floor), (bl, h - 0.4), (bl - 0.15, h), (-bl + 0.1, h), (-bl, h - 0.2)]
+
+    def livery(nx: float, nz: float) -> int:
+        return int(Part.UNDERBODY) if nz < -0.6 else int(Part.CARGO)
+
+    pieces = [prism(body, hw - 0.02, Part.CARGO, livery)]  # buses in fleet colours, not car paint
     win0, win1 = (1.05, h - 0.3) if not coach else (1.75, h - 0.25)
     # side windows as glass panels with pillars, a windscreen to low down, doors on the right
     for side in (-1.0, 1.0):
-        y0, y1 = sorted((side * (hw - 0.02), side * hw))
-        pieces.append(box(-hl + 0.6, hl - 0.8, y0, y1, win0, win1, Part.GLASS))
+        g0, g1 = sorted((side * (hw - 0.018), side * (hw - 0.004)))
+        pieces.append(box(-hl + 0.6, hl - 0.8, g0, g1, win0, win1, Part.GLASS))
+        p0, p1 = sorted((side * (hw - 0.021), side * hw))
         for x in np.arange(-hl + 0.6, hl - 0.7, 1.4 if not coach else 1.2):
-            pieces.append(box(x - 0.06, x + 0.06, *sorted((side * (hw - 0.021), side * (hw + 0.0))), win0, win1, Part.PAINT))
+            pieces.append(
+                box(
+                    x - 0.06,
+                    x + 0.06,
+                    p0,
+                    p1,
+                    win0 + 0.002,
+                    win1 - 0.002,
+                    Part.PAINT,
+                )
+            )
         t0, t1 = sorted((side * 0.75 * hw, side * 0.95 * hw))
-        pieces.append(box(hl - 0.03, hl, t0, t1, 0.6, 0.8, Part.HEADLAMP))
+        pieces.append(box(hl - 0.03, hl, t0, t1, floor + 0.27, floor + 0.45, Part.HEADLAMP))
         pieces.append(box(-hl, -hl + 0.03, t0, t1, 0.7, 1.1, Part.TAIL_LAMP))
-    pieces.append(box(hl - 0.02, hl + 0.0, -hw + 0.1, hw - 0.1, 1.0 if not coach else 1.3, h - 0.45, Part.GLASS))
-    pieces.append(box(-hl, -hl + 0.02, -hw + 0.25, hw - 0.25, h - 1.2, h - 0.35, Part.GLASS))
+    pieces.append(box(bl + 0.002, hl, -hw + 0.1, hw - 0.1, 1.0 if not coach else 1.3, h - 0.45, Part.GLASS))
+    pieces.append(box(-hl, -bl - 0.002, -hw + 0.25, hw - 0.25, h - 1.2, h - 0.35, Part.GLASS))
     if not coach:
         for x in (hl - 1.4, 0.3):  # doors on the kerb side (right)
-            pieces.append(box(x - 0.6, x + 0.6, -hw - 0.0, -hw + 0.025, floor + 0.05, h - 0.35, Part.GLASS))
+            pieces.append(box(x - 0.6, x + 0.6, -hw + 0.002, -hw + 0.025, floor + 0.05, h - 0.35, Part.GLASS))
     else:
         pieces.append(box(-hl + 2.5, hl - 3.0, -hw, hw, floor + 0.1, 1.3, Part.CARGO))  # luggage bay doors
-    pieces.append(box(hl - 0.04, hl, -0.26, 0.26, 0.45, 0.57, Part.PLATE))
-    pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, 0.45, 0.57, Part.PLATE))
-    pieces.append(box(hl - 0.1, hl, -hw + 0.02, hw - 0.02, floor, floor + 0.25, Part.TRIM))
-    r = 0.5
-    for x in (hl - 2.6, -hl + 3.2) if not coach else (hl - 2.6, -hl + 2.6, -hl + 3.9):
+    pieces.append(box(hl - 0.04, hl, -0.26, 0.26, floor + 0.12, floor + 0.24, Part.PLATE))
+    pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, floor + 0.12, floor + 0.24, Part.PLATE))
+    pieces.append(box(hl - 0.1, hl - 0.008, -hw + 0.01, hw - 0.01, floor + 0.01, floor + 0.25, Part.TRIM))
+    for x in axles:
         for side in (-1.0, 1.0):
             pieces += wheel(x, r, side * (hw - 0.32), side * (hw - 0.03))
     return merge(pieces)
@@ -363,8 +466,9 @@ STRIDE_M = 1.4
 """Distance walked over one gait cycle (two steps) at a normal pace."""
 
 
-def person(phase: float | None, height: float = 1.75, build: float = 1.0, seated: str | None = None,
-           pedal_phase: float = 0.0) -> list[Piece]:  # fmt: skip
+def person(
+    phase: float | None, height: float = 1.75, build: float = 1.0, seated: str | None = None, pedal_phase: float = 0.0
+) -> list[Piece]:
     """A person standing (``phase`` None) or walking at gait ``phase`` (radians), centred at the
     hips in x-y, feet on z = 0; ``seated``: 'bicycle' or 'motorcycle' for a rider (hips at the
     seat, x = 0 at the seat, hands forward)."""
@@ -376,7 +480,7 @@ def person(phase: float | None, height: float = 1.75, build: float = 1.0, seated
     pieces: list[Piece] = []
     leg_len_thigh, leg_len_shin = 0.45 * s, 0.45 * s
     if seated is None:
-        swing = 0.0 if phase is None else 0.42
+        swing = 0.0 if phase is None else 0.32
         for side, sgn in ((1.0, 1.0), (-1.0, -1.0)):
             a = 0.0 if phase is None else swing * math.sin(phase + (0 if sgn > 0 else math.pi))
             knee_bend = 0.0 if phase is None else max(0.0, 0.6 * math.sin(phase + (0 if sgn > 0 else math.pi) - 1.2))
@@ -387,8 +491,17 @@ def person(phase: float | None, height: float = 1.75, build: float = 1.0, seated
             ankle[2] = max(ankle[2], 0.07 * s)
             pieces.append(tube(hip, knee, 0.085 * s * build, 0.06 * s * build, Part.TROUSERS))
             pieces.append(tube(knee, ankle, 0.06 * s * build, 0.045 * s, Part.TROUSERS))
-            pieces.append(box(ankle[0] - 0.06 * s, ankle[0] + 0.16 * s, side * hip_w - 0.045 * s, side * hip_w + 0.045 * s,
-                              ankle[2] - 0.07 * s, ankle[2] + 0.02 * s, Part.SHOES))  # fmt: skip
+            pieces.append(
+                box(
+                    ankle[0] - 0.06 * s,
+                    ankle[0] + 0.16 * s,
+                    side * hip_w - 0.045 * s,
+                    side * hip_w + 0.045 * s,
+                    ankle[2] - 0.07 * s,
+                    ankle[2] + 0.02 * s,
+                    Part.SHOES,
+                )
+            )
     else:
         seat = np.array([0.0, 0.0, hip_z])
         for side in (1.0, -1.0):
@@ -396,27 +509,48 @@ def person(phase: float | None, height: float = 1.75, build: float = 1.0, seated
                 ph = pedal_phase + (0 if side > 0 else math.pi)
                 foot = np.array([0.28 + 0.17 * math.cos(ph), side * 0.12 * s, 0.3 + 0.17 * math.sin(ph)])
             else:
-                foot = np.array([0.35, side * 0.2 * s, hip_z - 0.55 * s])
+                foot = np.array([0.35, side * 0.21 * s, hip_z - 0.55 * s])
             hip = seat + np.array([0.0, side * hip_w, 0.0])
             d = np.linalg.norm(foot - hip)
             reach = leg_len_thigh + leg_len_shin
             mid = (hip + foot) / 2
-            bend = math.sqrt(max(reach**2 / 4 - d**2 / 4, 0.0))
+            bend = math.sqrt(max(float(reach**2 / 4 - d**2 / 4), 0.0))
             knee = mid + np.array([bend, 0.0, 0.3 * bend])
             pieces.append(tube(hip, knee, 0.085 * s, 0.06 * s, Part.TROUSERS))
             pieces.append(tube(knee, foot, 0.06 * s, 0.045 * s, Part.TROUSERS))
-            pieces.append(box(foot[0] - 0.05, foot[0] + 0.13, foot[1] - 0.04, foot[1] + 0.04, foot[2] - 0.06, foot[2] + 0.02,
-                              Part.SHOES))  # fmt: skip
+            pieces.append(
+                box(
+                    foot[0] - 0.05,
+                    foot[0] + 0.13,
+                    foot[1] - 0.04,
+                    foot[1] + 0.04,
+                    foot[2] - 0.06,
+                    foot[2] + 0.02,
+                    Part.SHOES,
+                )
+            )
     lean = 0.0 if seated is None else (0.32 if seated == "bicycle" else 0.22)
     chest = np.array([lean * (shoulder_z - hip_z), 0.0, shoulder_z])
-    pieces.append(tube(np.array([0.0, 0.0, hip_z - 0.05 * s]), chest - np.array([0, 0, 0.02]), 0.15 * s * build,
-                       0.19 * s * build, Part.TOP, sides=8))  # fmt: skip
+    pieces.append(
+        tube(
+            np.array([0.0, 0.0, hip_z - 0.05 * s]),
+            chest - np.array([0, 0, 0.02]),
+            0.15 * s * build,
+            0.19 * s * build,
+            Part.TOP,
+            sides=8,
+        )
+    )
     neck = chest + np.array([0.0, 0.0, 0.06 * s])
     head_c = neck + np.array([0.02, 0.0, 0.13 * s])
     pieces.append(tube(chest, neck, 0.05 * s, 0.05 * s, Part.SKIN))
-    pieces.append(blob(tuple(head_c), (0.1 * s, 0.085 * s, 0.115 * s), Part.SKIN if seated != "motorcycle" else Part.PAINT))
+    pieces.append(
+        blob(tuple(head_c), (0.1 * s, 0.085 * s, 0.115 * s), Part.SKIN if seated != "motorcycle" else Part.PAINT)
+    )
     if seated != "motorcycle":
-        pieces.append(blob(tuple(head_c + np.array([-0.015, 0.0, 0.035 * s])), (0.1 * s, 0.09 * s, 0.09 * s), Part.HAIR))
+        pieces.append(
+            blob(tuple(head_c + np.array([-0.015, 0.0, 0.035 * s])), (0.1 * s, 0.09 * s, 0.09 * s), Part.HAIR)
+        )
     for side in (1.0, -1.0):
         shoulder = chest + np.array([0.0, side * sh_w, -0.03 * s])
         if seated is None:
@@ -445,15 +579,27 @@ def bicycle(pedal_phase: float) -> Piece:
     pieces = ring_wheel(rear, wheel_r, 0.02) + ring_wheel(front, wheel_r, 0.02)
     axle_r = np.array([rear, 0.0, wheel_r])
     axle_f = np.array([front, 0.0, wheel_r])
-    for a, b in ((bb, seat), (bb, head), (seat + [0, 0, -0.1], head), (bb, axle_r), (seat + [0, 0, -0.08], axle_r),
-                 (head, axle_f)):  # fmt: skip
+    for a, b in (
+        (bb, seat),
+        (bb, head),
+        (seat + np.array([0, 0, -0.1]), head),
+        (bb, axle_r),
+        (seat + np.array([0, 0, -0.08]), axle_r),
+        (head, axle_f),
+    ):
         pieces.append(tube(np.asarray(a, float), np.asarray(b, float), 0.02, 0.02, Part.FRAME, sides=4))
-    pieces.append(tube(head, head + [0.0, 0.0, 0.12], 0.02, 0.02, Part.FRAME, sides=4))
-    pieces.append(tube(head + [0.08, -0.28, 0.12], head + [0.08, 0.28, 0.12], 0.015, 0.015, Part.FRAME, sides=4))
+    pieces.append(tube(head, head + np.array([0.0, 0.0, 0.12]), 0.02, 0.02, Part.FRAME, sides=4))
+    pieces.append(
+        tube(
+            head + np.array([0.08, -0.28, 0.12]), head + np.array([0.08, 0.28, 0.12]), 0.015, 0.015, Part.FRAME, sides=4
+        )
+    )
     pieces.append(box(seat[0] - 0.1, seat[0] + 0.12, -0.06, 0.06, seat[2], seat[2] + 0.04, Part.TRIM))
     rider = person(None, 1.72, 1.0, "bicycle", pedal_phase)
-    rider = [Piece(p.vertices + np.array([seat[0], 0.0, seat[2] + 0.03 - 0.92 * 1.72 / 1.75]), p.triangles, p.parts)
-             for p in rider]  # fmt: skip
+    rider = [
+        Piece(p.vertices + np.array([seat[0], 0.0, seat[2] + 0.03 - 0.92 * 1.72 / 1.75]), p.triangles, p.parts)
+        for p in rider
+    ]
     return merge(pieces + rider)
 
 
@@ -461,18 +607,33 @@ def motorcycle() -> Piece:
     r = 0.3
     pieces = wheel(-0.72, r, -0.06, 0.06) + wheel(0.75, r, -0.05, 0.05)
     pieces += wheel(-0.72, r, 0.06, -0.06)[1:] + wheel(0.75, r, 0.05, -0.05)[1:]  # rims on both sides
-    pieces.append(prism([(-0.45, 0.3), (0.3, 0.3), (0.45, 0.55), (0.2, 0.7), (-0.35, 0.62)], 0.16, Part.FRAME, Part.FRAME))
+    pieces.append(
+        prism([(-0.45, 0.3), (0.3, 0.3), (0.45, 0.55), (0.2, 0.7), (-0.35, 0.62)], 0.16, Part.FRAME, Part.FRAME)
+    )
     pieces.append(prism([(-0.05, 0.72), (0.5, 0.72), (0.45, 0.92), (0.05, 0.95)], 0.17, Part.PAINT, Part.PAINT))  # tank
-    pieces.append(prism([(-0.75, 0.75), (-0.05, 0.78), (-0.05, 0.86), (-0.7, 0.88)], 0.14, Part.TRIM, Part.TRIM))  # seat
+    pieces.append(
+        prism([(-0.75, 0.75), (-0.05, 0.78), (-0.05, 0.86), (-0.7, 0.88)], 0.14, Part.TRIM, Part.TRIM)
+    )  # seat
     pieces.append(prism([(-0.95, 0.62), (-0.7, 0.7), (-0.7, 0.85), (-0.92, 0.8)], 0.12, Part.PAINT, Part.PAINT))  # tail
     pieces.append(box(-0.96, -0.92, -0.08, 0.08, 0.68, 0.76, Part.TAIL_LAMP))
     pieces.append(tube(np.array([0.75, 0.0, r]), np.array([0.5, 0.0, 1.0]), 0.035, 0.035, Part.CHROME, sides=4))
-    pieces.append(prism([(0.55, 0.85), (0.72, 0.85), (0.7, 1.05), (0.55, 1.05)], 0.12, Part.PAINT, Part.PAINT))  # fairing
+    pieces.append(
+        prism([(0.55, 0.85), (0.72, 0.85), (0.7, 1.05), (0.55, 1.05)], 0.12, Part.PAINT, Part.PAINT)
+    )  # fairing
     pieces.append(box(0.7, 0.74, -0.06, 0.06, 0.88, 0.98, Part.HEADLAMP))
     pieces.append(tube(np.array([0.5, -0.36, 1.02]), np.array([0.5, 0.36, 1.02]), 0.02, 0.02, Part.TRIM, sides=4))
     rider = person(None, 1.75, 1.1, "motorcycle")
     rider = [Piece(p.vertices + np.array([-0.45, 0.0, 0.86 - 0.92]), p.triangles, p.parts) for p in rider]
     return merge(pieces + rider)
+
+
+def _rigid(build: Callable[[CarShape], Piece], shape: CarShape) -> Callable[[int], Piece]:
+    """A builder of one pose: the same mesh whatever the pose index."""
+
+    def one(_pose: int) -> Piece:
+        return build(shape)
+
+    return one
 
 
 # Body types per class ----------------------------------------------------------------------
@@ -496,10 +657,15 @@ def _pose_phase(pose: int) -> float | None:
 
 BODIES: dict[int, tuple[Body, ...]] = {
     int(SemanticClass.CAR): tuple(
-        Body(name, (s.l, s.w, s.h), share, lambda _p, s=s: car(s))
-        for name, s, share in (("sedan", CAR_SHAPES["sedan"], 0.3), ("hatchback", CAR_SHAPES["hatchback"], 0.25),
-                               ("estate", CAR_SHAPES["estate"], 0.12), ("suv", CAR_SHAPES["suv"], 0.2),
-                               ("van", CAR_SHAPES["van"], 0.07), ("pickup", CAR_SHAPES["pickup"], 0.06))  # fmt: skip
+        Body(name, (s.length, s.width, s.height), share, _rigid(car, s))
+        for name, s, share in (
+            ("sedan", CAR_SHAPES["sedan"], 0.3),
+            ("hatchback", CAR_SHAPES["hatchback"], 0.25),
+            ("estate", CAR_SHAPES["estate"], 0.12),
+            ("suv", CAR_SHAPES["suv"], 0.2),
+            ("van", CAR_SHAPES["van"], 0.07),
+            ("pickup", CAR_SHAPES["pickup"], 0.06),
+        )
     ),
     int(SemanticClass.TRUCK): (
         Body("box_truck", (8.0, 2.5, 3.4), 0.6, lambda _p: box_truck(8.0, 2.5, 3.4)),
@@ -509,13 +675,13 @@ BODIES: dict[int, tuple[Body, ...]] = {
         Body("city_bus", (12.0, 2.55, 3.1), 0.7, lambda _p: bus(12.0, 2.55, 3.1)),
         Body("coach", (12.5, 2.55, 3.3), 0.3, lambda _p: bus(12.5, 2.55, 3.3, coach=True)),
     ),
-    int(SemanticClass.MOTORCYCLE): (Body("motorcycle", (2.2, 0.8, 1.6), 1.0, lambda _p: motorcycle()),),
+    int(SemanticClass.MOTORCYCLE): (Body("motorcycle", (2.1, 0.75, 1.7), 1.0, lambda _p: motorcycle()),),
     int(SemanticClass.BICYCLE): (
-        Body("bicycle", (1.8, 0.62, 1.75), 1.0, lambda p: bicycle(2 * math.pi * p / GAIT_PHASES), GAIT_PHASES),
+        Body("bicycle", (1.75, 0.6, 1.76), 1.0, lambda p: bicycle(2 * math.pi * p / GAIT_PHASES), GAIT_PHASES),
     ),
     int(SemanticClass.PEDESTRIAN): (
-        Body("adult", (0.7, 0.6, 1.75), 0.7, lambda p: pedestrian(_pose_phase(p)), GAIT_PHASES + 1),
-        Body("adult_broad", (0.72, 0.68, 1.75), 0.3, lambda p: pedestrian(_pose_phase(p), 1.15), GAIT_PHASES + 1),
+        Body("adult", (0.73, 0.5, 1.75), 0.7, lambda p: pedestrian(_pose_phase(p)), GAIT_PHASES + 1),
+        Body("adult_broad", (0.73, 0.6, 1.75), 0.3, lambda p: pedestrian(_pose_phase(p), 1.15), GAIT_PHASES + 1),
     ),
 }
 """Body types per agent class; classes not here are drawn as their box."""
@@ -546,7 +712,7 @@ def pose_of(semantic_class: int, speed_mps: float, along_m: float) -> int:
     if semantic_class == int(SemanticClass.PEDESTRIAN):
         if speed_mps < 0.2:
             return 0
-        return 1 + int(math.floor(along_m / STRIDE_M * GAIT_PHASES)) % GAIT_PHASES
+        return 1 + math.floor(along_m / STRIDE_M * GAIT_PHASES) % GAIT_PHASES
     if semantic_class == int(SemanticClass.BICYCLE):
-        return int(math.floor(along_m / 2.2 * GAIT_PHASES)) % GAIT_PHASES  # one crank turn per 2.2 m
+        return math.floor(along_m / 2.2 * GAIT_PHASES) % GAIT_PHASES  # one crank turn per 2.2 m
     return 0

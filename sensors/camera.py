@@ -36,6 +36,9 @@ F64 = npt.NDArray[np.float64]
 SHADING_STYLES = ("realistic", "flat")
 SHADOW_RANGE_M = 120.0
 """Beyond this distance no shadow ray is cast: the sun is taken as visible."""
+SHADOW_REACH = 4.0
+"""An agent's shadow falls within this many times its bounding radius of its centre (for a
+sun at least 27 degrees high: an agent is at most twice its radius tall)."""
 SHADOW_LIFT_M = 0.02
 """Shadow rays start this far off the surface, towards the camera's side of it."""
 
@@ -122,9 +125,13 @@ class Camera:
         return (self.spec.height_px, self.spec.width_px)
 
     def reaches(self, center_map_m: F64, radius_m: F64, map_SE3_ego: SE3) -> npt.NDArray[np.bool_]:
-        """Which spheres this camera's rays may meet within its range (see :mod:`sensors.view`)."""
+        """Which spheres this camera's rays may meet within its range (see :mod:`sensors.view`);
+        with realistic shading also those whose shadows may fall in view (spheres widened by
+        :data:`SHADOW_REACH`)."""
         body_SE3_map = map_SE3_ego.compose(self.spec.ego_SE3_body).inverse()
         spec = self.spec
+        if spec.shading != "flat":
+            radius_m = radius_m * SHADOW_REACH
         vfov_deg = spec.pinhole.vfov_deg
         return spheres_in_view(body_SE3_map, center_map_m, radius_m, spec.range_m, spec.hfov_deg, vfov_deg)
 
@@ -152,6 +159,7 @@ class Camera:
         else:
             seed = int(rng.integers(0, 2**63))
             hits.part[far] = 0
+            hits.range_m[far] = np.inf
             origin = map_SE3_cam.translation
             dirs_map = np.asarray(cv2.transform(self._dirs_cam.reshape(-1, 1, 3), map_R_cam), np.float32).reshape(-1, 3)
             sun_lit = sun_visibility(scene, origin, dirs_map, hits.range_m, hits.normal, weather)
@@ -168,6 +176,10 @@ class Camera:
         a neighbour's."""
         h, w = self.shape
         pixel = np.flatnonzero(edge_pixels(hits, h, w)).astype(np.int64)
+        if len(pixel) == 0:
+            z = np.zeros(0, np.float32)
+            return Supersamples(pixel, np.zeros((0, 3), np.float32), z, np.zeros(0, np.uint8), np.zeros(0, np.uint32),
+                                np.zeros(0, np.uint8), np.zeros((0, 3), np.float32), np.zeros(0, np.bool_))  # fmt: skip
         v, u = np.divmod(pixel, w)
         offsets = SUBPIXEL_OFFSETS
         su = (u[:, None] + offsets[None, :, 0]).ravel()
@@ -179,7 +191,9 @@ class Camera:
         dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), map_SE3_cam.rotation.astype(np.float32)),
                               np.float32).reshape(-1, 3)  # fmt: skip
         lit = sun_visibility(scene, map_SE3_cam.translation, dirs_map, sub.range_m, sub.normal, weather)
-        return Supersamples(pixel, dirs_cam, sub.range_m, sub.semantic_class, sub.instance_id, sub.part, sub.normal, lit)
+        return Supersamples(
+            pixel, dirs_cam, sub.range_m, sub.semantic_class, sub.instance_id, sub.part, sub.normal, lit
+        )
 
 
 def edge_pixels(hits: RayHits, h: int, w: int) -> npt.NDArray[np.bool_]:
@@ -214,7 +228,9 @@ def sun_visibility(scene: Scene, origin_map_m: F64, dirs_map: npt.NDArray[np.flo
     if len(at) == 0:
         return lit
     rays = np.empty((len(at), 6), np.float32)
-    rays[:, :3] = origin_map_m.astype(np.float32) + dirs_map[at] * range_m[at, None] + towards_cam[at] * np.float32(SHADOW_LIFT_M)
+    rays[:, :3] = (
+        origin_map_m.astype(np.float32) + dirs_map[at] * range_m[at, None] + towards_cam[at] * np.float32(SHADOW_LIFT_M)
+    )
     rays[:, 3:] = sun
     lit[at] = ~np.isfinite(scene.cast(rays).range_m)
     return lit

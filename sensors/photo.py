@@ -50,6 +50,9 @@ VIGNETTE = np.float32(0.28)
 """Light lost at the image's corners (cos^4-like falloff of a real lens)."""
 READ_NOISE = 1.2
 """Sensor noise (0..255) of every image, on top of the weather's."""
+MAX_REFLECTION = 0.45
+"""The most of the surroundings a surface mirrors, even at grazing angles (clear coat and
+glass are not perfect mirrors: dirt, curvature and roughness blur and dim what they show)."""
 CONTACT_M = 0.45
 """How far from a vehicle's footprint its contact shadow fades out."""
 
@@ -66,8 +69,13 @@ class AgentBoxes:
     yaw_rad: npt.NDArray[np.float64]
 
     def __post_init__(self) -> None:
-        check_arrays(self, instance_id=(np.uint32, ("K",)), centre_m=(np.float64, ("K", 3)),
-                     lwh_m=(np.float64, ("K", 3)), yaw_rad=(np.float64, ("K",)))  # fmt: skip
+        check_arrays(
+            self,
+            instance_id=(np.uint32, ("K",)),
+            centre_m=(np.float64, ("K", 3)),
+            lwh_m=(np.float64, ("K", 3)),
+            yaw_rad=(np.float64, ("K",)),
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -105,9 +113,15 @@ def sky_linear(weather: Weather, dirs: F32) -> F32:
     return np.asarray(sky + cover * (cloud - sky), np.float32)
 
 
-_GROUND = {int(SemanticClass.ROAD), int(SemanticClass.CROSSING), int(SemanticClass.SIDEWALK),
-           int(SemanticClass.CURB), int(SemanticClass.TERRAIN), int(SemanticClass.LANE_MARKING),
-           int(SemanticClass.LANE_MARKING_YELLOW)}  # fmt: skip
+_GROUND = {
+    int(SemanticClass.ROAD),
+    int(SemanticClass.CROSSING),
+    int(SemanticClass.SIDEWALK),
+    int(SemanticClass.CURB),
+    int(SemanticClass.TERRAIN),
+    int(SemanticClass.LANE_MARKING),
+    int(SemanticClass.LANE_MARKING_YELLOW),
+}
 _IS_GROUND = np.zeros(256, np.bool_)
 _IS_GROUND[list(_GROUND)] = True
 
@@ -118,8 +132,12 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
     albedo = ALBEDO_BGR_BY_CLASS[cls].copy()
     mirror = np.zeros(len(cls), np.float32)
     glow = np.zeros(len(cls), np.float32)
-    for c, fn in ((SemanticClass.ROAD, textures.asphalt), (SemanticClass.CROSSING, textures.asphalt),
-                  (SemanticClass.SIDEWALK, textures.paving), (SemanticClass.CURB, textures.kerb)):  # fmt: skip
+    for c, fn in (
+        (SemanticClass.ROAD, textures.asphalt),
+        (SemanticClass.CROSSING, textures.asphalt),
+        (SemanticClass.SIDEWALK, textures.paving),
+        (SemanticClass.CURB, textures.kerb),
+    ):
         at = np.flatnonzero(cls == c)
         if len(at):
             albedo[at] *= fn(points[at])[:, None]
@@ -141,28 +159,34 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
     return np.asarray(np.clip(albedo, 0.0, 1.0) ** GAMMA, np.float32), mirror, glow
 
 
-def contact_light(points: F32, cls: npt.NDArray[np.uint8], instance: npt.NDArray[np.uint32], boxes: AgentBoxes | None) -> F32:
+def contact_light(
+    points: F32, cls: npt.NDArray[np.uint8], instance: npt.NDArray[np.uint32], boxes: AgentBoxes | None
+) -> F32:
     """``(N,)`` share of sky light reaching each point: less on the ground near and under
     vehicles and people (their contact shadows) and on agents' own lowest parts."""
     light = np.ones(len(cls), np.float32)
     if boxes is None or len(boxes.instance_id) == 0:
         return light
     ground = np.flatnonzero(_IS_GROUND[cls] & (instance == 0))
+    gp = points[ground]
     order = np.argsort(boxes.instance_id)
     for k in range(len(boxes.instance_id)):
-        c, (l, w, h), yaw = boxes.centre_m[k], boxes.lwh_m[k], boxes.yaw_rad[k]
-        reach = 0.5 * np.hypot(l, w) + CONTACT_M
-        gp = points[ground]
+        c, (length, w, _), yaw = boxes.centre_m[k], boxes.lwh_m[k], boxes.yaw_rad[k]
+        reach = 0.5 * np.hypot(length, w) + CONTACT_M
         near = np.flatnonzero((np.abs(gp[:, 0] - c[0]) < reach) & (np.abs(gp[:, 1] - c[1]) < reach))
         if len(near) == 0:
             continue
         dx, dy = gp[near, 0] - np.float32(c[0]), gp[near, 1] - np.float32(c[1])
         cs, sn = np.float32(np.cos(yaw)), np.float32(np.sin(yaw))
         ax, ay = np.abs(cs * dx + sn * dy), np.abs(-sn * dx + cs * dy)
-        out = np.hypot(np.maximum(ax - np.float32(l / 2), 0), np.maximum(ay - np.float32(w / 2), 0))
-        inside = np.minimum(np.float32(l / 2) - ax, np.float32(w / 2) - ay)
+        out = np.hypot(np.maximum(ax - np.float32(length / 2), 0), np.maximum(ay - np.float32(w / 2), 0))
+        inside = np.minimum(np.float32(length / 2) - ax, np.float32(w / 2) - ay)
         depth = np.clip(inside / np.float32(0.6), 0.0, 1.0)  # darkest well under the body
-        occ = np.where(out > 0, np.float32(0.6) * np.exp(-out / np.float32(CONTACT_M * 0.4)), np.float32(0.6) + np.float32(0.35) * depth)
+        occ = np.where(
+            out > 0,
+            np.float32(0.6) * np.exp(-out / np.float32(CONTACT_M * 0.4)),
+            np.float32(0.6) + np.float32(0.35) * depth,
+        )
         light[ground[near]] = np.minimum(light[ground[near]], np.float32(1.0) - occ)
     agents = np.flatnonzero(instance > 0)
     if len(agents):
@@ -176,12 +200,39 @@ def contact_light(points: F32, cls: npt.NDArray[np.uint8], instance: npt.NDArray
     return light
 
 
+def sky_light(
+    dirs_map: F32,
+    range_m: F32,
+    cls: npt.NDArray[np.uint8],
+    instance: npt.NDArray[np.uint32],
+    origin_map_m: npt.NDArray[np.float64],
+    boxes: AgentBoxes | None,
+) -> F32:
+    """``(N,)`` share of sky light at each ray's hit (1 for misses): :func:`contact_light`
+    over a whole frame at once."""
+    out = np.ones(len(cls), np.float32)
+    at = np.flatnonzero(np.isfinite(range_m))
+    points = (origin_map_m.astype(np.float32) + dirs_map[at] * range_m[at, None]).astype(np.float32)
+    out[at] = contact_light(points, cls[at], instance[at], boxes)
+    return out
+
+
 def radiance(
-    dirs_map: F32, range_m: F32, cls: npt.NDArray[np.uint8], instance: npt.NDArray[np.uint32],
-    part: npt.NDArray[np.uint8], normal: F32, sun_lit: npt.NDArray[np.bool_], forward: F32,
-    origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float, boxes: AgentBoxes | None,
-) -> F32:  # fmt: skip
-    """``(N, 3)`` linear BGR radiance reaching the camera along each ray."""
+    dirs_map: F32,
+    range_m: F32,
+    cls: npt.NDArray[np.uint8],
+    instance: npt.NDArray[np.uint32],
+    part: npt.NDArray[np.uint8],
+    normal: F32,
+    sun_lit: npt.NDArray[np.bool_],
+    forward: F32,
+    origin_map_m: npt.NDArray[np.float64],
+    weather: Weather,
+    max_range_m: float,
+    sky_open: F32,
+) -> F32:
+    """``(N, 3)`` linear BGR radiance reaching the camera along each ray; ``sky_open`` is the
+    share of sky light reaching each hit (:func:`contact_light`)."""
     n = len(cls)
     out = np.empty((n, 3), np.float32)
     hit = np.isfinite(range_m) & (range_m <= np.float32(max_range_m))
@@ -206,14 +257,28 @@ def radiance(
         albedo[ai] = part_albedo(pt[ai], inst[ai]) ** GAMMA
         mirror[ai] = MIRROR_BY_PART[pt[ai]]
         glow[ai] = 0.0
+        plate = ai[pt[ai] == Part.PLATE]
+        if len(plate):  # dark characters on the plate
+            q = p[plate]
+            ink = textures.value_noise((q[:, 0] + q[:, 1]) * np.float32(28.0), q[:, 2] * np.float32(22.0), 91)
+            albedo[plate[ink > np.float32(0.55)]] = np.float32(0.003)
     sun = np.asarray(weather.sun_dir_map, np.float32)
     sun /= np.linalg.norm(sun)
     sun_cos = np.maximum(nrm @ sun, 0.0) * sun_lit[at]
-    sky_share = (np.float32(0.6) + np.float32(0.4) * nrm[:, 2]) * contact_light(p, c, inst, boxes)
-    light = np.float32(weather.ambient) * np.float32(1.6) * sky_share + np.float32(weather.sun_gain) * np.float32(2.2) * sun_cos
+    sky_share = (np.float32(0.6) + np.float32(0.4) * nrm[:, 2]) * sky_open[at]
+    light = (
+        np.float32(weather.ambient) * np.float32(1.6) * sky_share
+        + np.float32(weather.sun_gain) * np.float32(2.2) * sun_cos
+    )
     if weather.headlight_gain > 0:
         fall = 1.0 / (1.0 + (r / np.float32(weather.headlight_range_m)) ** 2)
-        light += np.float32(weather.headlight_gain) * np.float32(1.6) * (np.float32(0.3) + np.float32(0.7) * cos_v) * fall * forward[at] ** 6
+        light += (
+            np.float32(weather.headlight_gain)
+            * np.float32(1.6)
+            * (np.float32(0.3) + np.float32(0.7) * cos_v)
+            * fall
+            * forward[at] ** 6
+        )
     colour = albedo * light[:, None]
     # highlights and reflections
     spec = SPECULAR_BY_PART[pt]
@@ -223,9 +288,12 @@ def radiance(
         half = sun[None, :] - ds
         half /= np.linalg.norm(half, axis=1, keepdims=True)
         hl = np.maximum(np.einsum("ij,ij->i", ns, half), 0.0) ** SHININESS_BY_PART[pt[shiny]]
-        colour[shiny] += (spec[shiny] * hl * sun_lit[at][shiny] * np.float32(weather.sun_gain) * np.float32(3.0))[:, None]
+        colour[shiny] += (spec[shiny] * hl * sun_lit[at][shiny] * np.float32(weather.sun_gain) * np.float32(3.0))[
+            :, None
+        ]
         cosi = cos_v[shiny]
         fres = mirror[shiny] + (np.float32(1.0) - mirror[shiny]) * (np.float32(1.0) - cosi) ** 5 * (mirror[shiny] > 0)
+        fres = np.minimum(fres, np.float32(MAX_REFLECTION))
         refl = ds - 2.0 * np.einsum("ij,ij->i", ds, ns)[:, None] * ns
         env = sky_linear(weather, refl.astype(np.float32))
         down = refl[:, 2] < 0
@@ -249,13 +317,15 @@ def radiance(
 def tone_map(linear: F32, exposure: float) -> F32:
     """Filmic tone curve (Narkowicz's fit of ACES) and display gamma: 0..255 floats."""
     x = linear * (EXPOSURE_SCALE * np.float32(exposure))
-    y = (x * (np.float32(2.51) * x + np.float32(0.03))) / (x * (np.float32(2.43) * x + np.float32(0.59)) + np.float32(0.14))
+    y = (x * (np.float32(2.51) * x + np.float32(0.03))) / (
+        x * (np.float32(2.43) * x + np.float32(0.59)) + np.float32(0.14)
+    )
     return np.asarray(np.clip(y, 0.0, 1.0) ** (np.float32(1.0) / GAMMA) * np.float32(255.0), np.float32)
 
 
 def vignette(height: int, width: int) -> F32:
     v, u = np.mgrid[0:height, 0:width].astype(np.float32)
-    r2 = ((u - (width - 1) / 2) ** 2 + (v - (height - 1) / 2) ** 2) / np.float32(((width / 2) ** 2 + (height / 2) ** 2))
+    r2 = ((u - (width - 1) / 2) ** 2 + (v - (height - 1) / 2) ** 2) / np.float32((width / 2) ** 2 + (height / 2) ** 2)
     return np.asarray(np.float32(1.0) - VIGNETTE * r2, np.float32).ravel()
 
 
@@ -274,17 +344,45 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     range_m = np.where(depth > 0, depth / dirs_cam[:, 2], np.float32(np.inf)).astype(np.float32)
     dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
     classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
+    sky_open = sky_light(dirs_map, range_m, classes, instances, sh.origin_map_m, sh.boxes)
     linear = np.empty((h * w, 3), np.float32)
     for start in range(0, h * w, STRIPE_PX):
         s = slice(start, start + STRIPE_PX)
-        linear[s] = radiance(dirs_map[s], range_m[s], classes[s], instances[s], sh.part[s], sh.normal[s], sh.sun_lit[s],
-                             dirs_cam[s, 2], sh.origin_map_m, sh.weather, sh.range_m, sh.boxes)  # fmt: skip
+        linear[s] = radiance(
+            dirs_map[s],
+            range_m[s],
+            classes[s],
+            instances[s],
+            sh.part[s],
+            sh.normal[s],
+            sh.sun_lit[s],
+            dirs_cam[s, 2],
+            sh.origin_map_m,
+            sh.weather,
+            sh.range_m,
+            sky_open[s],
+        )
     extra = sh.extra
     if extra is not None and len(extra.pixel):
         sub = len(extra.range_m) // len(extra.pixel)
         sub_dirs = np.asarray(cv2.transform(extra.dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
-        sub_lin = radiance(sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, extra.part, extra.normal,
-                           extra.sun_lit, extra.dirs_cam[:, 2], sh.origin_map_m, sh.weather, sh.range_m, sh.boxes)  # fmt: skip
+        sub_open = sky_light(
+            sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, sh.origin_map_m, sh.boxes
+        )
+        sub_lin = radiance(
+            sub_dirs,
+            extra.range_m,
+            extra.semantic_class,
+            extra.instance_id,
+            extra.part,
+            extra.normal,
+            extra.sun_lit,
+            extra.dirs_cam[:, 2],
+            sh.origin_map_m,
+            sh.weather,
+            sh.range_m,
+            sub_open,
+        )
         linear[extra.pixel] = (linear[extra.pixel] + sub_lin.reshape(-1, sub, 3).sum(axis=1)) / np.float32(sub + 1)
     linear *= vignette(h, w)[:, None]
     image = tone_map(linear, sh.weather.exposure)

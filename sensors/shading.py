@@ -137,7 +137,9 @@ def shade_frame(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     image = np.empty((len(depth), 3), np.uint8)
     for start in range(0, len(depth), STRIPE_PX):
         part = slice(start, start + STRIPE_PX)
-        stripe = RayHits(range_m[part], classes[part], instances[part], sh.normal[part])
+        stripe = RayHits(
+            range_m[part], classes[part], instances[part], sh.normal[part], FLAT_PARTS[: len(classes[part])]
+        )
         shaded = shade(stripe, dirs_map[part], hit[part], dirs_cam[part, 2], sh.weather, sh.range_m)
         if noise is not None:
             shaded += noise[part, None]
@@ -152,6 +154,8 @@ def shade_frame(frame: CameraFrame) -> npt.NDArray[np.uint8]:
 
 STRIPE_PX = 1 << 15
 """Pixels shaded at a time: a stripe's arrays stay in the CPU cache through every step."""
+FLAT_PARTS = np.zeros(STRIPE_PX, np.uint8)
+"""The flat style colours by class: every pixel's part is the surface's."""
 
 
 def to_uint8(image: npt.NDArray[np.float32]) -> npt.NDArray[np.uint8]:

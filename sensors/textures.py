@@ -78,9 +78,7 @@ def kerb(p: F32) -> F32:
 
 def greenery(p: F32, seed: int) -> F32:
     """Mottling of grass or leaves."""
-    return np.asarray(
-        np.float32(0.6) + np.float32(0.9) * fbm(p[:, 0], p[:, 1] + p[:, 2], seed, 3, 1.5), np.float32
-    )
+    return np.asarray(np.float32(0.6) + np.float32(0.9) * fbm(p[:, 0], p[:, 1] + p[:, 2], seed, 3, 1.5), np.float32)
 
 
 FACADE_BGR = np.array(
@@ -112,13 +110,24 @@ def facade(p: F32, normal: F32) -> tuple[F32, npt.NDArray[np.bool_], npt.NDArray
     z = p[:, 2]
     storey = np.floor(z / floor_h)
     fz = z / floor_h - storey
-    window = (np.abs(fu - np.float32(0.5)) < win_w / 2) & (fz > np.float32(0.32)) & (fz < np.float32(0.85)) & (storey >= 1)
-    shop = (storey < 1) & (fz > np.float32(0.12)) & (fz < np.float32(0.8)) & (np.abs(fu - np.float32(0.5)) < 0.42) & (wall > 0.35)
+    window = (
+        (np.abs(fu - np.float32(0.5)) < win_w / 2) & (fz > np.float32(0.32)) & (fz < np.float32(0.85)) & (storey >= 1)
+    )
+    shop = (
+        (storey < 1)
+        & (fz > np.float32(0.12))
+        & (fz < np.float32(0.8))
+        & (np.abs(fu - np.float32(0.5)) < 0.42)
+        & (wall > 0.35)
+    )
     frame = (np.abs(np.abs(fu - np.float32(0.5)) - win_w / 2) < 0.03) & (fz > 0.3) & (fz < 0.87) & (storey >= 1)
     ledge = (storey >= 1) & (fz > np.float32(0.28)) & (fz < np.float32(0.32)) & (np.abs(fu - 0.5) < win_w / 2 + 0.06)
     glass = window | shop
     albedo[frame | ledge] = np.float32(0.8)
-    albedo[glass] = np.float32(0.06) + np.float32(0.05) * hash01(np.floor(u).astype(np.int64), storey.astype(np.int64), 7)[glass, None]
+    albedo[glass] = (
+        np.float32(0.06)
+        + np.float32(0.05) * hash01(np.floor(u).astype(np.int64), storey.astype(np.int64), 7)[glass, None]
+    )
     roof = normal[:, 2] > np.float32(0.7)
     albedo[roof] = np.array([0.22, 0.22, 0.24], np.float32)
     glass &= ~roof
@@ -130,5 +139,5 @@ def clouds(dirs: F32) -> F32:
     """``(N,)`` cloud cover 0..1 of sky directions (unit, map frame)."""
     up = np.maximum(dirs[:, 2], np.float32(0.02))
     x, y = dirs[:, 0] / up, dirs[:, 1] / up
-    c = fbm(x * 2.0, y * 2.0, 61, 4, 1.0)
+    c = fbm((x * 2.0).astype(np.float32), (y * 2.0).astype(np.float32), 61, 4, 1.0)
     return np.asarray(np.clip((c - np.float32(0.45)) * np.float32(2.5), 0.0, 1.0), np.float32)

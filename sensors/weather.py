@@ -18,6 +18,10 @@ from sensors.hits import RayHits
 BGR = tuple[float, float, float]
 
 
+SUN_MIN_Z = 0.454
+"""The lowest sun (sin 27 degrees): agents' shadows then stay within the camera's culling margin."""
+
+
 @dataclass(frozen=True, slots=True)
 class Weather:
     """Numbers of one weather and light condition.
@@ -70,6 +74,9 @@ class Weather:
         sun = np.asarray(self.sun_dir_map, dtype=np.float64)
         if sun.shape != (3,) or not np.isclose(np.linalg.norm(sun), 1.0, atol=0.05):
             raise SensorConfigError(f"weather {self.name}: sun_dir_map must be a unit 3-vector")
+        if self.sun_gain > 0 and sun[2] < SUN_MIN_Z:
+            raise SensorConfigError(f"weather {self.name}: the sun must stand at least 27 degrees high "
+                                    f"(sun_dir_map z >= {SUN_MIN_Z:.3f}), got z = {sun[2]:.3f}")  # fmt: skip
 
 
 PRESETS: dict[str, Weather] = {

@@ -5,10 +5,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from cosim.demand import KINDS, PEDESTRIAN
 from networks.classes import AGENT_CLASSES, SemanticClass
 from networks.geometry import SE3
-from sensors.agents import AGENT_LIFT_M, TEMPLATES, Agents, agent_meshes
+from sensors.agents import AGENT_LIFT_M, Agents, agent_meshes, body_keys, template_of
+from sensors.bodies import BODIES, GAIT_PHASES, STRIDE_M, body_of, pose_of
 from sensors.lidar import Lidar, LidarSpec
+from sensors.parts import Part
 from sensors.pinhole import box_corners
 from sensors.weather import DAY
 
@@ -17,8 +20,16 @@ def random_agents(n: int, seed: int = 3) -> Agents:
     r = np.random.default_rng(seed)
     cls = r.choice([int(c) for c in AGENT_CLASSES], n)
     lwh = r.uniform([0.3, 0.4, 1.0], [12.0, 2.6, 3.5], (n, 3))
-    return Agents(np.arange(1, n + 1), cls, r.uniform(-30, 30, (n, 3)), lwh, r.uniform(-np.pi, np.pi, n),
-                  r.uniform(-0.2, 0.2, n), np.zeros((n, 3)), np.zeros(n, bool))  # fmt: skip
+    return Agents(
+        np.arange(1, n + 1),
+        cls,
+        r.uniform(-30, 30, (n, 3)),
+        lwh,
+        r.uniform(-np.pi, np.pi, n),
+        r.uniform(-0.2, 0.2, n),
+        np.zeros((n, 3)),
+        np.zeros(n, bool),
+    )
 
 
 def corners(agents_: Agents) -> np.ndarray:
@@ -30,26 +41,106 @@ def in_box_frame(agents_: Agents, index: int, xyz_map: np.ndarray) -> np.ndarray
     return map_SE3_box.inverse().transform_from(xyz_map)
 
 
-def test_every_agent_class_has_a_template_inside_the_unit_box() -> None:
-    for cls in AGENT_CLASSES:
-        template = TEMPLATES[int(cls)]
-        assert np.abs(template.unit_vertices).max() <= 0.5
-        assert template.triangles.shape[0] > 12
+def all_templates() -> list[tuple[str, int, object]]:
+    return [
+        (b.name, pose, template_of(c, i, pose))
+        for c, bodies in BODIES.items()
+        for i, b in enumerate(bodies)
+        for pose in range(b.poses)
+    ]
 
 
-def test_templates_touch_the_ground_and_the_roof_of_their_box() -> None:
-    for template in TEMPLATES.values():
-        assert template.unit_vertices[:, 2].min() == pytest.approx(-0.5)
-        assert template.unit_vertices[:, 2].max() == pytest.approx(0.5)
+def test_every_agent_class_has_body_types_inside_the_unit_box_in_every_pose() -> None:
+    assert {int(c) for c in AGENT_CLASSES} <= set(BODIES)
+    for name, pose, template in all_templates():
+        assert np.abs(template.unit_vertices).max() <= 0.5, (name, pose)
+        assert template.triangles.shape[0] > 100, name
+        assert template.triangle_part.shape == (template.triangles.shape[0],)
 
 
-def test_shaped_meshes_lie_inside_their_posed_boxes() -> None:
-    boxes = random_agents(60)
+def test_body_types_touch_the_ground_and_the_roof_of_their_box() -> None:
+    for name, _pose, template in all_templates():
+        assert template.unit_vertices[:, 2].min() == pytest.approx(-0.5), name
+        assert template.unit_vertices[:, 2].max() == pytest.approx(0.5), name
+
+
+def test_vehicles_have_the_parts_detectors_learn() -> None:
+    wanted = {Part.GLASS, Part.TYRE, Part.RIM, Part.HEADLAMP, Part.TAIL_LAMP, Part.PLATE}
+    for cls in (SemanticClass.CAR, SemanticClass.TRUCK, SemanticClass.BUS):
+        for i, body in enumerate(BODIES[int(cls)]):
+            parts = {Part(p) for p in np.unique(template_of(int(cls), i, 0).triangle_part)}
+            assert wanted <= parts, body.name
+    walker = {Part(p) for p in np.unique(template_of(int(SemanticClass.PEDESTRIAN), 0, 1).triangle_part)}
+    assert {Part.SKIN, Part.HAIR, Part.TOP, Part.TROUSERS, Part.SHOES} <= walker
+
+
+def test_every_body_type_lies_inside_its_box_over_its_class_size_range() -> None:
+    r = np.random.default_rng(5)
+    rows = []
+    for spec in [*KINDS.values(), PEDESTRIAN]:
+        lo = np.array([spec.length_m[0], spec.width_m[0], spec.height_m[0]])
+        hi = np.array([spec.length_m[1], spec.width_m[1], spec.height_m[1]])
+        for _ in range(40):
+            rows.append((int(spec.semantic_class), r.uniform(lo, hi)))
+    n = len(rows)
+    boxes = Agents(
+        np.arange(1, n + 1, dtype=np.uint32),
+        np.array([c for c, _ in rows], np.uint8),
+        r.uniform(-30, 30, (n, 3)),
+        np.array([s for _, s in rows]),
+        r.uniform(-np.pi, np.pi, n),
+        r.uniform(-0.2, 0.2, n),
+        r.uniform(-2, 2, (n, 3)),
+        np.zeros(n, bool),
+    )
+    keys = body_keys(boxes)
+    for c, bodies in BODIES.items():  # every body type of every class is drawn at least once
+        if len(bodies) > 1:
+            assert set(keys[keys[:, 0] == c, 1].tolist()) == set(range(len(bodies))), c
     meshes = agent_meshes(boxes)
     for i, inst in enumerate(boxes.instance_id):
         vert_ids = np.unique(meshes.triangles[meshes.triangle_instance == inst])
         local = in_box_frame(boxes, i, meshes.vertices_m[vert_ids].astype(np.float64))
         assert np.all(np.abs(local) <= boxes.lwh_m[i] / 2 + 1e-4)
+
+
+def test_a_walker_is_inside_its_box_at_every_gait_phase_and_stands_when_still() -> None:
+    n = 3 * GAIT_PHASES
+    along = (np.arange(n) + 0.5) * STRIDE_M / GAIT_PHASES  # walking along +x: every phase, three cycles
+    centre = np.column_stack([along, np.zeros(n), np.full(n, 0.875)])
+    velocity = np.tile([1.3, 0.0, 0.0], (n, 1))
+    walkers = Agents(
+        np.full(n, 7, np.uint32),
+        np.full(n, int(SemanticClass.PEDESTRIAN), np.uint8),
+        centre,
+        np.tile([0.7, 0.6, 1.75], (n, 1)),
+        np.zeros(n),
+        np.zeros(n),
+        velocity,
+        np.zeros(n, bool),
+    )
+    poses = body_keys(walkers)[:, 2]
+    assert sorted(set(poses.tolist())) == list(range(1, GAIT_PHASES + 1))
+    assert len({template_of(int(SemanticClass.PEDESTRIAN), 0, p).unit_vertices.tobytes() for p in poses}) == GAIT_PHASES
+    for i in range(n):
+        one = walkers.select(np.array([i]))
+        local = in_box_frame(one, 0, agent_meshes(one).vertices_m.astype(np.float64))
+        assert np.all(np.abs(local) <= one.lwh_m[0] / 2 + 1e-4)
+    assert pose_of(int(SemanticClass.PEDESTRIAN), 0.05, 3.3) == 0  # standing still: the standing pose
+
+
+def test_body_type_fits_the_size_and_is_stable_over_a_track() -> None:
+    car = int(SemanticClass.CAR)
+    names = [b.name for b in BODIES[car]]
+    tall = {names[body_of(car, np.array([4.9, 1.95, 1.95]), i)] for i in range(1, 200)}
+    low = {names[body_of(car, np.array([4.6, 1.8, 1.42]), i)] for i in range(1, 200)}
+    assert "van" in tall and "sedan" not in tall
+    assert "van" not in low and "sedan" in low
+    assert all(
+        body_of(car, np.array([4.5, 1.8, 1.5]), 42) == body_of(car, np.array([4.5, 1.8, 1.5]), 42) for _ in range(3)
+    )
+    truck = int(SemanticClass.TRUCK)
+    assert BODIES[truck][body_of(truck, np.array([12.0, 2.5, 3.8]), 3)].name == "semi_trailer"
 
 
 def test_each_triangle_carries_its_agents_instance_and_class() -> None:
@@ -59,8 +150,9 @@ def test_each_triangle_carries_its_agents_instance_and_class() -> None:
     assert set(meshes.triangle_instance.tolist()) == set(class_of)
     expected = np.array([class_of[i] for i in meshes.triangle_instance.tolist()])
     np.testing.assert_array_equal(meshes.triangle_class, expected)
-    for inst, cls in class_of.items():
-        assert np.sum(meshes.triangle_instance == inst) == TEMPLATES[cls].triangles.shape[0]
+    keys = body_keys(boxes)
+    for (inst, _cls), (c, body, pose) in zip(class_of.items(), keys.tolist(), strict=True):
+        assert np.sum(meshes.triangle_instance == inst) == template_of(c, body, pose).triangles.shape[0]
 
 
 def test_a_class_without_template_is_drawn_as_its_box_standing_just_off_the_road(synth: SimpleNamespace) -> None:
@@ -85,12 +177,19 @@ def test_box_corners_follow_yaw(synth: SimpleNamespace) -> None:
 
 
 def test_lidar_points_on_shaped_agents_lie_inside_their_boxes(synth: SimpleNamespace, rng: np.random.Generator) -> None:
-    sizes = [(SemanticClass.CAR, 4.5, 1.8, 1.5), (SemanticClass.TRUCK, 7.5, 2.5, 3.2),
-             (SemanticClass.BUS, 12.0, 2.5, 3.4), (SemanticClass.MOTORCYCLE, 2.2, 0.8, 1.7),
-             (SemanticClass.BICYCLE, 1.8, 0.6, 1.75), (SemanticClass.PEDESTRIAN, 0.3, 0.5, 1.75)]  # fmt: skip
+    sizes = [
+        (SemanticClass.CAR, 4.5, 1.8, 1.5),
+        (SemanticClass.TRUCK, 7.5, 2.5, 3.2),
+        (SemanticClass.BUS, 12.0, 2.5, 3.4),
+        (SemanticClass.MOTORCYCLE, 2.2, 0.8, 1.7),
+        (SemanticClass.BICYCLE, 1.8, 0.6, 1.75),
+        (SemanticClass.PEDESTRIAN, 0.7, 0.6, 1.75),
+    ]
     bearing = np.arange(len(sizes)) * 1.0
-    rows = [(i + 1, cls, 6.0 * np.cos(b), 6.0 * np.sin(b), hgt / 2, lng, wid, hgt, b + 0.4)
-            for i, ((cls, lng, wid, hgt), b) in enumerate(zip(sizes, bearing, strict=True))]  # fmt: skip
+    rows = [
+        (i + 1, cls, 6.0 * np.cos(b), 6.0 * np.sin(b), hgt / 2, lng, wid, hgt, b + 0.4)
+        for i, ((cls, lng, wid, hgt), b) in enumerate(zip(sizes, bearing, strict=True))
+    ]
     boxes = synth.agents(rows)
     lidar = Lidar(LidarSpec(beams=32, azimuth_steps=1024))
     scan = lidar.sense(synth.scene([synth.ground()], boxes), synth.EGO, DAY, rng).scan
