@@ -415,13 +415,14 @@ def bus(length: float = 12.0, width: float = 2.55, h: float = 3.2, coach: bool =
     bottom: list[tuple[float, float]] = [(-bl, floor)]
     for x in sorted(axles):
         bottom += [(x - r - 0.06, floor), *_arch(x, r)[1:-1], (x + r + 0.06, floor)]
-    body = [*bottom, (bl, floor), (bl, h - 0.4), (bl - 0.15, h), (-bl + 0.1, h), (-bl, h - 0.2)]
+    top = h - 0.16 if not coach else h  # a city bus carries its air conditioning on the roof
+    body = [*bottom, (bl, floor), (bl, top - 0.4), (bl - 0.15, top), (-bl + 0.1, top), (-bl, top - 0.2)]
 
     def livery(nx: float, nz: float) -> int:
         return int(Part.UNDERBODY) if nz < -0.6 else int(Part.CARGO)
 
     pieces = [prism(body, hw - 0.02, Part.CARGO, livery)]  # buses in fleet colours, not car paint
-    win0, win1 = (1.05, h - 0.3) if not coach else (1.75, h - 0.25)
+    win0, win1 = (1.05, top - 0.3) if not coach else (1.75, top - 0.25)
     # side windows as glass panels with pillars, a windscreen to low down, doors on the right
     for side in (-1.0, 1.0):
         g0, g1 = sorted((side * (hw - 0.018), side * (hw - 0.004)))
@@ -441,16 +442,25 @@ def bus(length: float = 12.0, width: float = 2.55, h: float = 3.2, coach: bool =
             )
         t0, t1 = sorted((side * 0.75 * hw, side * 0.95 * hw))
         pieces.append(box(hl - 0.03, hl, t0, t1, floor + 0.27, floor + 0.45, Part.HEADLAMP))
-        pieces.append(box(-hl, -hl + 0.03, t0, t1, 0.7, 1.1, Part.TAIL_LAMP))
-    pieces.append(box(bl + 0.002, hl, -hw + 0.1, hw - 0.1, 1.0 if not coach else 1.3, h - 0.45, Part.GLASS))
-    pieces.append(box(-hl, -bl - 0.002, -hw + 0.25, hw - 0.25, h - 1.2, h - 0.35, Part.GLASS))
+        r0, r1 = sorted((side * 0.8 * hw, side * 0.97 * hw))  # tall lamp clusters at the rear corners
+        pieces.append(box(-hl, -hl + 0.03, r0, r1, floor + 0.3, floor + 1.15, Part.TAIL_LAMP))
+    pieces.append(box(bl + 0.002, hl, -hw + 0.1, hw - 0.1, 1.0 if not coach else 1.3, top - 0.75, Part.GLASS))
+    pieces.append(box(bl + 0.002, hl, -0.8, 0.8, top - 0.68, top - 0.45, Part.TRIM))  # destination display
+    pieces.append(box(-hl, -bl - 0.002, -hw + 0.22, hw - 0.22, top - 1.25, top - 0.55, Part.GLASS))
+    pieces.append(box(-hl, -bl - 0.002, -0.6, 0.6, top - 0.48, top - 0.3, Part.TRIM))  # route number
+    for k in range(5):  # the engine hatch's grille
+        z = floor + 0.75 + 0.12 * k
+        pieces.append(box(-hl + 0.004, -bl - 0.001, -0.85, 0.85, z, z + 0.06, Part.TRIM))
+    pieces.append(box(-hl + 0.005, -bl + 0.1, -hw + 0.01, hw - 0.01, floor + 0.01, floor + 0.28, Part.TRIM))  # bumper
+    if not coach:
+        pieces.append(box(-hl * 0.55, hl * 0.35, -hw + 0.35, hw - 0.35, top - 0.01, h, Part.CARGO))  # roof unit
     if not coach:
         for x in (hl - 1.4, 0.3):  # doors on the kerb side (right)
-            pieces.append(box(x - 0.6, x + 0.6, -hw + 0.002, -hw + 0.025, floor + 0.05, h - 0.35, Part.GLASS))
+            pieces.append(box(x - 0.6, x + 0.6, -hw + 0.002, -hw + 0.025, floor + 0.05, top - 0.35, Part.GLASS))
     else:
         pieces.append(box(-hl + 2.5, hl - 3.0, -hw, hw, floor + 0.1, 1.3, Part.CARGO))  # luggage bay doors
     pieces.append(box(hl - 0.04, hl, -0.26, 0.26, floor + 0.12, floor + 0.24, Part.PLATE))
-    pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, floor + 0.12, floor + 0.24, Part.PLATE))
+    pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, floor + 0.38, floor + 0.5, Part.PLATE))
     pieces.append(box(hl - 0.1, hl - 0.008, -hw + 0.01, hw - 0.01, floor + 0.01, floor + 0.25, Part.TRIM))
     for x in axles:
         for side in (-1.0, 1.0):

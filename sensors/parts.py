@@ -64,7 +64,7 @@ MATERIALS: dict[Part, PartMaterial] = {
     Part.PAINT: PartMaterial(None, 0.6, 60.0, 0.08, 0.0, 0.45, 1.0),
     Part.GLASS: PartMaterial((0.05, 0.05, 0.045), 0.9, 200.0, 0.06, 0.0, 0.08, 0.3),
     Part.TYRE: PartMaterial((0.05, 0.05, 0.05), 0.05, 8.0, 0.0, 0.0, 0.05, 0.2),
-    Part.RIM: PartMaterial((0.55, 0.55, 0.56), 0.5, 40.0, 0.1, 0.0, 0.6, 1.0),
+    Part.RIM: PartMaterial((0.38, 0.38, 0.4), 0.5, 40.0, 0.1, 0.0, 0.6, 1.0),
     Part.HEADLAMP: PartMaterial((0.8, 0.8, 0.78), 0.9, 150.0, 0.3, 1.0, 0.7, 0.5),
     Part.TAIL_LAMP: PartMaterial((0.08, 0.06, 0.55), 0.8, 120.0, 0.15, 1.0, 0.6, 0.5),
     Part.PLATE: PartMaterial((0.85, 0.85, 0.85), 0.2, 20.0, 0.0, 0.0, 0.95, 0.8),
