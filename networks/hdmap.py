@@ -87,7 +87,9 @@ class HdMap:
             add("road_boundary", ring)
         self.crossings: list[Polygon] = []
         for lane in crossing_lanes(net):
-            outline = LineString(np.asarray(lane.getShape())[:, :2]).buffer(lane.getWidth() / 2.0, cap_style="flat")
+            outline = LineString(np.asarray(lane.getShape())[:, :2]).buffer(
+                lane.getWidth() / 2.0, cap_style="flat", join_style="mitre"
+            )  # mitred like the zebra stripes painted along it
             if not outline.is_empty:
                 self.crossings.append(outline)
                 for ring in _rings(outline, holes=False):
@@ -133,6 +135,12 @@ class HdMap:
         for k in sorted(int(i) for i in hits):
             element = self.elements[k]
             local = element.points_m @ r.T + t
+            if element.kind == "crossing" and local.shape[0] >= 4:  # an outline stays closed when clipped
+                area = shapely.clip_by_rect(Polygon(local), -half_x_m, -half_y_m, half_x_m, half_y_m)
+                for part in shapely.get_parts(area):
+                    if isinstance(part, Polygon) and not part.is_empty and part.area > 0:
+                        out.append((element, np.asarray(part.exterior.coords)[:, :2]))
+                continue
             clipped = shapely.clip_by_rect(LineString(local), -half_x_m, -half_y_m, half_x_m, half_y_m)
             for piece in shapely.get_parts(
                 shapely.line_merge(clipped) if clipped.geom_type == "MultiLineString" else clipped

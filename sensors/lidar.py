@@ -19,7 +19,7 @@ from networks.geometry import SE3
 from networks.records import check_arrays
 from sensors.agents import EgoState
 from sensors.errors import SensorConfigError
-from sensors.materials import REFLECTIVITY_BY_CLASS
+from sensors.parts import lidar_reflectivity
 from sensors.rays import sensor_rays
 from sensors.view import spheres_in_view
 from sensors.weather import (
@@ -154,7 +154,7 @@ class Lidar:
         xyz = self._dirs32[idx] * rng_m[:, None]
         cos_inc = np.abs(np.einsum("ij,ij->i", rays[idx, 3:6], hits.normal[idx]))
         cls = hits.semantic_class[idx]
-        intensity = REFLECTIVITY_BY_CLASS[cls].astype(np.float32) * cos_inc * np.exp(rng_m * np.float32(-1.0 / 200.0))
+        intensity = lidar_reflectivity(cls, hits.part[idx]) * cos_inc * np.exp(rng_m * np.float32(-1.0 / 200.0))
         if w.lidar_spurious_rate > 0 or w.lidar_intensity_scale != 1.0 or w.lidar_extinction_per_m > 0:
             intensity = intensity * lidar_intensity_factor(w, rng_m)
             intensity = np.where(spurious[idx], w.lidar_spurious_intensity, intensity)

@@ -15,6 +15,8 @@ from enum import IntEnum
 import numpy as np
 import numpy.typing as npt
 
+from sensors.materials import RADAR_REFLECTIVITY_BY_CLASS, REFLECTIVITY_BY_CLASS
+
 
 class Part(IntEnum):
     """What a triangle is made of (uint8 per triangle, per ray hit)."""
@@ -153,6 +155,18 @@ ALBEDO_BGR_BY_PART = np.zeros((256, 3), np.float32)
 for _part, _m in MATERIALS.items():
     if _m.albedo_bgr is not None:
         ALBEDO_BGR_BY_PART[int(_part)] = _m.albedo_bgr
+
+
+def lidar_reflectivity(semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[np.uint8]) -> npt.NDArray[np.float32]:
+    """``(N,)`` LiDAR reflectivity of surfaces: by part on agents (glass and tyres weak, plates
+    strong), by class on the static world."""
+    return np.where(part > 0, REFLECTIVITY_BY_PART[part], REFLECTIVITY_BY_CLASS[semantic_class]).astype(np.float32)
+
+
+def radar_reflectivity(semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[np.uint8]) -> npt.NDArray[np.float32]:
+    """``(N,)`` relative radar cross-section per unit area: by part on agents (metal strong,
+    people and glass weak), by class on the static world."""
+    return np.where(part > 0, RADAR_BY_PART[part], RADAR_REFLECTIVITY_BY_CLASS[semantic_class]).astype(np.float32)
 
 
 def part_albedo(part: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.float32]:

@@ -54,6 +54,11 @@ MAX_REFLECTION = 0.45
 """The most of the surroundings a surface mirrors, even at grazing angles (clear coat and
 glass are not perfect mirrors: dirt, curvature and roughness blur and dim what they show)."""
 CONTACT_M = 0.45
+STREET_LIGHT = np.float32(0.35)
+"""Light from street lamps at night (of the sun's 2.2 by day), on surfaces facing up most."""
+STREET_LIGHT_FADE_M = 60.0
+STREET_LIGHT_BGR = np.array([0.55, 0.8, 1.0], np.float32)
+"""Warm white (LED and sodium street lamps)."""
 """How far from a vehicle's footprint its contact shadow fades out."""
 
 
@@ -280,6 +285,11 @@ def radiance(
             * forward[at] ** 6
         )
     colour = albedo * light[:, None]
+    night = np.float32(1.0) - np.clip(np.float32(weather.sun_gain) / np.float32(0.3), 0.0, 1.0)
+    if night > 0:  # street lighting from above: warm, strongest on what faces up, fading far out
+        lamps = night * STREET_LIGHT * (np.float32(0.35) + np.float32(0.65) * np.maximum(nrm[:, 2], 0.0))
+        lamps /= np.float32(1.0) + (r / np.float32(STREET_LIGHT_FADE_M)) ** 2
+        colour += albedo * lamps[:, None] * STREET_LIGHT_BGR
     # highlights and reflections
     spec = SPECULAR_BY_PART[pt]
     shiny = np.flatnonzero((spec > 0) | (mirror > 0))
@@ -300,7 +310,6 @@ def radiance(
         env[down] = np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain))
         colour[shiny] = colour[shiny] * (np.float32(1.0) - fres[:, None]) + env * fres[:, None]
     # lamps and lit windows
-    night = np.float32(1.0) - np.clip(np.float32(weather.sun_gain) / np.float32(0.3), 0.0, 1.0)
     emissive = EMISSIVE_BY_PART[pt]
     lamp = np.flatnonzero(emissive > 0)
     if len(lamp):
@@ -312,6 +321,23 @@ def radiance(
     f = haze_fraction(weather, r, max_range_m)[:, None]
     out[at] = colour * (np.float32(1.0) - f) + to_linear(weather.haze_bgr) * f
     return out
+
+
+BLOOM_THRESHOLD = np.float32(0.8)
+BLOOM_SIGMA_PX = 5.0
+BLOOM_GAIN = np.float32(0.6)
+
+
+def bloom(linear: F32) -> F32:
+    """Light beyond :data:`BLOOM_THRESHOLD` spread around its source (lamps at night, sun
+    glints), as a lens and sensor do."""
+    import cv2
+
+    bright = np.maximum(linear - BLOOM_THRESHOLD, np.float32(0.0))
+    if not bright.any():
+        return linear
+    glow = cv2.GaussianBlur(bright, (0, 0), BLOOM_SIGMA_PX)
+    return np.asarray(linear + BLOOM_GAIN * glow, np.float32)
 
 
 def tone_map(linear: F32, exposure: float) -> F32:
@@ -384,6 +410,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
             sub_open,
         )
         linear[extra.pixel] = (linear[extra.pixel] + sub_lin.reshape(-1, sub, 3).sum(axis=1)) / np.float32(sub + 1)
+    linear = bloom(linear.reshape(h, w, 3)).reshape(-1, 3)
     linear *= vignette(h, w)[:, None]
     image = tone_map(linear, sh.weather.exposure)
     rng = np.random.default_rng(sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w))

@@ -23,7 +23,7 @@ from networks.geometry import SE3
 from networks.records import check_arrays
 from sensors.agents import EgoState
 from sensors.errors import SensorConfigError
-from sensors.materials import RADAR_REFLECTIVITY_BY_CLASS
+from sensors.parts import radar_reflectivity
 from sensors.rays import sensor_rays
 from sensors.view import spheres_in_view
 from sensors.weather import Weather
@@ -183,7 +183,7 @@ class Radar:
         hits = scene.cast_from(map_SE3_radar.translation, map_SE3_radar.rotation, self._dirs32)
         cls_all = hits.semantic_class
         cos_inc = np.abs(np.einsum("ij,ij->i", rays[:, 3:6], hits.normal))
-        reflect = RADAR_REFLECTIVITY_BY_CLASS[cls_all]
+        reflect = radar_reflectivity(cls_all, hits.part)
         rcs = reflect * cos_inc
         power = strength_db(reflect, cos_inc, hits.range_m)
         in_range = hits.range_m <= self.spec.range_m

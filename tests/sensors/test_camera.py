@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 import sensors.shading as shading_module
 from networks.classes import SemanticClass
 from networks.geometry import SE3
-from sensors.camera import Camera, CameraFrame, CameraSpec, depth_to_uint16, encode_depth_png
+from sensors.camera import SHADOW_LIFT_M, Camera, CameraFrame, CameraSpec, depth_to_uint16, encode_depth_png
 from sensors.errors import SensorConfigError
 from sensors.pinhole import box_corners, project_points
 from sensors.shading import shade_frame
@@ -177,3 +177,28 @@ def test_shading_in_stripes_gives_the_image_of_one_pass(
     assert striped.any()
     monkeypatch.setattr(shading_module, "STRIPE_PX", 10**9)
     np.testing.assert_array_equal(striped, shade_frame(frame))
+
+
+def test_sun_shadow_rays_match_a_brute_force_check(synth: SimpleNamespace) -> None:
+    # a box standing on the ground ahead: which ground pixels lie in its shadow, by a slab test
+    box = synth.agents([(9, SemanticClass.POLE, 9.0, 2.5, 1.0, 2.0, 1.5, 2.0, 0.0)])
+    scene = synth.scene([synth.ground()], box)
+    spec = CameraSpec(width_px=320, height_px=180, mount_rpy_deg=(0.0, 12.0, 0.0))
+    frame = Camera(spec).sense(scene, synth.EGO, DAY, np.random.default_rng(0)).frame
+    lit = frame.shading.sun_lit
+    assert lit is not None
+    ground = (frame.semantic_class.ravel() == SemanticClass.ROAD) & (frame.depth_m.ravel() > 0)
+    dirs = spec.pinhole.image_directions() @ spec.ego_SE3_sensor.rotation.T.astype(np.float32)
+    origin = spec.ego_SE3_sensor.translation
+    points = origin + dirs * (frame.depth_m.ravel() / spec.pinhole.image_directions()[:, 2])[:, None]
+    sun = np.asarray(DAY.sun_dir_map) / np.linalg.norm(DAY.sun_dir_map)
+    lo = np.array([8.0, 1.75, 0.03])  # the box's mesh: its footprint, standing 3 cm off the road
+    hi = np.array([10.0, 3.25, 2.0])
+    start = points + [0.0, 0.0, SHADOW_LIFT_M]  # shadow rays leave the road this far above it
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (lo - start) / sun, (hi - start) / sun
+    near, far = np.minimum(t0, t1).max(axis=1), np.maximum(t0, t1).min(axis=1)
+    shadowed = (far >= np.maximum(near, 0.0)) & ground
+    assert shadowed.sum() > 50  # the test means something: a shadow is in view
+    rim = np.abs(far - np.maximum(near, 0.0)) < 1e-3  # grazing rays at the shadow's edge may go either way
+    np.testing.assert_array_equal(~lit[ground & ~rim], shadowed[ground & ~rim])
