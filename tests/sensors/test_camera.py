@@ -194,7 +194,7 @@ def test_sun_shadow_rays_match_a_brute_force_check(synth: SimpleNamespace) -> No
     sun = np.asarray(DAY.sun_dir_map) / np.linalg.norm(DAY.sun_dir_map)
     lo = np.array([8.0, 1.75, 0.03])  # the box's mesh: its footprint, standing 3 cm off the road
     hi = np.array([10.0, 3.25, 2.0])
-    start = points + [0.0, 0.0, SHADOW_LIFT_M]  # shadow rays leave the road this far above it
+    start = points + np.array([0.0, 0.0, SHADOW_LIFT_M])  # shadow rays leave the road this far above it
     with np.errstate(divide="ignore", invalid="ignore"):
         t0, t1 = (lo - start) / sun, (hi - start) / sun
     near, far = np.minimum(t0, t1).max(axis=1), np.maximum(t0, t1).min(axis=1)
