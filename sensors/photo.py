@@ -323,7 +323,7 @@ def radiance(
     return out
 
 
-BLOOM_THRESHOLD = np.float32(0.8)
+BLOOM_THRESHOLD = np.float32(1.6)
 BLOOM_SIGMA_PX = 5.0
 BLOOM_GAIN = np.float32(0.6)
 
@@ -358,6 +358,40 @@ def vignette(height: int, width: int) -> F32:
 STRIPE_PX = 1 << 15
 
 
+ROUNDING_M = 0.12
+"""Agents' normals are averaged over about this much of their surface: flat faces meet in
+rounded edges, as pressed sheet metal and bodies do (the mesh itself stays as it is)."""
+ROUNDING_LEVELS_PX = (1.5, 4.0, 10.0)
+
+
+def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32], depth_m: F32, focal_px: float) -> F32:
+    """``(N, 3)`` normals facing the camera, agents' ones averaged over :data:`ROUNDING_M` of
+    surface (in the image, at each pixel's depth) among the pixels of agents."""
+    import cv2
+
+    h, w = depth_m.shape
+    facing = np.einsum("ij,ij->i", normal, dirs_map)
+    out = np.where((facing > 0)[:, None], -normal, normal).astype(np.float32)
+    agent = (instance > 0).astype(np.float32)
+    if not agent.any():
+        return out
+    weighted = out.reshape(h, w, 3) * agent[..., None]
+    want_px = np.float32(focal_px * ROUNDING_M) / np.maximum(depth_m, np.float32(0.1))
+    level = np.abs(np.log(want_px[..., None] / np.asarray(ROUNDING_LEVELS_PX, np.float32))).argmin(axis=-1)
+    smooth = np.zeros((h, w, 3), np.float32)
+    for k, sigma in enumerate(ROUNDING_LEVELS_PX):
+        pick = (level == k) & (agent > 0)
+        if pick.any():
+            num = cv2.GaussianBlur(weighted, (0, 0), sigma)
+            den = cv2.GaussianBlur(agent, (0, 0), sigma)
+            smooth[pick] = num[pick] / np.maximum(den[pick], np.float32(1e-6))[:, None]
+    smooth /= np.maximum(np.linalg.norm(smooth, axis=-1, keepdims=True), np.float32(1e-6))
+    flat = smooth.reshape(-1, 3)
+    keep = agent.ravel() > 0
+    out[keep] = flat[keep]
+    return out
+
+
 def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     """The realistic ``(H, W, 3) uint8`` image of a rendered frame."""
     import cv2
@@ -370,6 +404,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     range_m = np.where(depth > 0, depth / dirs_cam[:, 2], np.float32(np.inf)).astype(np.float32)
     dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
     classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
+    normal = rounded_normals(sh.normal, dirs_map, frame.instance_id, frame.depth_m, sh.pinhole.focal_px)
     sky_open = sky_light(dirs_map, range_m, classes, instances, sh.origin_map_m, sh.boxes)
     linear = np.empty((h * w, 3), np.float32)
     for start in range(0, h * w, STRIPE_PX):
