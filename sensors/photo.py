@@ -415,7 +415,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
             classes[s],
             instances[s],
             sh.part[s],
-            sh.normal[s],
+            normal[s],
             sh.sun_lit[s],
             dirs_cam[s, 2],
             sh.origin_map_m,
