@@ -164,7 +164,7 @@ class MeshTemplate:
 
 
 BOX_TEMPLATE = MeshTemplate(UNIT_CORNERS, np.asarray(BOX_TRIANGLES, dtype=np.int32),
-                            np.full(len(BOX_TRIANGLES), int(Part.PAINT), np.uint8))  # fmt: skip
+                            np.full(len(BOX_TRIANGLES), int(Part.SURFACE), np.uint8))
 
 
 def _unit_templates(body: Body) -> tuple[MeshTemplate, ...]:
