@@ -163,8 +163,9 @@ class MeshTemplate:
             raise ValueError("MeshTemplate: one part per triangle")
 
 
-BOX_TEMPLATE = MeshTemplate(UNIT_CORNERS, np.asarray(BOX_TRIANGLES, dtype=np.int32),
-                            np.full(len(BOX_TRIANGLES), int(Part.SURFACE), np.uint8))
+BOX_TEMPLATE = MeshTemplate(
+    UNIT_CORNERS, np.asarray(BOX_TRIANGLES, dtype=np.int32), np.full(len(BOX_TRIANGLES), int(Part.SURFACE), np.uint8)
+)
 
 
 def _unit_templates(body: Body) -> tuple[MeshTemplate, ...]:

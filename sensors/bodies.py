@@ -164,7 +164,7 @@ def wheel(x: float, r: float, y_in: float, y_out: float, sides: int = 14) -> lis
 def ring_wheel(x: float, r: float, half_width: float, sides: int = 16) -> list[Piece]:
     """A thin bicycle wheel: a tyre ring on a rim ring, open spokes, a hub."""
     tyre = prism(circle(x, r, r, sides), half_width, Part.TYRE, Part.TYRE, hole=circle(x, r, 0.9 * r, sides))
-    rim = prism(circle(x, r, 0.9 * r, sides), half_width * 0.6, Part.RIM, Part.RIM, hole=circle(x, r, 0.84 * r, sides))
+    rim = prism(circle(x, r, 0.89 * r, sides), half_width * 0.6, Part.RIM, Part.RIM, hole=circle(x, r, 0.84 * r, sides))
     hub = prism(circle(x, r, 0.06, 6), half_width * 1.5, Part.FRAME, Part.FRAME)
     return [tyre, rim, hub]
 
@@ -299,7 +299,7 @@ def car(s: CarShape) -> Piece:
                 (bx + 0.05, roof_z - 0.027),
                 (bx - 0.05, roof_z - 0.027),
             ],
-            pillar_w,
+            lambda z: pillar_w(z) + 0.004,  # over the A pillar where they meet under the roof
             Part.TRIM,
             Part.TRIM,
         )

@@ -54,7 +54,7 @@ MAX_REFLECTION = 0.45
 """The most of the surroundings a surface mirrors, even at grazing angles (clear coat and
 glass are not perfect mirrors: dirt, curvature and roughness blur and dim what they show)."""
 CONTACT_M = 0.45
-STREET_LIGHT = np.float32(0.35)
+STREET_LIGHT = np.float32(0.28)
 """Light from street lamps at night (of the sun's 2.2 by day), on surfaces facing up most."""
 STREET_LIGHT_FADE_M = 60.0
 STREET_LIGHT_BGR = np.array([0.55, 0.8, 1.0], np.float32)

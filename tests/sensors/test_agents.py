@@ -200,3 +200,37 @@ def test_lidar_points_on_shaped_agents_lie_inside_their_boxes(synth: SimpleNames
         local = in_box_frame(boxes, i, xyz_map[on])
         assert np.all(np.abs(local) <= boxes.lwh_m[i] / 2 + 0.02)
         assert np.all(scan.semantic_class[on] == boxes.semantic_class[i])
+
+
+def test_no_two_parts_of_a_body_share_a_plane_where_they_overlap() -> None:
+    # coplanar faces of two parts would leave a ray's part (its colour, its LiDAR return) to the
+    # ray engine's tie-break, which changes with the rest of the scene
+    from collections import defaultdict
+
+    from shapely.geometry import Polygon
+
+    for bodies in BODIES.values():
+        for body in bodies:
+            for pose in range(body.poses):
+                piece = body.build(pose)
+                v = piece.vertices[piece.triangles]
+                n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+                area = np.linalg.norm(n, axis=1)
+                n = n / np.maximum(area, 1e-12)[:, None]
+                n *= np.sign(n[np.arange(len(n)), np.argmax(np.abs(n), axis=1)])[:, None]
+                d = np.einsum("ij,ij->i", n, v[:, 0])
+                planes = defaultdict(list)
+                for i in np.flatnonzero(area > 1e-7):
+                    planes[(*np.round(n[i], 3), round(float(d[i]), 3))].append(int(i))
+                for key, ids in planes.items():
+                    if len({int(piece.parts[i]) for i in ids}) < 2:
+                        continue
+                    normal = np.asarray(key[:3])
+                    u = np.cross(normal, [0.0, 0.0, 1.0] if abs(normal[2]) < 0.9 else [1.0, 0.0, 0.0])
+                    u /= np.linalg.norm(u)
+                    w = np.cross(normal, u)
+                    flat = [Polygon(np.stack([v[i] @ u, v[i] @ w], 1)) for i in ids]
+                    for a in range(len(ids)):
+                        for b in range(a + 1, len(ids)):
+                            if piece.parts[ids[a]] != piece.parts[ids[b]]:
+                                assert flat[a].intersection(flat[b]).area < 1e-6, (body.name, pose, key)
