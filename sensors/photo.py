@@ -287,7 +287,8 @@ def radiance(
     colour = albedo * light[:, None]
     night = np.float32(1.0) - np.clip(np.float32(weather.sun_gain) / np.float32(0.3), 0.0, 1.0)
     if night > 0:  # street lighting from above: warm, strongest on what faces up, fading far out
-        lamps = night * STREET_LIGHT * (np.float32(0.35) + np.float32(0.65) * np.maximum(nrm[:, 2], 0.0))
+        side = np.where(inst > 0, np.float32(0.35), np.float32(0.12))  # walls get little, road users more
+        lamps = night * STREET_LIGHT * (side + (np.float32(1.0) - side) * np.maximum(nrm[:, 2], 0.0))
         lamps /= np.float32(1.0) + (r / np.float32(STREET_LIGHT_FADE_M)) ** 2
         colour += albedo * lamps[:, None] * STREET_LIGHT_BGR
     # highlights and reflections
