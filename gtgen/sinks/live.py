@@ -10,7 +10,9 @@ server starts, before frame 0, so a viewer connected early gets every frame; the
 goes to each subscriber of ``/map`` when it subscribes. Frames go out as fast as they are made:
 a viewer that falls behind loses its oldest messages, one that stops reading for
 ``STALL_S`` seconds is disconnected, and closing never waits more than ``CLOSE_S`` seconds
-for a viewer: a viewer can lose messages, never delay or stop the run.
+for a viewer: a viewer can lose messages, never delay or stop the run. Messages go out
+uncompressed (no per-message deflate, whatever the viewer offers): compressing each frame once
+per viewer would slow the run with every viewer that connects.
 """
 
 from __future__ import annotations
@@ -101,7 +103,7 @@ class FoxgloveServer:
 
     async def _start(self, host: str, port: int) -> Server:
         return await serve(self._serve, host, port, subprotocols=list(SUBPROTOCOLS), ping_interval=None,  # type: ignore[arg-type]
-                           max_size=1 << 20, write_limit=1 << 20, close_timeout=CLOSE_S)  # fmt: skip
+                           max_size=1 << 20, write_limit=1 << 20, close_timeout=CLOSE_S, compression=None)  # fmt: skip
 
     # --- any thread ---------------------------------------------------------------------------
     def advertise(self, channel_id: int, topic: str, proto: type | None) -> None:
