@@ -146,16 +146,21 @@ def write_opendrive(network: PlainNetwork, workdir: Path, xodr_path: Path) -> Pa
         tail = " | ".join(proc.stderr.strip().splitlines()[-3:])
         raise NetconvertError(f"{edg}: netconvert could not write OpenDRIVE: {tail}")
     (workdir / "netconvert.log").write_text(proc.stderr)
-    _type_roads_by_speed(xodr_path)
+    tree = ElementTree.parse(xodr_path)
+    root = tree.getroot()
+    _type_roads_by_speed(root)
+    header = root.find("header")
+    if header is not None:
+        header.attrib.pop("date", None)  # netconvert's clock time: the same town is the same file
+    tree.write(xodr_path, encoding="utf-8", xml_declaration=True)
     return xodr_path
 
 
-def _type_roads_by_speed(xodr_path: Path) -> None:
+def _type_roads_by_speed(root: ElementTree.Element) -> None:
     """Give every road a ``<type>`` with its top lane speed: netconvert writes speeds per
     lane only, and its importer takes a road's speed (which decides whether sidewalks are
     guessed) from the road type."""
-    tree = ElementTree.parse(xodr_path)
-    for road in tree.getroot().iter("road"):
+    for road in root.iter("road"):
         speeds = [float(s.get("max", "0")) for s in road.iter("speed") if s.get("max")]
         road_type = road.find("type")
         if not speeds or road_type is None:
@@ -165,4 +170,3 @@ def _type_roads_by_speed(xodr_path: Path) -> None:
         for child in list(road_type):
             road_type.remove(child)
         ElementTree.SubElement(road_type, "speed", {"max": f"{top:.2f}", "unit": "m/s"})
-    tree.write(xodr_path, encoding="utf-8", xml_declaration=True)

@@ -16,7 +16,7 @@ from networks.towns.town06 import town06
 from networks.towns.town07 import town07
 from networks.towns.town10 import town10
 
-GENERATOR_VERSION = "2"
+GENERATOR_VERSION = "3"  # 3: no date in the OpenDRIVE header
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,5 +1,6 @@
 """The built-in towns: generated, written as OpenDRIVE, imported back, and built as worlds."""
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +53,19 @@ def test_town_generation_is_deterministic_by_seed():
         info = TOWNS[name]
         assert info.build(3) == info.build(3)
         assert info.build(3).nodes_xml() != info.build(4).nodes_xml()
+
+
+def test_a_town_made_in_two_caches_is_the_same_file(tmp_path, monkeypatch):
+    """The manifest's network_sha256 of a built-in town is the same wherever it was made:
+    the OpenDRIVE header carries no date (netconvert writes its clock time there)."""
+    made = []
+    for cache in ("a", "b"):
+        monkeypatch.setenv("SUMO_DATASET_CACHE", str(tmp_path / cache))
+        made.append(town_opendrive("skeleton").read_bytes())
+        time.sleep(1.1)  # netconvert's date has whole seconds
+    header = made[0].split(b"<road", 1)[0]
+    assert b"<header" in header and b"date=" not in header
+    assert made[0] == made[1]
 
 
 def test_town_converts_with_crossings_and_pedestrian_lanes(town):
