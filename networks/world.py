@@ -38,6 +38,7 @@ DECK_DEPTH_M = 0.8
 PIER_SPACING_M = 30.0
 PIER_CLEARANCE_M = 1.0  # between a pier and a lane or sidewalk under the bridge
 BUILDING_GAP_M = 1.5  # between a building and any paved surface
+BUILDING_SPACING_M = 0.5  # between two buildings
 PROP_GAP_M = 0.4  # between a pole or tree and any paved surface
 
 
@@ -309,15 +310,15 @@ def _place_buildings(
     """Street-facing buildings along every normal edge, set back from the paved area and
     apart from each other."""
     keep_out = prep(paved.buffer(BUILDING_GAP_M))
-    placed: list[Polygon] = []
+    placed = FootprintGrid()
     for edge in sorted(net.getEdges(withInternal=False), key=lambda e: e.getID()):
         if edge.getFunction():
             continue
         line = LineString(np.asarray(edge.getShape())[:, :2])
         half_width = sum(lane.getWidth() for lane in edge.getLanes()) / 2.0
         for side in (1.0, -1.0):
-            placed.extend(_row_of_buildings(line, half_width, side, rng, keep_out, placed))
-    return [(fp, float(rng.uniform(6.0, 28.0))) for fp in placed]
+            _row_of_buildings(line, half_width, side, rng, keep_out, placed)
+    return [(fp, float(rng.uniform(6.0, 28.0))) for fp in placed.footprints]
 
 
 def _row_of_buildings(
@@ -326,9 +327,10 @@ def _row_of_buildings(
     side: float,
     rng: np.random.Generator,
     keep_out: object,
-    placed: list[Polygon],
-) -> list[Polygon]:
-    row: list[Polygon] = []
+    placed: FootprintGrid,
+) -> None:
+    """Buildings along one side of ``line``, each added to ``placed`` unless it would stand on
+    the paved area or within ``BUILDING_SPACING_M`` of a building placed before."""
     s = float(rng.uniform(2.0, 8.0))
     while s < line.length:
         frontage = float(rng.uniform(8.0, 20.0))
@@ -338,17 +340,37 @@ def _row_of_buildings(
         s += frontage + float(rng.uniform(1.0, 6.0))
         if footprint is None or keep_out.intersects(footprint):  # type: ignore[attr-defined]
             continue
-        if _overlaps_any(footprint, placed + row):
+        if placed.any_within(footprint, BUILDING_SPACING_M):
             continue
-        row.append(footprint)
-    return row
+        placed.add(footprint)
 
 
-def _overlaps_any(footprint: Polygon, others: list[Polygon]) -> bool:
-    if not others:
-        return False
-    near = shapely.dwithin(np.asarray(others, dtype=object), footprint, 0.5)
-    return bool(np.any(near))
+class FootprintGrid:
+    """Footprints in the cells of a square grid they overlap, so that a new one is checked
+    against its neighbours only (a road of 1,000 km has about 100,000 buildings)."""
+
+    def __init__(self, cell_m: float = 50.0) -> None:
+        self.footprints: list[Polygon] = []
+        self._cell_m = cell_m
+        self._cells: dict[tuple[int, int], list[int]] = {}
+
+    def _keys(self, bounds: tuple[float, float, float, float], margin_m: float) -> list[tuple[int, int]]:
+        xmin, ymin, xmax, ymax = bounds
+        x0, y0 = math.floor((xmin - margin_m) / self._cell_m), math.floor((ymin - margin_m) / self._cell_m)
+        x1, y1 = math.floor((xmax + margin_m) / self._cell_m), math.floor((ymax + margin_m) / self._cell_m)
+        return [(i, j) for i in range(x0, x1 + 1) for j in range(y0, y1 + 1)]
+
+    def add(self, footprint: Polygon) -> None:
+        for key in self._keys(footprint.bounds, 0.0):
+            self._cells.setdefault(key, []).append(len(self.footprints))
+        self.footprints.append(footprint)
+
+    def any_within(self, footprint: Polygon, distance_m: float) -> bool:
+        near = {i for key in self._keys(footprint.bounds, distance_m) for i in self._cells.get(key, ())}
+        if not near:
+            return False
+        others = np.asarray([self.footprints[i] for i in sorted(near)], dtype=object)
+        return bool(np.any(shapely.dwithin(others, footprint, distance_m)))
 
 
 def _footprint(
