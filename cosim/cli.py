@@ -14,7 +14,7 @@ from cosim.errors import CosimError, RunStoppedError, Terminated
 from cosim.sweep import SweepResult
 from gtgen.crash import internal_error_line
 from gtgen.errors import GtgenError
-from networks.errors import NetworkError
+from networks.errors import NetworkError, clipped
 from sensors.errors import SensorError
 
 DEFAULT_WORKERS = max(1, (os.cpu_count() or 2) // 2)
@@ -146,10 +146,10 @@ def main(argv: list[str] | None = None) -> int:
         commands = {"list": lambda: _cmd_list(), "run": lambda: _cmd_run(args), "sweep": lambda: _cmd_sweep(args)}
         return commands[args.command]()
     except RunStoppedError as stopped:
-        print(f"error: {stopped}" if stopped.exit_code == 2 else str(stopped), file=sys.stderr)
+        print(clipped(f"error: {stopped}" if stopped.exit_code == 2 else str(stopped)), file=sys.stderr)
         return stopped.exit_code
     except USER_ERRORS as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(clipped(f"error: {err}"), file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted; no dataset was completed", file=sys.stderr)
@@ -160,7 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as err:
         if err.filename is None or not err.strerror:
             return _internal_error(err, args.command)
-        print(f"error: {err.filename}: {err.strerror}", file=sys.stderr)
+        print(clipped(f"error: {err.filename}: {err.strerror}"), file=sys.stderr)
         return 2
     except Exception as err:
         return _internal_error(err, args.command)

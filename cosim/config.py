@@ -8,6 +8,7 @@ dataclass's ``__post_init__``) all become :class:`ScenarioError` lines of the fo
 from __future__ import annotations
 
 import dataclasses
+import math
 import types
 import typing
 from pathlib import Path
@@ -16,6 +17,7 @@ from typing import Any, Literal, TypeVar, get_args, get_origin, get_type_hints
 import yaml
 
 from cosim.errors import ScenarioError
+from networks.errors import quoted
 
 T = TypeVar("T")
 
@@ -48,7 +50,7 @@ def _type_name(tp: Any) -> str:
 
 
 def _fail(source: str, key: str, expected: str, got: Any) -> ScenarioError:
-    shown = repr(got) if not isinstance(got, dict | list) else type(got).__name__
+    shown = quoted(got) if not isinstance(got, dict | list) else type(got).__name__
     return ScenarioError(f"{source}: {key or '<top>'}: expected {expected}, got {shown}")
 
 
@@ -107,6 +109,8 @@ def _scalar(tp: Any, value: Any, source: str, key: str) -> Any:
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise _fail(source, key, "a number", value)
+        if not math.isfinite(value):
+            raise _fail(source, key, "a finite number", value)
         return float(value)
     if tp is str:
         if not isinstance(value, str):
@@ -151,15 +155,15 @@ def _where(key: str, message: str, fields: dict[str, Any]) -> str:
 def set_override(data: dict[str, Any], assignment: str, source: str = "--set") -> None:
     """Apply ``a.b.c=value`` (value parsed as YAML) to a nested mapping in place."""
     if "=" not in assignment:
-        raise ScenarioError(f"{source}: {assignment!r}: expected key=value")
+        raise ScenarioError(f"{source}: {quoted(assignment)}: expected key=value")
     dotted, raw = assignment.split("=", 1)
     parts = [p for p in dotted.strip().split(".") if p]
     if not parts:
-        raise ScenarioError(f"{source}: {assignment!r}: expected key=value")
+        raise ScenarioError(f"{source}: {quoted(assignment)}: expected key=value")
     try:
         value = yaml.safe_load(raw)
     except yaml.YAMLError as err:
-        raise ScenarioError(f"{source}: {dotted}: value {raw!r} is not valid YAML") from err
+        raise ScenarioError(f"{source}: {dotted}: value {quoted(raw)} is not valid YAML") from err
     node = data
     for part in parts[:-1]:
         child = node.setdefault(part, {})

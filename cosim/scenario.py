@@ -15,17 +15,19 @@ from cosim.config import build, read_yaml, set_override
 from cosim.errors import ScenarioError
 from cosim.rigs import NUSCENES_CAMERAS, NUSCENES_IMAGE, nuscenes_hfov_deg, with_rig
 from gtgen.sinks.live import LiveAddress, parse_live_address
+from networks.errors import quoted
 from sensors.camera import CameraSpec
 from sensors.lidar import LidarSpec
 from sensors.radar import RadarSpec
 
 CATALOG_DIR = Path(__file__).parent / "catalog"
+MAX_SEED = 2**31 - 1  # SUMO takes a signed 32-bit seed
 AGENT_KINDS = ("car", "truck", "bus", "motorcycle", "bicycle")
 
 
 def _check(ok: bool, key: str, expected: str, got: object) -> None:
     if not ok:
-        raise ValueError(f"{key}: expected {expected}, got {got!r}")
+        raise ValueError(f"{key}: expected {expected}, got {quoted(got)}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -174,9 +176,11 @@ class Scenario:
 
     def __post_init__(self) -> None:
         _check(self.frames > 0, "frames", "a whole number > 0", self.frames)
-        _check(0 < self.step_s <= 1.0, "step_s", "a number in (0, 1] seconds", self.step_s)
+        millis = self.step_s * 1000.0
+        _check(1 <= round(millis) <= 1000 and abs(millis - round(millis)) < 1e-6, "step_s",
+               "seconds in [0.001, 1], a whole number of milliseconds (SUMO's clock)", self.step_s)  # fmt: skip
         _check(self.warmup_s >= 0, "warmup_s", "a number >= 0", self.warmup_s)
-        _check(self.seed >= 0, "seed", "a whole number >= 0", self.seed)
+        _check(0 <= self.seed <= MAX_SEED, "seed", f"a whole number in [0, {MAX_SEED}] (SUMO's seeds)", self.seed)
         _check(bool(self.network), "network", "a town name or a path to an .xodr file", self.network)
         rig = self.sensors
         kinds = f"{len(rig.cameras)} camera(s) and {len(rig.lidars)} LiDAR(s)"

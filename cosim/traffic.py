@@ -30,6 +30,7 @@ from cosim.parking import ParkingArea, additional_xml, find_parking_areas, lane_
 from cosim.scenario import Scenario
 from cosim.state import WorldState
 from networks.cache import cache_dir, digest, intact, seal, take_notices
+from networks.errors import clipped, quoted
 from networks.sumo_tools import sumo_binary, sumo_home, sumo_refusal
 from sensors.agents import Agents, EgoState
 
@@ -316,7 +317,8 @@ class Traffic:
             libsumo.route.add(route_id, route)
             libsumo.vehicle.add(ego_id, route_id, typeID="ego_car", depart="now", departSpeed="max")
         except libsumo.TraCIException as err:
-            raise TrafficError(f"{what}: SUMO refused the ego's route {route}: {err}") from err
+            msg = f"{what}: SUMO refused the ego's route {quoted(route)}: {clipped(str(err), 300)}"
+            raise TrafficError(msg) from err
         self._ego = ego_id
         self._keep_ego_going()
         for _ in range(400):

@@ -11,6 +11,7 @@ from cosim.errors import ScenarioError
 from cosim.scenario import Scenario
 from networks.cache import take_notices
 from networks.convert import conversion_notice, import_opendrive
+from networks.errors import quoted
 from networks.towns import TOWNS, town_names, town_opendrive
 from networks.world import StaticWorld, build_world, load_net
 
@@ -41,7 +42,7 @@ def prepare_network(scenario: Scenario) -> PreparedNetwork:
     else:
         known = ", ".join(town_names())
         source = f"{scenario.source_dir}/{scenario.name}.yaml"
-        msg = f"{source}: network: unknown town {scenario.network!r} (known: {known}; or a path to an .xodr file)"
+        msg = f"{source}: network: unknown town {quoted(scenario.network)} (known: {known}; or a path to an .xodr file)"
         raise ScenarioError(msg)
     net_path = import_opendrive(xodr)
     street = scenario.street

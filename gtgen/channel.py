@@ -24,6 +24,7 @@ from typing import Generic, TypeVar
 from gtgen.child import ChildGoneError, ChildProcess
 from gtgen.crash import internal_error_line
 from gtgen.timing import StageTimes
+from networks.errors import clipped
 
 T = TypeVar("T")
 M = TypeVar("M")
@@ -118,7 +119,7 @@ def error_line(err: BaseException, own: tuple[type[BaseException], ...], process
     """One line naming a failure: the message of the project's own errors (``own``: written
     for users); a file the system refused, with the system's reason; else an internal error
     of the process, with its details in a crash report."""
-    text = " ".join(str(err).split())
+    text = clipped(" ".join(str(err).split()))
     if isinstance(err, own) and text:
         return text
     if isinstance(err, OSError) and err.filename is not None and err.strerror:

@@ -16,6 +16,7 @@ from typing import Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
+from networks.errors import quoted
 from networks.mesh import ClassedMesh
 from sensors.agents import AgentMeshes, Agents
 from sensors.errors import SensorConfigError
@@ -68,7 +69,7 @@ def open_engine(name: str) -> tuple[Engine, str]:
     """The engine called ``name`` (one of :data:`ENGINES`) and a notice for the user ('' if none).
     ``auto`` falls back to Open3D when the fast engine cannot start; ``mitsuba`` raises then."""
     if name not in ENGINES:
-        raise SensorConfigError(f"engine: expected one of {', '.join(ENGINES)}, got {name!r}")
+        raise SensorConfigError(f"engine: expected one of {', '.join(ENGINES)}, got {quoted(name)}")
     if name == "open3d":
         from sensors.scene import Open3DEngine
 

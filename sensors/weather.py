@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from networks.errors import quoted
 from sensors.errors import SensorConfigError
 from sensors.hits import RayHits
 
@@ -107,7 +108,7 @@ def weather_preset(name: str) -> Weather:
     try:
         return PRESETS[name]
     except KeyError as err:
-        msg = f"unknown weather {name!r}; expected one of {', '.join(PRESETS)}"
+        msg = f"unknown weather {quoted(name)}; expected one of {', '.join(PRESETS)}"
         raise SensorConfigError(msg) from err
 
 

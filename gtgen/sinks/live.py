@@ -36,6 +36,7 @@ from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.mcap_sink import MAP_TOPIC, McapFrame, channel_schema, map_message, planned_topics, serialized_frame
+from networks.errors import quoted
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
@@ -64,7 +65,7 @@ def parse_live_address(text: str) -> LiveAddress:
         host, port = (DEFAULT_HOST, text) if text.isdigit() else (text, str(DEFAULT_PORT))
     host = host or DEFAULT_HOST
     if not port.isdigit() or not 0 <= int(port) <= 65535:
-        raise ValueError(f"PORT, HOST:PORT or HOST, with a port from 0 to 65535, got {text!r}")
+        raise ValueError(f"PORT, HOST:PORT or HOST, with a port from 0 to 65535, got {quoted(text)}")
     return LiveAddress(host, int(port))
 
 

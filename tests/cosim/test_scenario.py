@@ -259,3 +259,48 @@ def test_a_rig_or_export_that_cannot_work_is_one_line_and_writes_nothing(tmp_pat
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], lines
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--seed", "2147483648"], "seed: expected a whole number in [0, 2147483647] (SUMO's seeds), got 2147483648"),
+        (["--set", "step_s=1.0e-9"], "step_s: expected seconds in [0.001, 1], a whole number of milliseconds"),
+        (["--set", "step_s=0.0125"], "step_s: expected seconds in [0.001, 1], a whole number of milliseconds"),
+        (["--set", "warmup_s=.inf"], "warmup_s: expected a finite number, got inf"),
+        (["--set", "warmup_s=.nan"], "warmup_s: expected a finite number, got nan"),
+        (["--set", "traffic.vehicles_per_lane_km=.inf"], "traffic.vehicles_per_lane_km: expected a finite number"),
+    ],
+)
+def test_values_sumo_or_the_clock_cannot_take_are_one_scenario_line_with_exit_code_2(tmp_path, args, message):
+    """They reached SUMO ("SUMO could not load the network") or failed inside the run."""
+    tiny = ROOT / "tests" / "data" / "tiny.yaml"
+    proc = run_cli("run", str(tiny), "--out", str(tmp_path / "o"), *args, cwd=ROOT)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {tiny}: {message}"), lines
+    assert not (tmp_path / "o").exists()
+
+
+def test_an_error_line_quotes_a_long_value_in_a_few_hundred_characters(tmp_path):
+    long = "x" * 1_000_000
+    path = write(tmp_path, f"network: skeleton\nweather: &w {long}\n")
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(str(path))
+    assert str(err.value).startswith(f"{path}: weather: expected one of 'day'") and len(str(err.value)) < 600
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(str(path), [f"frames={long}"])
+    assert "frames: expected a whole number, got 'xxx" in str(err.value) and len(str(err.value)) < 600
+
+
+@pytest.mark.slow
+def test_yaml_aliases_in_the_ego_route_give_an_error_line_of_a_few_hundred_characters(tmp_path):
+    """10,000 aliases of a 4,000-character edge id (a 40 KB file) printed a 100 MB line."""
+    aliases = ", ".join(["*e"] * 10_000)
+    path = write(tmp_path, f"network: skeleton\nframes: 1\nwarmup_s: 0\nego:\n  route: [&e {'e' * 4000}, {aliases}]\n")
+    assert path.stat().st_size < 50_000
+    proc = run_cli("run", str(path), "--out", str(tmp_path / "o"), "--no-progress", cwd=ROOT)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ego.route: SUMO refused the ego's route ['eee"), lines
+    assert len(lines[0]) < 2_000
