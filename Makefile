@@ -6,13 +6,15 @@ STAMP := $(VENV)/.installed
 NUSC_VENV := .venv-nuscenes
 NUSC_STAMP := $(NUSC_VENV)/.installed
 
-# `make scenario NAME [FRAMES=n] [SEED=s] [OUT=dir] [ARGS="--set key=value ..."]`
+# `make scenario NAME [FRAMES=n] [SEED=s] [OUT=dir] [ARGS="--set key=value ..."]`. The name,
+# FRAMES, SEED and OUT reach the command through the environment, quoted: whatever characters
+# they hold (quotes, backticks, >, parentheses) are passed as they are, never run by the shell.
 ifeq (scenario,$(firstword $(MAKECMDGOALS)))
-  SCENARIO := $(word 2,$(MAKECMDGOALS))
-  $(eval $(SCENARIO):;@:)
+  export SCENARIO_NAME := $(word 2,$(MAKECMDGOALS))
+  .DEFAULT: ; @:
 endif
 
-RUN_FLAGS := $(if $(FRAMES),--frames $(FRAMES)) $(if $(SEED),--seed $(SEED)) $(if $(OUT),--out $(OUT))
+RUN_FLAGS := $(if $(FRAMES),--frames "$$FRAMES") $(if $(SEED),--seed "$$SEED") $(if $(OUT),--out "$$OUT")
 
 .PHONY: venv nuscenes-devkit scenario list test test-fast bench lint format clean
 
@@ -34,8 +36,8 @@ $(NUSC_STAMP): tests/nuscenes-devkit.txt
 	@touch $(NUSC_STAMP)
 
 scenario: $(STAMP)
-	@test -n "$(SCENARIO)" || { echo "usage: make scenario NAME [FRAMES=n SEED=s OUT=dir ARGS=...]; names: make list"; exit 2; }
-	$(PY) -m cosim run $(SCENARIO) $(RUN_FLAGS) $(ARGS)
+	@test -n "$$SCENARIO_NAME" || { echo "usage: make scenario NAME [FRAMES=n SEED=s OUT=dir ARGS=...]; names: make list"; exit 2; }
+	$(PY) -m cosim run "$$SCENARIO_NAME" $(RUN_FLAGS) $(ARGS)
 
 list: $(STAMP)
 	@$(PY) -m cosim list

@@ -1,4 +1,6 @@
+import json
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -304,3 +306,25 @@ def test_yaml_aliases_in_the_ego_route_give_an_error_line_of_a_few_hundred_chara
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ego.route: SUMO refused the ego's route ['eee"), lines
     assert len(lines[0]) < 2_000
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="needs make")
+def test_make_scenario_passes_the_name_and_the_folder_as_they_are_never_to_the_shell(tmp_path):
+    """The name went to the shell unquoted: backticks ran a command, > made a file, ( and ' failed."""
+    for name in ("Makefile", "pyproject.toml", "constraints.txt"):
+        shutil.copy(ROOT / name, tmp_path / name)
+    python = tmp_path / ".venv" / "bin" / "python"  # stands in for the installed one: records its arguments
+    python.parent.mkdir(parents=True)
+    record = "with open('argv.jsonl', 'a') as f:\n    f.write(json.dumps(sys.argv[1:]) + '\\n')\n"
+    python.write_text(f"#!{sys.executable}\nimport json, sys\n{record}")
+    python.chmod(0o755)
+    (tmp_path / ".venv" / ".installed").touch()
+    names = ["a`date>made`b", "a>made", "a(b", "a'b", 'it\'s(a)"test"', "a;date>made", "a$(date>made)"]
+    for name in names:
+        proc = subprocess.run(["make", "-s", "scenario", name, "OUT=out dir", "FRAMES=5"], cwd=tmp_path,
+                              capture_output=True, text=True, check=False)  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+    calls = [json.loads(line) for line in (tmp_path / "argv.jsonl").read_text().splitlines()]
+    assert calls == [["-m", "cosim", "run", name, "--frames", "5", "--out", "out dir"] for name in names]
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == [
+        "Makefile", "argv.jsonl", "constraints.txt", "pyproject.toml"]  # fmt: skip
