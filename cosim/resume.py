@@ -93,16 +93,23 @@ def resume_point(out_dir: Path, scenario: Scenario) -> ResumePoint | None:
     if manifest.exists():
         done = json.loads(manifest.read_text())
         if done.get("complete", True) and done.get("frames", 0) >= scenario.frames:
+            differ = _differences(scenario_identity(done.get("scenario", {})), scenario_identity(scenario))
+            if differ:
+                msg = f"{out_dir}: the complete dataset there was made from another scenario ({_keys(differ)} differ)"
+                raise CosimError(msg + "; give its scenario and overrides, or another --out")
             raise AlreadyCompleteError(f"{out_dir}: the dataset is complete already ({done.get('frames')} frames)")
     run_file = out_dir / RESUME_DIR / RUN_FILE
     if not run_file.exists():
         raise CosimError(f"{out_dir}: no interrupted run to continue here; run without --resume to start one")
     differ = _differences(json.loads(run_file.read_text()), scenario_identity(scenario))
     if differ:
-        keys = ", ".join(differ[:6])
-        raise CosimError(f"{out_dir}: the run there was made from another scenario ({keys} differ); "
+        raise CosimError(f"{out_dir}: the run there was made from another scenario ({_keys(differ)} differ); "
                          "give the same scenario and overrides, or run without --resume to start again")  # fmt: skip
     return _point(out_dir, scenario)
+
+
+def _keys(differ: list[str]) -> str:
+    return ", ".join(differ[:6]) + (f" and {len(differ) - 6} more" if len(differ) > 6 else "")
 
 
 def _point(out_dir: Path, scenario: Scenario) -> ResumePoint | None:

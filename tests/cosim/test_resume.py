@@ -1,6 +1,7 @@
 """Runs that survive: a run stopped by Ctrl-C, SIGTERM or kill -9 keeps its frames, and
 ``--resume`` continues it to the same data as a run never stopped."""
 
+import dataclasses
 import json
 import signal
 import subprocess
@@ -84,9 +85,18 @@ def test_kill_9_then_resume_gives_the_data_of_a_run_never_stopped(tmp_path):
     assert not (killed / ".resume").exists()
 
 
+def complete_manifest(out: Path, scenario) -> None:
+    """The manifest of a complete dataset of ``scenario`` (as ``write_manifest`` records it)."""
+    data = dataclasses.asdict(scenario)
+    data.pop("source_dir")
+    out.mkdir(parents=True, exist_ok=True)
+    manifest = {"scenario": data, "complete": True, "frames": scenario.frames}
+    (out / "manifest.json").write_text(json.dumps(manifest, default=str))
+
+
 def test_resuming_a_complete_dataset_or_another_scenario_says_so(tmp_path):
     scenario = load_scenario(TINY)
-    (tmp_path / "manifest.json").write_text(json.dumps({"complete": True, "frames": scenario.frames}))
+    complete_manifest(tmp_path, scenario)
     with pytest.raises(AlreadyCompleteError, match="complete already"):
         resume_point(tmp_path, scenario)
     (tmp_path / "manifest.json").unlink()
@@ -97,6 +107,20 @@ def test_resuming_a_complete_dataset_or_another_scenario_says_so(tmp_path):
     assert resume_point(tmp_path, load_scenario(TINY, ["frames=50"])) is None  # nothing kept yet: start afresh
     with pytest.raises(CosimError, match="no interrupted run to continue here"):
         resume_point(tmp_path / "empty", scenario)
+
+
+def test_resume_with_another_scenario_on_a_complete_dataset_is_one_line_and_exit_code_2(tmp_path):
+    """It said "complete already" with exit code 0, and not that the scenario differs."""
+    out = tmp_path / "out"
+    complete_manifest(out, load_scenario(TINY))
+    before = (out / "manifest.json").read_text()
+    proc = subprocess.run([sys.executable, "-m", "cosim", "run", TINY, "--seed", "9", "--out", str(out), "--resume"],
+                          capture_output=True, text=True, check=False)  # fmt: skip
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert lines == [f"error: {out}: the complete dataset there was made from another scenario (seed differ); "
+                     "give its scenario and overrides, or another --out"]  # fmt: skip
+    assert proc.stdout == "" and (out / "manifest.json").read_text() == before
 
 
 @pytest.mark.slow
