@@ -69,7 +69,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from cosim.loop import run
     from cosim.resume import AlreadyCompleteError
     from cosim.scenario import load_scenario
-    from gtgen.summary import hazard_lines, write_summary
+    from gtgen.summary import hazard_lines
 
     overrides = list(args.overrides)
     if args.frames is not None:
@@ -81,16 +81,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, overrides)
     out_dir = args.out if args.out is not None else Path("out") / scenario.name
     try:
-        summary = run(scenario, out_dir, progress=not args.no_progress, resume=args.resume)
+        summary = run(scenario, out_dir, progress=not args.no_progress, resume=args.resume,
+                      summary=not args.no_summary)  # fmt: skip
     except AlreadyCompleteError as done:
         print(f"nothing to do: {done}")
         return 0
-    except RunStoppedError:
-        if not args.no_summary:
-            write_summary(out_dir)  # of the frames kept
-        raise
-    if not args.no_summary:
-        write_summary(out_dir)
     print(f"wrote {out_dir}/")
     for line in [*summary.lines(), *hazard_lines(out_dir)]:
         print(line)
@@ -124,14 +119,25 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     try:
         results = run_dask(jobs, args.scheduler, report) if args.scheduler else run_local(jobs, args.workers, report)
-    except KeyboardInterrupt:
-        print("interrupted; each run keeps the frames it wrote: start the same sweep again to continue",
-              file=sys.stderr)  # fmt: skip
-        return 130
+    except (KeyboardInterrupt, Terminated) as err:
+        write_table(done, out_root / "sweep.csv")
+        word, code = ("interrupted", 130) if isinstance(err, KeyboardInterrupt) else ("stopped (SIGTERM)", 143)
+        runs = f"{len(done)} run{'' if len(done) == 1 else 's'}"
+        print(f"{word}; {out_root}/sweep.csv lists the {runs} that ended ({_tally(done)}); "
+              "start the same sweep again to continue", file=sys.stderr)  # fmt: skip
+        return code
     write_table(results, out_root / "sweep.csv")
     failed = [r for r in results if r.error]
     print(f"wrote {out_root}/sweep.csv ({len(results) - len(failed)} runs done, {len(failed)} failed)")
     return 1 if failed else 0
+
+
+def _tally(results: list[SweepResult]) -> str:
+    """How the runs of a stopped sweep ended, in words."""
+    stopped = sum(1 for r in results if r.error.startswith(("interrupted", "stopped (SIGTERM)")))
+    failed = sum(1 for r in results if r.error) - stopped
+    return (f"{len(results) - stopped - failed} complete, {stopped} stopped part-way keeping the frames they "
+            f"wrote, {failed} failed")  # fmt: skip
 
 
 def _terminate(signum: int, frame: object) -> None:

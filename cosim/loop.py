@@ -21,13 +21,14 @@ from tqdm import tqdm
 
 from cosim.errors import CosimError, RunStoppedError, Terminated, TrafficError
 from cosim.net_index import check_hazards
-from cosim.resume import ResumePoint, begin, finish, resume_point
+from cosim.resume import ResumePoint, begin, finish, kept_frames, resume_point, settle
 from cosim.rig import Rig, build_rig
 from cosim.scenario import Scenario
 from cosim.signals import StreetObjects
 from cosim.state import WorldState
 from cosim.traffic_feed import TrafficFeed, TrafficInline, TrafficProcess
 from cosim.world_setup import PreparedNetwork, prepare_network
+from gtgen.errors import OutputKeptError
 from gtgen.frame import FrameRecord
 from gtgen.labels import FrameLabels, label_frame
 from gtgen.mapgt import MapRange, map_frame
@@ -55,11 +56,12 @@ AGENT_MARGIN_M = 10.0
 class FrameSink(Protocol):
     """Where the loop hands its frames: a SinkGroup, or BackgroundSinks in a writer process.
     Used as a context manager: closed (files move into place) when the ``with`` block ends,
-    aborted (nothing left that looks complete) when it raises."""
+    aborted (nothing left that looks complete) when it raises, left as they are (every frame
+    written stays, under partial names) when it raises :class:`OutputKeptError`."""
 
     def __enter__(self) -> FrameSink: ...
 
-    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None: ...
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None, *_: object) -> None: ...
 
     def ready(self) -> None:
         """Wait until every output has opened (raises if one could not)."""
@@ -258,15 +260,22 @@ def run(
     one_process: bool = False,
     probe: FrameProbe = NO_PROBE,
     resume: bool = False,
+    summary: bool = False,
 ) -> RunSummary:
-    """Produce the dataset of ``scenario`` under ``out_dir``. SUMO and the writers run in
-    processes of their own, beside the sensors and labels, unless ``one_process``: the outputs
-    are the same. ``probe`` sees each stage of each frame (see :mod:`cosim.bench`).
+    """Produce the dataset of ``scenario`` under ``out_dir`` (with ``summary``, its ``summary/``
+    too). SUMO and the writers run in processes of their own, beside the sensors and labels,
+    unless ``one_process``: the outputs are the same. ``probe`` sees each stage of each frame
+    (see :mod:`cosim.bench`). ``manifest.json`` says ``"complete": true`` once everything is
+    written, the summary included.
 
     Interrupted (Ctrl-C, SIGTERM) or stopped by the traffic, a run closes every output with
     the frames written so far, writes ``manifest.json`` with ``"complete": false`` and raises
-    :class:`RunStoppedError`; ``resume`` continues such a run from the last frame every output
-    holds, and ends with the same data as a run that was never stopped."""
+    :class:`RunStoppedError`; so does one interrupted while it writes the summary. A disk that
+    runs out of space, or a writer process killed, leaves every frame written under the files'
+    partial names (no manifest) and raises :class:`RunStoppedError` too. ``resume`` continues
+    such a run from the last frame every output holds, and ends with the same data as a run
+    that was never stopped."""
+    settle(out_dir)
     point = resume_point(out_dir, scenario) if resume else None
     make_output_folder(out_dir)
     if progress:
@@ -286,11 +295,11 @@ def run(
         print(rig.notice, file=sys.stderr)
     crop = StaticCrop(prepared.world.mesh, rig.reach_m)
     rng = np.random.default_rng(scenario.seed)
-    summary, start = RunSummary(), 0
+    counts, start = RunSummary(), 0
     if point is not None:
         rng.bit_generator.state = point.checkpoint["rng"]
         crop.restore(point.checkpoint["crop_center_xy_m"])
-        summary, start = RunSummary.from_dict(point.checkpoint["summary"]), point.frames
+        counts, start = RunSummary.from_dict(point.checkpoint["summary"]), point.frames
     hdmap, map_json = prepare_map(prepared) if scenario.outputs.map else (None, None)
     choice = sink_choice(scenario, out_dir, prepared.world.path, point, map_json)
     signals = None
@@ -299,7 +308,7 @@ def run(
         left_hand = is_left_hand(prepared.net_path)
         objects = street_objects(prepared.net, left_hand, street.traffic_lights, street.signs, prepared.xodr_path)
         signals = StreetObjects(objects)
-    loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, summary, out_dir, progress, one_process, probe,
+    loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, counts, out_dir, progress, one_process, probe,
                      signals, hdmap)  # fmt: skip
     stopped: BaseException | None = None
     held: Handlers = {}
@@ -310,24 +319,45 @@ def run(
         if point is None:
             begin(out_dir, scenario)
 
-    with partials_removed_on_error(out_dir), open_sinks(choice, one_process, probe) as sinks:
-        try:
-            loop.frames(start, sinks, started)
-        except (KeyboardInterrupt, Terminated, TrafficError) as err:
-            if summary.frames == 0:
-                raise
-            stopped = err  # every output is closed with the frames written so far
-            held = hold_interrupts()  # a second Ctrl-C must not cut the closing short
     try:
-        probe.frame_done(scenario.frames)
-        write_manifest(scenario, out_dir, summary, prepared.xodr_path, complete=stopped is None)
+        with partials_removed_on_error(out_dir), open_sinks(choice, one_process, probe) as sinks:
+            try:
+                loop.frames(start, sinks, started)
+            except (KeyboardInterrupt, Terminated, TrafficError) as err:
+                held = hold_interrupts()  # a second Ctrl-C must not cut the closing (or removing) short
+                if counts.frames == 0:
+                    raise
+                stopped = err  # every output is closed with the frames written so far
+    except OutputKeptError as kept:
+        raise outputs_kept(kept, out_dir, scenario) from kept
     finally:
-        if stopped is not None:
-            release_interrupts(held)
+        release_interrupts(held)
+    probe.frame_done(scenario.frames)
+    summary_cut = summarize(out_dir, scenario) if summary else None
+    in_summary = stopped is None and summary_cut is not None  # every frame is written
+    stopped = stopped or summary_cut
+    held = hold_interrupts()
+    try:
+        write_manifest(scenario, out_dir, counts, prepared.xodr_path, complete=stopped is None)
+    finally:
+        release_interrupts(held)
     if stopped is not None:
-        raise run_stopped(stopped, out_dir, summary.frames) from stopped
+        raise run_stopped(stopped, out_dir, counts.frames, in_summary) from stopped
     finish(out_dir)
-    return summary
+    return counts
+
+
+def summarize(out_dir: Path, scenario: Scenario) -> BaseException | None:
+    """Write ``summary/`` (it moves into place when whole); the Ctrl-C or SIGTERM that cut it
+    short (the partial summary goes), else None."""
+    from gtgen.summary import asked_rates, write_summary
+
+    try:
+        write_summary(out_dir, asked=asked_rates([asdict(h) for h in scenario.hazards]))
+    except (KeyboardInterrupt, Terminated) as err:
+        shutil.rmtree(out_dir / "summary.partial", ignore_errors=True)
+        return err
+    return None
 
 
 Handlers = dict[int, Any]
@@ -431,15 +461,32 @@ class FrameLoop:
                 "summary": self.summary.to_dict()}  # fmt: skip
 
 
-def run_stopped(cause: BaseException, out_dir: Path, kept: int) -> RunStoppedError:
-    """The line for a run that stopped and kept its first ``kept`` frames, and its exit code."""
+def run_stopped(cause: BaseException, out_dir: Path, kept: int, in_summary: bool = False) -> RunStoppedError:
+    """The line for a run that stopped and kept its first ``kept`` frames (``in_summary``: all
+    of them, while it wrote the summary), and its exit code."""
     where = f'{out_dir} keeps frames 0 to {kept - 1} (manifest.json: "complete": false)'
     again = "run the same command with --resume to continue"
+    at = f"at frame {kept}"
+    if in_summary:
+        at = "while writing summary/"
+        where = f'{out_dir} holds all {kept} frames and no summary (manifest.json: "complete": false)'
+        again = "run the same command with --resume to finish it"
     if isinstance(cause, KeyboardInterrupt):
-        return RunStoppedError(f"interrupted at frame {kept}; {where}; {again}", kept, 130)
+        return RunStoppedError(f"interrupted {at}; {where}; {again}", kept, 130)
     if isinstance(cause, Terminated):
-        return RunStoppedError(f"stopped (SIGTERM) at frame {kept}; {where}; {again}", kept, 143)
-    return RunStoppedError(f"{cause} (at frame {kept}); {where}", kept, 2)
+        return RunStoppedError(f"stopped (SIGTERM) {at}; {where}; {again}", kept, 143)
+    return RunStoppedError(f"{cause} ({at}); {where}", kept, 2)
+
+
+def outputs_kept(kept: OutputKeptError, out_dir: Path, scenario: Scenario) -> RunStoppedError:
+    """The line for a run whose writers stopped and kept their files (disk full, writer killed)."""
+    frames = kept_frames(out_dir, scenario)
+    held = f"frames 0 to {frames - 1}" if frames else "no whole frame"
+    where = f"{out_dir} keeps {held} under the files' .partial names"
+    again = "run the same command with --resume to continue"
+    if kept.disk_full:
+        again = "free some space, then " + again
+    return RunStoppedError(f"{kept}; {where}; {again}", frames, 2)
 
 
 def make_output_folder(out_dir: Path) -> None:
@@ -452,9 +499,12 @@ def make_output_folder(out_dir: Path) -> None:
 
 @contextlib.contextmanager
 def partials_removed_on_error(out_dir: Path) -> Iterator[None]:
-    """Remove what the ``with`` block wrote under ``*.partial`` names if it raises."""
+    """Remove what the ``with`` block wrote under ``*.partial`` names if it raises (but for
+    :class:`OutputKeptError`: the outputs keep their frames)."""
     try:
         yield
+    except OutputKeptError:
+        raise
     except BaseException:
         remove_partials(out_dir)
         raise
@@ -518,7 +568,7 @@ def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr:
         if p.is_file()
         and p.name != "manifest.json"
         and p.parent.name not in ("image_2", "image_3", "velodyne", "images")
-        and RESUME_DIR not in p.relative_to(out_dir).parts
+        and p.relative_to(out_dir).parts[0] not in (RESUME_DIR, "summary")
     }
     scenario_data = asdict(scenario)
     scenario_data.pop("source_dir")  # where the scenario file was: not part of the dataset

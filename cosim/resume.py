@@ -19,13 +19,14 @@ import numpy as np
 
 from cosim.errors import CosimError
 from cosim.scenario import Scenario
-from gtgen.sinks.mcap_sink import complete_frames
-from gtgen.sinks.resume_sink import RESUME_DIR, read_states
+from gtgen.sinks.mcap_sink import complete_frames, earlier_file
+from gtgen.sinks.resume_sink import RESUME_DIR, read_states, wait_for_writer
 from networks.geometry import SE3
 
 RUN_FILE = "run.json"
 # Keys that may differ between the run and its continuation: they change no frame's content.
 FREE_KEYS = ("frames", "name", "source_dir", "outputs.live")
+WRITER_WAIT_S = 60.0
 
 
 class AlreadyCompleteError(CosimError):
@@ -89,6 +90,7 @@ def resume_point(out_dir: Path, scenario: Scenario) -> ResumePoint | None:
     """Where the run in ``out_dir`` continues (None: it has no frame to keep, start afresh).
     Raises :class:`AlreadyCompleteError` for a complete dataset, :class:`CosimError` when the
     folder holds no run to continue or one of another scenario."""
+    settle(out_dir)
     manifest = out_dir / "manifest.json"
     if manifest.exists():
         done = json.loads(manifest.read_text())
@@ -112,13 +114,27 @@ def _keys(differ: list[str]) -> str:
     return ", ".join(differ[:6]) + (f" and {len(differ) - 6} more" if len(differ) > 6 else "")
 
 
+def kept_frames(out_dir: Path, scenario: Scenario) -> int:
+    """How many frames every output of the run in ``out_dir`` holds whole (the frames a run
+    that continues keeps)."""
+    frames = len(read_states(out_dir))
+    if scenario.outputs.mcap:
+        mcap = earlier_file(out_dir / "run.mcap")
+        frames = min(frames, complete_frames(mcap) if mcap is not None else 0)
+    return frames
+
+
+def settle(out_dir: Path) -> None:
+    """Wait for the writer of an earlier run in ``out_dir`` (one killed with its run keeps its
+    files for a moment after) to end."""
+    if not wait_for_writer(out_dir, WRITER_WAIT_S):
+        raise CosimError(f"{out_dir}: the writer process of another run still writes here after "
+                         f"{WRITER_WAIT_S:g} s; let it end (or stop it) first")  # fmt: skip
+
+
 def _point(out_dir: Path, scenario: Scenario) -> ResumePoint | None:
     states = read_states(out_dir)
-    frames = len(states)
-    if scenario.outputs.mcap:
-        mcap = out_dir / "run.mcap.partial"
-        mcap = mcap if mcap.exists() else out_dir / "run.mcap"
-        frames = min(frames, complete_frames(mcap) if mcap.exists() else 0)
+    frames = kept_frames(out_dir, scenario)
     if frames > scenario.frames:
         msg = f"{out_dir}: the run there has {frames} frames, more than frames={scenario.frames}"
         raise CosimError(msg + "; ask for at least as many")

@@ -9,11 +9,13 @@ attempts, and the error if it failed), rewritten as runs finish.
 A sweep started again over the same folder skips the runs that are complete, continues the
 ones that were stopped (``--resume`` of each), and runs the rest. A run whose process dies
 (killed, out of memory) is tried once more, continuing from what it kept, before its row says
-it failed.
+it failed. Ctrl-C or SIGTERM to the sweep reaches each running run once (they run in sessions
+of their own), which stops and keeps its frames; their rows join ``sweep.csv``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import itertools
 import json
@@ -28,11 +30,13 @@ from multiprocessing.process import BaseProcess
 from pathlib import Path
 from typing import Any
 
-from cosim.errors import CosimError, ScenarioError
+from cosim.errors import CosimError, RunStoppedError, ScenarioError, Terminated
 from cosim.scenario import load_scenario
 from gtgen.errors import GtgenError
 from networks.errors import NetworkError
 from sensors.errors import SensorError
+
+STOP_WAIT_S = 60.0  # for a stopped run to close its files and report
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,7 +113,6 @@ def run_job(job: SweepJob, attempt: int = 1) -> SweepResult:
     come back as a one-line error."""
     from cosim.loop import run  # imported in the worker: libsumo and Open3D start there
     from cosim.resume import AlreadyCompleteError, complete_run, resume_point
-    from gtgen.summary import write_summary
 
     start, out = time.perf_counter(), Path(job.out_dir)
     kept = 0
@@ -121,13 +124,13 @@ def run_job(job: SweepJob, attempt: int = 1) -> SweepResult:
         if resume:
             point = resume_point(out, scenario)
             kept = 0 if point is None else point.frames
-        summary = run(scenario, out, progress=False, resume=resume)
-        write_summary(out)
+        summary = run(scenario, out, progress=False, resume=resume, summary=True)
     except AlreadyCompleteError:
         return _done_before(job, time.perf_counter() - start)
-    except Exception as err:  # the sweep goes on; the row records what failed
-        return SweepResult(job.name, job.density, job.vehicles, job.seed, 0, 0.0, 0.0, time.perf_counter() - start,
-                           _error_line(err), kept, attempt)  # fmt: skip
+    except (Exception, KeyboardInterrupt, Terminated) as err:  # the sweep goes on; the row records what failed
+        frames = err.kept if isinstance(err, RunStoppedError) else 0
+        return SweepResult(job.name, job.density, job.vehicles, job.seed, frames, 0.0, 0.0,
+                           time.perf_counter() - start, _error_line(err), kept, attempt)  # fmt: skip
     n = max(summary.frames, 1)
     return SweepResult(job.name, job.density, job.vehicles, job.seed, summary.frames, summary.objects / n,
                        summary.seen / n, time.perf_counter() - start, "", kept, attempt)  # fmt: skip
@@ -140,16 +143,28 @@ def _done_before(job: SweepJob, seconds: float) -> SweepResult:
                        float(manifest.get("seen_per_frame", 0.0)), seconds, "", frames, 0)  # fmt: skip
 
 
-def _error_line(err: Exception) -> str:
+def _error_line(err: BaseException) -> str:
     from gtgen.crash import internal_error_line
 
+    if isinstance(err, KeyboardInterrupt | Terminated):
+        return "interrupted before its first frame; it kept nothing"
     if isinstance(err, CosimError | NetworkError | SensorError | GtgenError):
         return str(err).splitlines()[0]
     return internal_error_line(err, "the run")
 
 
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
 def _work(job: SweepJob, attempt: int, conn: Connection) -> None:  # runs in a worker process
-    conn.send(run_job(job, attempt))
+    """Run the job in a session of its own (a terminal's Ctrl-C reaches the sweep, which passes
+    it on once) and send its result; SIGTERM stops the run as Ctrl-C does."""
+    os.setsid()
+    signal.signal(signal.SIGTERM, _terminate)
+    result = run_job(job, attempt)
+    with contextlib.suppress(OSError):  # the sweep has gone: nobody is left to tell
+        conn.send(result)
 
 
 @dataclass(slots=True)
@@ -162,7 +177,8 @@ class _Running:
 
 def run_local(jobs: list[SweepJob], workers: int, on_result: Callable[[SweepResult], None]) -> list[SweepResult]:
     """Up to ``workers`` runs at once, each in a new process; a run whose process dies without
-    a result is tried once more. Ctrl-C stops the runs (each keeps its frames) and the sweep."""
+    a result is tried once more. Ctrl-C or SIGTERM stops the runs (each keeps its frames and
+    reports, through ``on_result``) and then the sweep (the signal's exception is raised again)."""
     context = multiprocessing.get_context("spawn")
     queue = [(job, 1) for job in jobs]
     running: list[_Running] = []
@@ -186,8 +202,8 @@ def run_local(jobs: list[SweepJob], workers: int, on_result: Callable[[SweepResu
                 result = result or _died(r)
                 results[r.job.name] = result
                 on_result(result)
-    except KeyboardInterrupt:
-        _stop(running)
+    except (KeyboardInterrupt, Terminated) as err:
+        _stop(running, signal.SIGINT if isinstance(err, KeyboardInterrupt) else signal.SIGTERM, on_result)
         raise
     return [results[job.name] for job in jobs if job.name in results]
 
@@ -211,13 +227,18 @@ def _died(r: _Running) -> SweepResult:
     return SweepResult(r.job.name, r.job.density, r.job.vehicles, r.job.seed, 0, 0.0, 0.0, 0.0, line, 0, r.attempt)
 
 
-def _stop(running: list[_Running]) -> None:
-    """Ctrl-C for the runs too (as a terminal sends it): each closes its files with its frames."""
+def _stop(running: list[_Running], signum: int, on_result: Callable[[SweepResult], None]) -> None:
+    """Pass the sweep's Ctrl-C or SIGTERM on to the runs: each closes its files with its frames
+    and its result goes to ``on_result``."""
     for r in running:
         if r.process.pid is not None and r.process.is_alive():
-            os.kill(r.process.pid, signal.SIGINT)
+            os.kill(r.process.pid, signum)
     for r in running:
-        r.process.join(60)
+        if r.conn.poll(STOP_WAIT_S):
+            result = _collect(r)
+            if result is not None:
+                on_result(result)
+        r.process.join(5.0)
         if r.process.is_alive():
             r.process.kill()
             r.process.join()

@@ -6,7 +6,9 @@ traffic up, then steps it and reads the frame's world state while the loop sense
 previous frame, so SUMO's work leaves the loop's process and only small world states
 cross the pipe. It makes the same libsumo calls in the same order as stepping in line
 would, so the traffic is the same. An error there comes back as one line
-(:class:`~cosim.errors.TrafficError`). :class:`TrafficInline` does the same in this process.
+(:class:`~cosim.errors.TrafficError`). A run that stops (Ctrl-C, SIGTERM, an error) kills it at
+once, and so does the system when the run's process ends, however it ends (it never outlives
+the run). :class:`TrafficInline` does the same in this process.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from typing import Protocol
 from cosim.errors import CosimError, TrafficError
 from cosim.scenario import Scenario
 from cosim.state import WorldState
-from gtgen.channel import Abort, Close, Closed, Go, Link, Ready, Result, Start
+from gtgen.channel import Close, Closed, Go, Link, Ready, Result, Start
 from gtgen.channel import serve as serve_child
 from gtgen.lifetime import ClosedOnExit
 from gtgen.timing import NO_CLOCK, StageClock, StageTimes, is_timing
@@ -34,7 +36,7 @@ class TrafficFeed(Protocol):
 
     def __enter__(self) -> TrafficFeed: ...
 
-    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None: ...
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None, *_: object) -> None: ...
 
     def warm_up(self) -> list[str]:
         """Fill the town and pick the ego; returns notices for the user."""
@@ -106,7 +108,7 @@ class TrafficProcess(ClosedOnExit):
     def __init__(
         self, net_path: Path, scenario: Scenario, radius_m: float, clock: StageClock = NO_CLOCK, skip_frames: int = 0
     ) -> None:
-        self._link = Link("cosim.traffic_feed:serve", "traffic process", TrafficError)
+        self._link = Link("cosim.traffic_feed:serve", "traffic process", TrafficError, dies_with_parent=True)
         self._clock = clock
         self._left = scenario.frames - skip_frames
         self._link.send(Start(TrafficJob(net_path, scenario, radius_m, skip_frames), is_timing(clock)))
@@ -136,7 +138,9 @@ class TrafficProcess(ClosedOnExit):
             self._clock.add(name, seconds, times.calls[name])
 
     def abort(self) -> None:
-        self._link.stop(Abort(), STOP_WAIT_S)
+        """End the traffic process now: it holds nothing to keep, and may be in a long warm-up
+        that reads no message until it ends."""
+        self._link.kill()
 
 
 def serve(inbox: Connection, outbox: Connection) -> None:  # runs in the traffic process

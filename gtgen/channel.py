@@ -23,6 +23,7 @@ from typing import Generic, TypeVar
 
 from gtgen.child import ChildGoneError, ChildProcess
 from gtgen.crash import internal_error_line
+from gtgen.errors import OutputKeptError
 from gtgen.timing import StageTimes
 from networks.errors import clipped
 
@@ -110,9 +111,16 @@ class Closed:
 
 @dataclass(frozen=True, slots=True)
 class Failed:
-    """The job failed: one line saying why."""
+    """The job failed: one line saying why; ``kept``: the child left its outputs as they were
+    (:class:`~gtgen.errors.OutputKeptError`), ``disk_full`` because the disk was."""
 
     line: str
+    kept: bool = False
+    disk_full: bool = False
+
+
+class ParentGoneError(EOFError):
+    """The child's parent has gone (its pipe closed while the child read or answered)."""
 
 
 def error_line(err: BaseException, own: tuple[type[BaseException], ...], process: str) -> str:
@@ -128,25 +136,50 @@ def error_line(err: BaseException, own: tuple[type[BaseException], ...], process
 
 
 def serve(outbox: Connection, work: Callable[[], None], own: tuple[type[BaseException], ...], process: str) -> None:
-    """Run a child's ``work``; any error it raises (its parent's pipe closing too) goes to the
-    parent as one :class:`Failed` line."""
+    """Run a child's ``work``; any error it raises goes to the parent as one :class:`Failed`
+    line (unless the parent has gone: nobody is left to tell)."""
     try:
         work()
     except (EOFError, BrokenPipeError):
-        return  # the parent has gone: nobody is left to tell
+        return
     except BaseException as err:
+        kept = isinstance(err, OutputKeptError)
         with contextlib.suppress(OSError):
-            outbox.send(Failed(error_line(err, own, process)))
+            outbox.send(Failed(error_line(err, own, process), kept, kept and getattr(err, "disk_full", False)))
+
+
+def receive_from_parent(inbox: Connection) -> object:
+    """The parent's next message (raises :class:`ParentGoneError` if it has gone)."""
+    try:
+        message: object = inbox.recv()
+    except (EOFError, OSError) as err:
+        raise ParentGoneError(str(err)) from err
+    return message
+
+
+def tell_parent(outbox: Connection, message: object) -> None:
+    """Send ``message`` to the parent (raises :class:`ParentGoneError` if it has gone)."""
+    try:
+        outbox.send(message)
+    except OSError as err:
+        raise ParentGoneError(str(err)) from err
 
 
 class Link:
     """The parent's end of a helper process running ``target`` (``module:function``): typed
     messages both ways. A :class:`Failed` line from the child is raised as ``error(line)``; a
-    child that ended unexpectedly as ``error("<process> stopped unexpectedly (...)<gone>")``."""
+    child that ended unexpectedly as ``lost("<process> stopped unexpectedly (...)", False)``,
+    and the line of a child that kept its outputs as ``lost(line, disk_full)`` (``lost``
+    defaults to ``error``). A child that ``dies_with_parent`` is killed when this process
+    ends, however it ends."""
 
-    def __init__(self, target: str, process: str, error: Callable[[str], Exception], gone: str = "") -> None:
-        self._child = ChildProcess(target)
-        self._process, self._error, self._gone = process, error, gone
+    def __init__(
+        self, target: str, process: str, error: Callable[[str], Exception],
+        lost: Callable[[str, bool], Exception] | None = None, dies_with_parent: bool = False,
+    ) -> None:  # fmt: skip
+        self._child = ChildProcess(target, dies_with_parent)
+        self._process, self._error = process, error
+        self._lost = lost or (lambda line, _disk_full: error(line))
 
     @property
     def pid(self) -> int:
@@ -170,7 +203,7 @@ class Link:
         except ChildGoneError as gone:
             raise self._stopped(gone) from None
         if isinstance(message, Failed):
-            raise self._error(message.line)
+            raise self._lost(message.line, message.disk_full) if message.kept else self._error(message.line)
         return message
 
     def expect(self, kind: type[M]) -> M:
@@ -198,8 +231,13 @@ class Link:
     def join(self, timeout_s: float) -> None:
         self._child.join(timeout_s)
 
+    def kill(self) -> None:
+        """End the child now (one that holds nothing worth finishing) and close the pipes."""
+        self._child.kill()
+        self.close()
+
     def close(self) -> None:
         self._child.close()
 
     def _stopped(self, gone: ChildGoneError) -> Exception:
-        return self._error(f"{self._process} stopped unexpectedly ({gone}){self._gone}")
+        return self._lost(f"{self._process} stopped unexpectedly ({gone})", False)

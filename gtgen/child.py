@@ -5,11 +5,15 @@ Neither multiprocessing's "fork" (Open3D's and SUMO's threads must never be fork
 ``if __name__ == "__main__":`` guard): a new interpreter with this process's ``sys.path`` runs
 ``module:function(inbox, outbox)``, in a session of its own so that Ctrl-C reaches only the
 parent, which decides. Messages are pickled. A child that dies is reported with its exit
-code and the last line it printed; a child whose parent dies sees its inbox close.
+code and the last line it printed; a child whose parent dies sees its inbox close, and one
+started to die with its parent (``dies_with_parent``: the traffic process, which holds nothing
+worth keeping) is killed by the system then (Linux's parent-death signal), so no helper is
+left running however the parent ends.
 """
 
 from __future__ import annotations
 
+import ctypes
 import importlib
 import json
 import os
@@ -24,6 +28,7 @@ from gtgen.errors import GtgenError
 
 ABORT_WAIT_S = 30.0
 BOOT = "import json, sys; sys.path[:0] = json.loads(sys.argv[4]); import gtgen.child as c; c.child_main()"
+PR_SET_PDEATHSIG = 1  # prctl(2)
 
 
 class ChildGoneError(GtgenError):
@@ -33,13 +38,15 @@ class ChildGoneError(GtgenError):
 class ChildProcess:
     """``target`` is ``"package.module:function"``; the function gets its inbox and outbox."""
 
-    def __init__(self, target: str) -> None:
+    def __init__(self, target: str, dies_with_parent: bool = False) -> None:
         inbox_r, inbox_w = os.pipe()
         outbox_r, outbox_w = os.pipe()
         self._log = tempfile.TemporaryFile()  # noqa: SIM115 (closed in close())
+        self._dies_with_parent = dies_with_parent
+        parent = str(os.getpid()) if dies_with_parent else ""
         try:
             self._process = subprocess.Popen(
-                [sys.executable, "-c", BOOT, target, str(inbox_r), str(outbox_w), json.dumps(sys.path)],
+                [sys.executable, "-c", BOOT, target, str(inbox_r), str(outbox_w), json.dumps(sys.path), parent],
                 pass_fds=(inbox_r, outbox_w), stdin=subprocess.DEVNULL, stdout=self._log, stderr=self._log,
                 start_new_session=True,
             )  # fmt: skip
@@ -73,12 +80,20 @@ class ChildProcess:
         return self._process.poll() is None
 
     def join(self, timeout_s: float = ABORT_WAIT_S) -> None:
-        """Wait for the child to end; kill it if it has not within ``timeout_s``."""
+        """Wait for the child to end; kill it if it has not within ``timeout_s`` (or, for a child
+        that dies with its parent, if the wait is interrupted: a second Ctrl-C)."""
         try:
             self._process.wait(timeout_s)
         except subprocess.TimeoutExpired:
-            self._process.kill()
-            self._process.wait()
+            self.kill()
+        except BaseException:
+            if self._dies_with_parent:
+                self.kill()
+            raise
+
+    def kill(self) -> None:
+        self._process.kill()
+        self._process.wait()
 
     def last_words(self) -> str:
         """``exit code N: <the last line it printed>`` once it has ended (waits for that)."""
@@ -97,9 +112,21 @@ class ChildProcess:
 
 
 def child_main() -> None:
-    """Run in the child by ``BOOT``: argv holds the target and the pipes' descriptors."""
+    """Run in the child by ``BOOT``: argv holds the target, the pipes' descriptors and, for a
+    child that dies with its parent, the parent's process id."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.argv[5]:
+        _die_with(int(sys.argv[5]))
     module, function = sys.argv[1].split(":")
     inbox = Connection(int(sys.argv[2]), writable=False)
     outbox = Connection(int(sys.argv[3]), readable=False)
     getattr(importlib.import_module(module), function)(inbox, outbox)
+
+
+def _die_with(parent_pid: int) -> None:
+    """Have the system kill this process when its parent ends (Linux); end now if it has."""
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent_pid:  # the parent ended before the signal was set up
+        os._exit(1)

@@ -109,6 +109,9 @@ class MapSink:
     def abort(self) -> None:
         self._folder.discard()
 
+    def keep(self) -> None:
+        pass  # each frame's files are written whole
+
 
 def load_map_frame(run_dir: Path, frame_index: int) -> tuple[dict[str, Any], dict[str, npt.NDArray[np.uint8]]]:
     """A frame's map vectors (the JSON) and raster layers by name, read back from ``run_dir/map``."""

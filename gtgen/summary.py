@@ -162,12 +162,23 @@ def hazard_lines(out_dir: Path) -> list[str]:
     return lines
 
 
-def write_summary(out_dir: Path, picture_frames: int = 3) -> pd.DataFrame:
-    """Write ``out_dir/summary`` from ``labels.csv`` and ``run.mcap``; return the class table."""
+def write_summary(out_dir: Path, picture_frames: int = 3, asked: dict[str, float] | None = None) -> pd.DataFrame:
+    """Write ``out_dir/summary`` from ``labels.csv`` and ``run.mcap``; return the class table.
+    It is written as ``summary.partial`` and moved into place when whole. ``asked``: the hazard
+    events a minute of each kind the scenario asked for (default: from ``manifest.json``)."""
     labels = load_labels(out_dir / "labels.csv")
-    folder = out_dir / "summary"
-    shutil.rmtree(folder, ignore_errors=True)  # an earlier summary (of an interrupted run) goes
+    folder = out_dir / "summary.partial"
+    shutil.rmtree(folder, ignore_errors=True)
     folder.mkdir()
+    stats = _write_summary(out_dir, labels, folder, picture_frames, asked)
+    shutil.rmtree(out_dir / "summary", ignore_errors=True)  # an earlier summary (of an interrupted run) goes
+    folder.replace(out_dir / "summary")
+    return stats
+
+
+def _write_summary(
+    out_dir: Path, labels: pd.DataFrame, folder: Path, picture_frames: int, asked: dict[str, float] | None
+) -> pd.DataFrame:
     stats = class_stats(labels)
     stats.to_csv(folder / "stats.csv", index=False, float_format="%.3f")
     plot_summary(labels, folder)
@@ -177,13 +188,20 @@ def write_summary(out_dir: Path, picture_frames: int = 3) -> pd.DataFrame:
         frame_pictures(out_dir / "run.mcap", labels, picks, folder)
     if (out_dir / "events.csv").exists():
         minutes = labels["timestamp"].nunique() and (labels["timestamp"].max() - labels["timestamp"].min()) / 60.0
-        asked: dict[str, float] = {}
-        manifest = out_dir / "manifest.json"
-        scenario = json.loads(manifest.read_text()).get("scenario", {}) if manifest.exists() else {}
-        for hazard in scenario.get("hazards", []):
-            asked[hazard["kind"]] = asked.get(hazard["kind"], 0.0) + float(hazard["per_minute"])
+        if asked is None:
+            manifest = out_dir / "manifest.json"
+            scenario = json.loads(manifest.read_text()).get("scenario", {}) if manifest.exists() else {}
+            asked = asked_rates(scenario.get("hazards", []))
         event_summary(pd.read_csv(out_dir / "events.csv"), float(minutes or 0.0), folder, asked)
     return stats
+
+
+def asked_rates(hazards: list[dict[str, Any]]) -> dict[str, float]:
+    """The events a minute of each kind that a scenario's ``hazards`` (plain data) ask for."""
+    asked: dict[str, float] = {}
+    for hazard in hazards:
+        asked[hazard["kind"]] = asked.get(hazard["kind"], 0.0) + float(hazard["per_minute"])
+    return asked
 
 
 def event_summary(events: pd.DataFrame, minutes: float, folder: Path, asked: dict[str, float] | None = None) -> None:

@@ -3,7 +3,9 @@
 A sink works in two steps per frame: ``encode`` (pure computation: images, messages,
 text; the frame's :class:`~gtgen.sinks.images.FrameImages` is shared by all sinks) and
 ``write`` (file access only). It writes into a ``*.partial`` path and moves it into place
-on ``close()``, so an interrupted run never leaves a file that looks complete.
+on ``close()``, so an interrupted run never leaves a file that looks complete. ``abort()``
+removes what it wrote; ``keep()`` leaves every file where and as it is, under its partial name,
+for a run that continues (the disk is full, the run was killed).
 :class:`~gtgen.sinks.group.SinkGroup` drives a list of sinks in this process,
 :class:`~gtgen.sinks.background.BackgroundSinks` the same in a writer process.
 """
@@ -24,3 +26,5 @@ class Sink(Protocol):
     def close(self) -> None: ...
 
     def abort(self) -> None: ...
+
+    def keep(self) -> None: ...

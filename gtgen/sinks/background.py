@@ -10,8 +10,15 @@ hands a slot back once its frame is written. The child runs a
 line, raised as :class:`~gtgen.errors.SinkError` from the parent's next ``write`` or
 ``close``. The child is a new interpreter (:mod:`gtgen.child`: never a fork of a process
 running Open3D's threads) in its own session, so Ctrl-C reaches only the parent, which then
-aborts it. If the parent dies (killed), the child sees its pipe close and closes the sinks with
-the frames written so far (a run that continues takes them back).
+aborts it.
+
+Three faults keep every frame written so far, under the files' partial names, for a run that
+continues (``--resume``): the disk running out of space (the child keeps its sinks' files and
+says so: :class:`~gtgen.errors.OutputKeptError`), the child killed (the parent raises the same
+and removes nothing), and the parent killed (the child sees its pipe close, while it waits for a
+frame or while it answers, and keeps its sinks' files, MCAP index written). While the child
+runs it holds ``.resume/writer.lock`` in the output folder: a run that continues waits for the
+writer of a killed run to finish keeping its files.
 The messages are those of :mod:`gtgen.channel`.
 """
 
@@ -26,13 +33,28 @@ from multiprocessing import resource_tracker
 from multiprocessing.connection import Connection
 from multiprocessing.shared_memory import SharedMemory
 
-from gtgen.channel import Abort, Close, Closed, Frame, Free, Inband, Link, Ready, Slots, Start
+from gtgen.channel import (
+    Abort,
+    Close,
+    Closed,
+    Frame,
+    Free,
+    Inband,
+    Link,
+    ParentGoneError,
+    Ready,
+    Slots,
+    Start,
+    receive_from_parent,
+    tell_parent,
+)
 from gtgen.channel import serve as serve_child
 from gtgen.child import ABORT_WAIT_S
-from gtgen.errors import SinkError
+from gtgen.errors import OutputKeptError, SinkError
 from gtgen.frame import FrameRecord
 from gtgen.lifetime import ClosedOnExit
 from gtgen.sinks.group import SinkChoice, SinkGroup
+from gtgen.sinks.resume_sink import hold_folder
 from gtgen.timing import NO_CLOCK, StageClock, StageTimes, is_timing
 
 ALIGN = 64
@@ -49,7 +71,7 @@ class BackgroundSinks(ClosedOnExit):
     def __init__(self, choice: SinkChoice, depth: int = 2, clock: StageClock = NO_CLOCK) -> None:
         if depth < 1:
             raise ValueError(f"BackgroundSinks: depth must be >= 1, got {depth}")
-        self._link = Link("gtgen.sinks.background:serve", PROCESS, SinkError, "; no dataset was completed")
+        self._link = Link("gtgen.sinks.background:serve", PROCESS, SinkError, lost=OutputKeptError)
         self._choice = choice
         self._depth = depth
         self._clock = clock
@@ -95,9 +117,12 @@ class BackgroundSinks(ClosedOnExit):
                 self._clock.add(f"writer {name}", seconds, self._child_times.calls[name])
 
     def abort(self) -> None:
-        """Stop the child, which discards its partial files; kill it if it does not stop, and
-        remove what a killed child left."""
-        if self._link.alive():
+        """Stop the child, which discards its partial files (one still starting a new run is
+        killed: it has written nothing yet); kill it if it does not stop, and remove what a
+        killed child left."""
+        if self._link.alive() and not self._ready and self._choice.keep_frames == 0:
+            self._link.kill()
+        elif self._link.alive():
             self._link.stop(Abort(), ABORT_WAIT_S)
         self._release()
         for path in self._choice.partial_paths():
@@ -105,6 +130,11 @@ class BackgroundSinks(ClosedOnExit):
                 shutil.rmtree(path, ignore_errors=True)
             else:
                 path.unlink(missing_ok=True)
+
+    def keep(self) -> None:
+        """The child kept its files (or was killed): wait for it to end, remove nothing."""
+        self._link.join(ABORT_WAIT_S)
+        self._release()
 
     # --- parent side ------------------------------------------------------------------------
     def _allocate(self, frame_bytes: int) -> None:
@@ -165,36 +195,42 @@ def _copy_into(shm: SharedMemory, views: list[memoryview]) -> tuple[tuple[int, i
 
 # --- child side ---------------------------------------------------------------------------
 def serve(frames_rx: Connection, acks_tx: Connection) -> None:  # runs in the writer process
-    """Open the sinks, write frames until :class:`Close` or :class:`Abort`; any error (the
-    parent's pipe closing too) aborts the sinks and is reported as one line."""
+    """Open the sinks, write frames until :class:`Close` or :class:`Abort`. The parent gone
+    (its pipe closed) or the disk full: the sinks keep their files; any other error aborts
+    them. Errors are reported as one line."""
     slots: list[SharedMemory] = []
 
     def work(group: SinkGroup, times: StageTimes) -> None:
         nonlocal slots
-        acks_tx.send(Ready(tuple(group.notices)))
+        tell_parent(acks_tx, Ready(tuple(group.notices)))
         while True:
-            message = frames_rx.recv()
+            message = receive_from_parent(frames_rx)
             if isinstance(message, Slots):
                 slots = [_attach(name) for name in message.names]
             elif isinstance(message, Close):
                 group.close()
-                acks_tx.send(Closed(times))
+                tell_parent(acks_tx, Closed(times))
                 return
             elif isinstance(message, Abort):
                 group.abort()
                 return
-            else:
+            elif isinstance(message, Frame | Inband):
                 group.write(_unpack(message, slots))
-                acks_tx.send(Free(message.slot))
+                tell_parent(acks_tx, Free(message.slot))
 
     def open_and_work() -> None:
-        start: Start[SinkChoice] = frames_rx.recv()
+        start = receive_from_parent(frames_rx)
+        if not isinstance(start, Start) or not isinstance(start.job, SinkChoice):
+            raise SinkError(f"{PROCESS}: expected the sinks to open, got {type(start).__name__}")
+        choice: SinkChoice = start.job
+        if choice.resume:
+            hold_folder(choice.out_dir)  # until this process ends
         times = StageTimes()
-        group = SinkGroup.open(start.job, times if start.timed else NO_CLOCK, announce=False)
+        group = SinkGroup.open(choice, times if start.timed else NO_CLOCK, announce=False)
         try:
             work(group, times)
-        except EOFError:  # the parent died (killed): keep every frame written, in readable files
-            group.close()
+        except (ParentGoneError, OutputKeptError):  # killed parent, full disk: every frame written stays
+            group.keep()
             raise
         except BaseException:
             group.abort()

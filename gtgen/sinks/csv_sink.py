@@ -7,23 +7,30 @@ and the rows of the frames it keeps.
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.signals import SIGNAL_COLUMNS, signal_table
+from gtgen.sinks.folder import cut_to
 from gtgen.sinks.images import FrameImages
 from gtgen.table import COLUMNS, format_rows, label_table, table_columns
 
 
 def rows_of_frames(text: str, keep_frames: int) -> tuple[str, bool]:
-    """The header and the rows of frames ``0 .. keep_frames - 1`` of a labels.csv text (the
-    frame is the first column; a last line without its newline is dropped); whether it had a header."""
-    lines = [line for line in text.splitlines(keepends=True) if line.endswith("\n")]
-    if not lines:
+    """The header and the rows of frames ``0 .. keep_frames - 1`` of a CSV text whose first
+    column is the frame (rows in frame order, so they begin the text; a last line without its
+    newline is dropped); whether it had a header."""
+    lines = text.splitlines(keepends=True)
+    if not lines or not lines[0].endswith("\n"):
         return "", False
-    rows = [line for line in lines[1:] if int(line.split(",", 1)[0]) < keep_frames]
-    return lines[0] + "".join(rows), True
+    kept = [lines[0]]
+    for line in lines[1:]:
+        if not line.endswith("\n") or int(line.split(",", 1)[0]) >= keep_frames:
+            break
+        kept.append(line)
+    return "".join(kept), True
 
 
 class CsvSink:
@@ -33,14 +40,16 @@ class CsvSink:
         self._signals = signals
         self._path = path
         self._partial = path.with_name(path.name + ".partial")
-        kept, self._header_written = "", False
-        if keep_frames > 0:
-            source = self._partial if self._partial.exists() else path
-            if source.exists():
-                kept, self._header_written = rows_of_frames(source.read_text(encoding="utf-8"), keep_frames)
+        self._header_written = False
         try:
-            self._file = self._partial.open("w", encoding="utf-8", newline="\n")
-            self._file.write(kept)
+            if keep_frames > 0 and not self._partial.exists() and path.exists():
+                path.replace(self._partial)
+            if keep_frames > 0 and self._partial.exists():  # cut in place: a full disk keeps the rows
+                kept, self._header_written = rows_of_frames(self._partial.read_text(encoding="utf-8"), keep_frames)
+                cut_to(self._partial, kept)
+                self._file = self._partial.open("a", encoding="utf-8", newline="\n")
+            else:
+                self._file = self._partial.open("w", encoding="utf-8", newline="\n")
         except OSError as err:
             raise SinkError(f"{self._partial}: cannot write: {err.strerror}") from err
 
@@ -73,3 +82,7 @@ class CsvSink:
     def abort(self) -> None:
         self._file.close()
         self._partial.unlink(missing_ok=True)
+
+    def keep(self) -> None:
+        with contextlib.suppress(OSError):  # what the disk would not take is not a whole frame
+            self._file.close()

@@ -21,6 +21,8 @@ import numpy as np
 
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
+from gtgen.sinks.csv_sink import rows_of_frames
+from gtgen.sinks.folder import cut_to
 from gtgen.sinks.images import FrameImages
 
 FRAME_COLUMNS = ["frame", "timestamp", "event", "kind", "ego_id", "actors", "actors_labelled", "min_ttc",
@@ -38,14 +40,17 @@ class EventsSink:
         self._frames_path = out_dir / "event_frames.csv"
         self._events_path = out_dir / "events.csv"
         self._partial = self._frames_path.with_name(self._frames_path.name + ".partial")
-        source = self._partial if self._partial.exists() else self._frames_path
-        lines = source.read_text().splitlines(keepends=True) if keep_frames > 0 and source.exists() else []
-        kept = [line for line in lines[1:] if line.endswith("\n") and int(line.split(",", 1)[0]) < keep_frames]
+        self._header_written = False
         try:
-            self._partial.write_text("".join(lines[:1] + kept))
+            if keep_frames > 0 and not self._partial.exists() and self._frames_path.exists():
+                self._frames_path.replace(self._partial)
+            if keep_frames > 0 and self._partial.exists():  # cut in place: a full disk keeps the rows
+                kept, self._header_written = rows_of_frames(self._partial.read_text(), keep_frames)
+                cut_to(self._partial, kept)
+            else:
+                self._partial.write_text("")
         except OSError as err:
             raise SinkError(f"{self._partial}: cannot write: {err.strerror}") from err
-        self._header_written = bool(lines)
 
     def encode(self, record: FrameRecord, images: FrameImages) -> str:
         labels = record.labels
@@ -92,6 +97,9 @@ class EventsSink:
 
     def abort(self) -> None:
         self._partial.unlink(missing_ok=True)
+
+    def keep(self) -> None:
+        pass  # each frame's rows are appended and closed
 
 
 def summarize(frames_csv: str) -> str:

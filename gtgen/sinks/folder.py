@@ -63,6 +63,13 @@ class PartialFolder:
         shutil.rmtree(self.partial, ignore_errors=True)
 
 
+def cut_to(path: Path, kept: str) -> None:
+    """Cut the text file ``path`` to ``kept``, its first lines, in place: no new space is needed,
+    so a disk that is full keeps them."""
+    with path.open("r+b") as f:
+        f.truncate(len(kept.encode("utf-8")))
+
+
 def kept_lines(path: Path, count: int) -> str:
     """The first ``count`` whole lines of a text file (none if it does not exist)."""
     if not path.exists():

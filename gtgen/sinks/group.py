@@ -6,6 +6,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from gtgen.errors import disk_full_error, out_of_space
 from gtgen.frame import FrameRecord
 from gtgen.lifetime import ClosedOnExit
 from gtgen.mapgt import MapSink
@@ -95,11 +96,14 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
 
 class SinkGroup(ClosedOnExit):
     """Every chosen sink; a frame is encoded by all of them first, then written. As a context
-    manager: closed when the ``with`` block ends, aborted when it raises."""
+    manager: closed when the ``with`` block ends, aborted when it raises. A disk that runs out
+    of space aborts nothing: every sink keeps what it wrote (:meth:`keep`) and
+    :class:`~gtgen.errors.OutputKeptError` is raised."""
 
     def __init__(self, sinks: list[Sink], clock: StageClock = NO_CLOCK) -> None:
         self._sinks = sinks
         self._clock = clock
+        self._kept = False
 
     @property
     def notices(self) -> list[str]:
@@ -120,7 +124,10 @@ class SinkGroup(ClosedOnExit):
         try:
             for kind in kinds:
                 group._sinks.append(_open_one(choice, kind))
-        except BaseException:
+        except BaseException as err:
+            if out_of_space(err):  # a run that continues: its earlier frames stay
+                group.keep()
+                raise disk_full_error(err) from err
             group.abort()
             raise
         if announce:
@@ -136,18 +143,35 @@ class SinkGroup(ClosedOnExit):
             images = FrameImages(record.cameras)
             encoded = [sink.encode(record, images) for sink in self._sinks]
         with self._clock.stage("write"):
-            for sink, data in zip(self._sinks, encoded, strict=True):
-                sink.write(data)
+            try:
+                for sink, data in zip(self._sinks, encoded, strict=True):
+                    sink.write(data)
+            except Exception as err:
+                if out_of_space(err):
+                    self.keep()
+                    raise disk_full_error(err) from err
+                raise
 
     def close(self) -> None:
-        """Close every sink (files move into place); if one fails, the rest are aborted."""
+        """Close every sink (files move into place); if one fails, the rest are aborted (kept,
+        when the disk is full)."""
         for i, sink in enumerate(self._sinks):
             try:
                 sink.close()
-            except BaseException:
+            except BaseException as err:
+                if out_of_space(err):
+                    SinkGroup(self._sinks[i:]).keep()
+                    raise disk_full_error(err) from err
                 SinkGroup(self._sinks[i + 1 :]).abort()
                 raise
 
     def abort(self) -> None:
         for sink in self._sinks:
             sink.abort()
+
+    def keep(self) -> None:
+        """Stop every sink, leaving its files where and as they are (the frames written stay)."""
+        if not self._kept:
+            self._kept = True
+            for sink in self._sinks:
+                sink.keep()

@@ -39,7 +39,7 @@ import numpy.typing as npt
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.labels import CameraLabels
-from gtgen.sinks.folder import PartialFolder, kept_lines
+from gtgen.sinks.folder import PartialFolder, cut_to, kept_lines
 from gtgen.sinks.images import FrameImages
 from gtgen.splits import SPLITS, split_units
 from networks.classes import SemanticClass
@@ -143,8 +143,11 @@ class KittiSink:
         _remove_derived(self._folder.partial)
         self._first_map_SE3_ego = first_map_SE3_ego
         self._first_map_SE3_cam: SE3 | None = None
-        poses = kept_lines(self._folder.partial / "training" / "poses.txt", keep_frames)
-        self._folder.write_files({"training/poses.txt": poses.encode()})
+        poses = self._folder.partial / "training" / "poses.txt"
+        if keep_frames > 0 and poses.exists():  # cut in place: a full disk keeps the lines
+            cut_to(poses, kept_lines(poses, keep_frames))
+        else:
+            self._folder.write_files({"training/poses.txt": b""})
         self._calib_written = keep_frames > 0 and (self._folder.partial / "training" / "calib.txt").exists()
 
     def encode(self, record: FrameRecord, images: FrameImages) -> dict[str, bytes]:
@@ -232,6 +235,9 @@ class KittiSink:
 
     def abort(self) -> None:
         self._folder.discard()
+
+    def keep(self) -> None:
+        pass  # each frame's files are written whole
 
 
 def _cam_from(camera: CameraOutput, reference: CameraOutput) -> SE3:

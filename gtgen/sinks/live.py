@@ -248,3 +248,6 @@ class LiveSink:
 
     def abort(self) -> None:
         self._server.close()
+
+    def keep(self) -> None:
+        self._server.close()

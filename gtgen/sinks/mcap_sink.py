@@ -14,6 +14,7 @@ Log and publish times are simulation time in nanoseconds.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import struct
@@ -226,29 +227,55 @@ def complete_frames(path: Path) -> int:
     return frames
 
 
+def earlier_file(path: Path) -> Path | None:
+    """The file of an earlier run that a run continuing it copies its frames from: the one
+    moved aside (``.earlier``) by a continuation cut short, else the partial, else the final one."""
+    for candidate in (path.with_name(path.name + ".earlier"), path.with_name(path.name + ".partial"), path):
+        if candidate.exists():
+            return candidate
+    return None
+
+
 class McapSink:
     """``run.mcap``; with ``map_world`` (a static world file), the static map goes on
     ``/map`` once, at the first frame's time. A run that continues an earlier one
-    (``keep_frames``) copies the messages of the frames it keeps from the earlier file."""
+    (``keep_frames``) copies the messages of the frames it keeps from the earlier file, moved
+    aside meanwhile (``.earlier``; put back if the copy fails, a full disk keeps it)."""
 
     def __init__(self, path: Path, map_world: Path | None = None, keep_frames: int = 0) -> None:
         self._path = path
         self._map_world = map_world if keep_frames == 0 else None
         self._layout = ""  # foxglove_layout.json beside the MCAP, written on close
         self._partial = path.with_name(path.name + ".partial")
+        self._kept = False
         source = self._earlier_file() if keep_frames > 0 else None
-        self._stream = self._partial.open("wb")
-        self._writer = McapWriter(self._stream, compression=CompressionType.LZ4)
-        self._writer.start(profile="", library="sumo-dataset-factory")
-        self._channels: dict[str, int] = {}
+        try:
+            self._stream = self._partial.open("wb")
+        except OSError as err:
+            raise self._failed(err, source) from err
+        try:
+            self._writer = McapWriter(self._stream, compression=CompressionType.LZ4)
+            self._writer.start(profile="", library="sumo-dataset-factory")
+            self._channels: dict[str, int] = {}
+            if source is not None:
+                self._copy(source, keep_frames)
+        except OSError as err:
+            with contextlib.suppress(OSError):
+                self._stream.close()
+            raise self._failed(err, source) from err
         if source is not None:
-            self._copy(source, keep_frames)
             source.unlink()
+
+    def _failed(self, err: OSError, source: Path | None) -> SinkError:
+        """The file could not be started: the earlier run's file goes back (its frames stay)."""
+        if source is not None:
+            source.replace(self._partial)
+        return SinkError(f"{self._partial}: cannot write: {err.strerror}")
 
     def _earlier_file(self) -> Path | None:
         """The earlier run's file, moved aside to be copied from."""
-        earlier = self._partial if self._partial.exists() else self._path
-        if not earlier.exists():
+        earlier = earlier_file(self._path)
+        if earlier is None:
             return None
         aside = self._path.with_name(self._path.name + ".earlier")
         earlier.replace(aside)
@@ -259,9 +286,9 @@ class McapSink:
         channels: dict[int, int] = {}
         times: list[int] = []
         for record in readable_records(source):
-            if isinstance(record, Schema):
+            if isinstance(record, Schema) and record.id not in schemas:  # a finished file lists them again
                 schemas[record.id] = self._writer.register_schema(record.name, record.encoding, record.data)
-            elif isinstance(record, Channel):
+            elif isinstance(record, Channel) and record.id not in channels:
                 channel = self._writer.register_channel(record.topic, record.message_encoding,
                                                         schemas.get(record.schema_id, 0))  # fmt: skip
                 channels[record.id] = self._channels[record.topic] = channel
@@ -313,3 +340,13 @@ class McapSink:
     def abort(self) -> None:
         self._stream.close()
         self._partial.unlink(missing_ok=True)
+
+    def keep(self) -> None:
+        """Finish the file (its index) where the disk lets it, under its partial name."""
+        if self._kept:
+            return
+        self._kept = True
+        with contextlib.suppress(OSError):
+            self._writer.finish()
+        with contextlib.suppress(OSError):
+            self._stream.close()

@@ -206,6 +206,9 @@ class NuscenesSink:
     def abort(self) -> None:
         self._folder.discard()
 
+    def keep(self) -> None:
+        pass  # each frame's files are written whole
+
 
 def _calibration(channel: str, output: SensorOutput) -> dict[str, Any]:
     """The sensor's ``calibrated_sensor`` values: its frame in the ego frame, a camera's K."""

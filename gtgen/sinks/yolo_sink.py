@@ -83,3 +83,6 @@ class YoloSink:
 
     def abort(self) -> None:
         self._folder.discard()
+
+    def keep(self) -> None:
+        pass  # each frame's files are written whole

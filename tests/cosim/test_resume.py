@@ -15,7 +15,6 @@ from mcap.reader import make_reader
 from cosim.errors import CosimError
 from cosim.resume import AlreadyCompleteError, begin, resume_point
 from cosim.scenario import load_scenario
-from gtgen.compare import compare_datasets
 from gtgen.load import load_labels
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -64,25 +63,6 @@ def test_a_stopped_run_keeps_every_frame_it_wrote_in_every_output(tmp_path, sig,
         assert len(list((out / folder).glob(f"*.{ext}"))) == kept, folder
     assert (out / "summary" / "stats.csv").exists()
     assert not list(out.glob("*.partial"))
-
-
-@pytest.mark.slow
-def test_kill_9_then_resume_gives_the_data_of_a_run_never_stopped(tmp_path):
-    whole, killed = tmp_path / "whole", tmp_path / "killed"
-    proc = start(killed, 120, "--no-summary")
-    stop_after(proc, killed, 60, signal.SIGKILL)
-    time.sleep(1.0)  # the writer process closes the files it holds
-    assert not (killed / "manifest.json").exists()
-    subprocess.run([sys.executable, "-m", "cosim", "run", TINY, "--frames", "120", "--out", str(whole),
-                    "--no-progress", "--no-summary"], check=True, capture_output=True)  # fmt: skip
-    resumed = subprocess.run([sys.executable, "-m", "cosim", "run", TINY, "--frames", "120", "--out", str(killed),
-                              "--no-progress", "--no-summary", "--resume"], capture_output=True, text=True)  # fmt: skip
-    assert resumed.returncode == 0, resumed.stderr
-    assert (killed / "labels.csv").read_bytes() == (whole / "labels.csv").read_bytes()
-    result = compare_datasets(whole, killed)
-    assert result.same, result.differences[:5]
-    assert json.loads((killed / "manifest.json").read_text())["complete"] is True
-    assert not (killed / ".resume").exists()
 
 
 def complete_manifest(out: Path, scenario) -> None:

@@ -1,15 +1,24 @@
 """The writer process: the same files as the sinks in this process, one-line errors, no
 complete-looking file after a failure."""
 
+import multiprocessing
 import os
+import pickle
 import signal
+import threading
+import time
 from pathlib import Path
 
 import pytest
+from mcap.reader import make_reader
 
-from gtgen.errors import SinkError
-from gtgen.sinks.background import BackgroundSinks
+from gtgen.channel import Inband, Ready, Start
+from gtgen.errors import OutputKeptError, SinkError
+from gtgen.sinks.background import BackgroundSinks, serve
+from gtgen.sinks.csv_sink import rows_of_frames
 from gtgen.sinks.group import SinkChoice, SinkGroup
+from gtgen.sinks.mcap_sink import complete_frames
+from gtgen.sinks.resume_sink import read_states
 from gtgen.timing import StageTimes
 
 OUTPUTS = ("run.mcap", "foxglove_layout.json", "labels.csv", "kitti", "yolo")
@@ -74,16 +83,82 @@ def test_an_error_in_the_writer_process_comes_back_as_one_line_and_leaves_no_out
     assert leftovers(tmp_path) == []
 
 
-def test_a_killed_writer_process_is_reported_and_its_partial_files_removed(records, tmp_path):
-    writer = BackgroundSinks(SinkChoice(tmp_path))
-    writer.write(records[0])
+def written_frames(folder: Path) -> int:
+    return len(read_states(folder))
+
+
+def test_a_killed_writer_process_is_reported_and_keeps_every_frame_it_wrote(records, tmp_path):
+    """It said "no dataset was completed" and emptied the folder, .resume/ included."""
+    writer = BackgroundSinks(SinkChoice(tmp_path, resume=True))
+    for record in records[:2]:
+        writer.write(record)
+    deadline = time.monotonic() + 30
+    while written_frames(tmp_path) < 2 and time.monotonic() < deadline:
+        time.sleep(0.02)
     os.kill(writer.pid, signal.SIGKILL)
-    with pytest.raises(SinkError, match="writer process stopped unexpectedly"):
+    with pytest.raises(OutputKeptError, match=r"^writer process stopped unexpectedly \(exit code -9\)$") as err:
         for record in records * 5:
             writer.write(record)
         writer.close()
-    writer.abort()
-    assert leftovers(tmp_path) == []
+    assert not err.value.disk_full
+    writer.keep()  # what the ``with`` block does with this error
+    assert leftovers(tmp_path) == ["kitti.partial", "labels.csv.partial", "run.mcap.partial", "yolo.partial"]
+    assert written_frames(tmp_path) == 2
+    assert rows_of_frames((tmp_path / "labels.csv.partial").read_text(), 2)[0].count("\n") > 2
+    assert sorted(p.name for p in (tmp_path / "kitti.partial" / "label_2").iterdir()) == ["000000.txt", "000001.txt"]
+
+
+def test_a_writer_whose_parent_dies_while_it_answers_keeps_the_frames_it_wrote(records, tmp_path):
+    """The parent killed while the writer acknowledges a frame (a broken pipe): the writer
+    deleted everything; now it keeps the files, the MCAP finished, under their partial names."""
+    frames_rx, frames_tx = multiprocessing.Pipe(duplex=False)
+    acks_rx, acks_tx = multiprocessing.Pipe(duplex=False)
+    child = threading.Thread(target=serve, args=(frames_rx, acks_tx))
+    child.start()
+    frames_tx.send(Start(SinkChoice(tmp_path, kitti=False, yolo=False, resume=True)))
+    assert isinstance(acks_rx.recv(), Ready)
+    acks_rx.close()  # the parent has gone: the writer's acknowledgement meets a broken pipe
+    frames_tx.send(Inband(0, pickle.dumps(records[0], protocol=5)))
+    child.join(30)
+    frames_tx.close()
+    assert not child.is_alive()
+    assert leftovers(tmp_path) == ["labels.csv.partial", "run.mcap.partial"]
+    assert written_frames(tmp_path) == 1 and complete_frames(tmp_path / "run.mcap.partial") == 1
+    with (tmp_path / "run.mcap.partial").open("rb") as stream:  # finished: the seeking reader reads its index
+        assert make_reader(stream).get_summary() is not None
+
+
+def test_a_writer_whose_parent_dies_while_it_waits_keeps_the_frames_it_wrote(records, tmp_path):
+    frames_rx, frames_tx = multiprocessing.Pipe(duplex=False)
+    _acks_rx, acks_tx = multiprocessing.Pipe(duplex=False)  # open, but never read
+    child = threading.Thread(target=serve, args=(frames_rx, acks_tx))
+    child.start()
+    frames_tx.send(Start(SinkChoice(tmp_path, kitti=False, yolo=False, resume=True)))
+    for i, record in enumerate(records):
+        frames_tx.send(Inband(i % 2, pickle.dumps(record, protocol=5)))
+    frames_tx.close()  # the parent has gone: the writer's next read ends
+    child.join(30)
+    assert leftovers(tmp_path) == ["labels.csv.partial", "run.mcap.partial"]
+    assert written_frames(tmp_path) == len(records) == complete_frames(tmp_path / "run.mcap.partial")
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
+def test_a_full_disk_keeps_every_frame_written_and_says_so_in_one_line(records, tmp_path):
+    """The writer aborted its sinks: the frames written went, .resume/ with them. /dev/full
+    stands in for a full disk under lights_and_signs.csv (written after labels.csv)."""
+    (tmp_path / "lights_and_signs.csv.partial").symlink_to("/dev/full")
+    writer = BackgroundSinks(SinkChoice(tmp_path, kitti=False, yolo=False, resume=True, traffic_lights=True))
+    with pytest.raises(OutputKeptError) as err:
+        for record in records * 3:
+            writer.write(record)
+        writer.close()
+    writer.keep()
+    assert str(err.value) == f"{tmp_path}/lights_and_signs.csv.partial: cannot write: No space left on device"
+    assert err.value.disk_full
+    assert leftovers(tmp_path) == ["labels.csv.partial", "lights_and_signs.csv.partial", "run.mcap.partial"]
+    assert written_frames(tmp_path) == 0  # the first frame did not reach every output
+    assert rows_of_frames((tmp_path / "labels.csv.partial").read_text(), 1)[1]
+    assert (tmp_path / ".resume" / "states.jsonl").exists()
 
 
 def test_a_sink_that_cannot_open_is_reported_at_the_first_frame(records, tmp_path):
