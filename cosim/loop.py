@@ -329,7 +329,7 @@ def run(
                     raise
                 stopped = err  # every output is closed with the frames written so far
     except OutputKeptError as kept:
-        raise outputs_kept(kept, out_dir, scenario) from kept
+        raise outputs_kept(kept, out_dir, scenario, continuing=point is not None) from kept
     finally:
         release_interrupts(held)
     probe.frame_done(scenario.frames)
@@ -478,15 +478,17 @@ def run_stopped(cause: BaseException, out_dir: Path, kept: int, in_summary: bool
     return RunStoppedError(f"{cause} ({at}); {where}", kept, 2)
 
 
-def outputs_kept(kept: OutputKeptError, out_dir: Path, scenario: Scenario) -> RunStoppedError:
-    """The line for a run whose writers stopped and kept their files (disk full, writer killed)."""
+def outputs_kept(kept: OutputKeptError, out_dir: Path, scenario: Scenario, continuing: bool) -> RunStoppedError:
+    """The line for a run whose writers stopped and kept their files (disk full, writer killed);
+    a new run that kept no frame leaves nothing (there is nothing to continue)."""
     frames = kept_frames(out_dir, scenario)
+    space = "free some space, then " if kept.disk_full else ""
+    if frames == 0 and not continuing:
+        remove_partials(out_dir)
+        return RunStoppedError(f"{kept}; no frame was written; {space}run the same command again", 0, 2)
     held = f"frames 0 to {frames - 1}" if frames else "no whole frame"
     where = f"{out_dir} keeps {held} under the files' .partial names"
-    again = "run the same command with --resume to continue"
-    if kept.disk_full:
-        again = "free some space, then " + again
-    return RunStoppedError(f"{kept}; {where}; {again}", frames, 2)
+    return RunStoppedError(f"{kept}; {where}; {space}run the same command with --resume to continue", frames, 2)
 
 
 def make_output_folder(out_dir: Path) -> None:
