@@ -105,7 +105,8 @@ def test_a_killed_writer_process_is_reported_and_keeps_every_frame_it_wrote(reco
     assert leftovers(tmp_path) == ["kitti.partial", "labels.csv.partial", "run.mcap.partial", "yolo.partial"]
     assert written_frames(tmp_path) == 2
     assert rows_of_frames((tmp_path / "labels.csv.partial").read_text(), 2)[0].count("\n") > 2
-    assert sorted(p.name for p in (tmp_path / "kitti.partial" / "training" / "label_2").iterdir()) == ["000000.txt", "000001.txt"]
+    labels = tmp_path / "kitti.partial" / "training" / "label_2"
+    assert sorted(p.name for p in labels.iterdir()) == ["000000.txt", "000001.txt"]
 
 
 def test_a_writer_whose_parent_dies_while_it_answers_keeps_the_frames_it_wrote(records, tmp_path):
