@@ -8,7 +8,6 @@ import numpy as np
 import numpy.typing as npt
 
 from networks.classes import SemanticClass
-from sensors.bodies import BODIES
 
 
 @dataclass(frozen=True, slots=True)
@@ -31,9 +30,9 @@ KINDS: dict[str, KindSpec] = {
     spec.kind: spec
     for spec in (
         KindSpec("car", "passenger", SemanticClass.CAR,
-                 (3.9, 5.6), (1.70, 2.05), (1.38, 2.05), (38, 55), (2.3, 3.2), 4.5, "passenger"),
+                 (3.9, 5.0), (1.70, 1.95), (1.40, 1.75), (38, 55), (2.3, 3.2), 4.5, "passenger"),
         KindSpec("truck", "truck", SemanticClass.TRUCK,
-                 (6.5, 12.5), (2.35, 2.55), (2.9, 4.0), (24, 28), (1.0, 1.5), 4.0, "truck"),
+                 (6.5, 12.0), (2.35, 2.55), (2.9, 3.8), (24, 28), (1.0, 1.5), 4.0, "truck"),
         KindSpec("bus", "bus", SemanticClass.BUS,
                  (10.5, 13.5), (2.50, 2.55), (3.0, 3.3), (22, 27), (1.0, 1.3), 4.0, "bus"),
         KindSpec("motorcycle", "motorcycle", SemanticClass.MOTORCYCLE,
@@ -44,7 +43,7 @@ KINDS: dict[str, KindSpec] = {
 }  # fmt: skip
 
 PEDESTRIAN = KindSpec("pedestrian", "pedestrian", SemanticClass.PEDESTRIAN,
-                      (0.6, 0.8), (0.45, 0.7), (1.55, 1.95), (1.0, 1.6), (1.0, 1.5), 2.0, "pedestrian")  # fmt: skip
+                      (0.3, 0.5), (0.5, 0.7), (1.55, 1.95), (1.0, 1.6), (1.0, 1.5), 2.0, "pedestrian")  # fmt: skip
 """A walker's box holds its stride: 0.6-0.8 m long (nuScenes' pedestrians: 0.73 m on average)."""
 
 VARIANTS_PER_KIND = 4
@@ -61,28 +60,13 @@ class TypeVariant:
     accel_mps2: float
 
 
-BODY_SIZE_SPREAD = 0.05
-"""A variant of a body type is its nominal size times 1 +- this (each dimension)."""
-
-
 def sample_variants(spec: KindSpec, rng: np.random.Generator, count: int = VARIANTS_PER_KIND) -> list[TypeVariant]:
-    """``count`` types of a kind (more where it has many body types: two per body type). Kinds
-    with body types (:data:`sensors.bodies.BODIES`: sedans to pickups, box trucks and
-    semi-trailers, city buses and coaches) get variants per body type in proportion to the
-    types' shares, sized around each type's nominal size within the kind's ranges; others are
-    sized uniformly within the ranges."""
-    bodies = BODIES.get(int(spec.semantic_class), ())
-    lo = np.array([spec.length_m[0], spec.width_m[0], spec.height_m[0]])
-    hi = np.array([spec.length_m[1], spec.width_m[1], spec.height_m[1]])
-    if len(bodies) > 1:
-        count = max(count, 2 * len(bodies))
-        per_body = split_by_mix(count - len(bodies), {str(i): b.share for i, b in enumerate(bodies)})
-        nominal = [np.asarray(b.lwh_m) for i, b in enumerate(bodies) for _ in range(1 + per_body.get(str(i), 0))]
-        sizes = [np.clip(n * rng.uniform(1 - BODY_SIZE_SPREAD, 1 + BODY_SIZE_SPREAD, 3), lo, hi) for n in nominal]
-    else:
-        sizes = [rng.uniform(lo, hi) for _ in range(count)]
+    """``count`` types of a kind, sized uniformly within its ranges (the renderer draws each
+    with the body type that fits its size best: :func:`sensors.bodies.body_of`)."""
     out = []
-    for i, size in enumerate(sizes):
+    for i in range(count):
+        size = rng.uniform([spec.length_m[0], spec.width_m[0], spec.height_m[0]],
+                           [spec.length_m[1], spec.width_m[1], spec.height_m[1]])  # fmt: skip
         out.append(
             TypeVariant(
                 f"{spec.kind}_{i}",

@@ -82,19 +82,15 @@ def test_every_body_type_lies_inside_its_box_over_its_class_size_range() -> None
         hi = np.array([spec.length_m[1], spec.width_m[1], spec.height_m[1]])
         for _ in range(40):
             rows.append((int(spec.semantic_class), r.uniform(lo, hi)))
+        for body in BODIES.get(int(spec.semantic_class), ()):  # and around each body type's own size
+            for _ in range(6):
+                rows.append((int(spec.semantic_class), np.asarray(body.lwh_m) * r.uniform(0.95, 1.05, 3)))
     n = len(rows)
-    boxes = Agents(
-        np.arange(1, n + 1, dtype=np.uint32),
-        np.array([c for c, _ in rows], np.uint8),
-        r.uniform(-30, 30, (n, 3)),
-        np.array([s for _, s in rows]),
-        r.uniform(-np.pi, np.pi, n),
-        r.uniform(-0.2, 0.2, n),
-        r.uniform(-2, 2, (n, 3)),
-        np.zeros(n, bool),
-    )
+    boxes = Agents(np.arange(1, n + 1, dtype=np.uint32), np.array([c for c, _ in rows], np.uint8),
+                   r.uniform(-30, 30, (n, 3)), np.array([s for _, s in rows]), r.uniform(-np.pi, np.pi, n),
+                   r.uniform(-0.2, 0.2, n), r.uniform(-2, 2, (n, 3)), np.zeros(n, bool))  # fmt: skip
     keys = body_keys(boxes)
-    for c, bodies in BODIES.items():  # every body type of every class is drawn at least once
+    for c, bodies in BODIES.items():  # every body type of every class is drawn
         if len(bodies) > 1:
             assert set(keys[keys[:, 0] == c, 1].tolist()) == set(range(len(bodies))), c
     meshes = agent_meshes(boxes)
