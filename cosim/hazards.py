@@ -1,34 +1,40 @@
-"""Hazard events made on purpose near the ego, with SUMO's own commands (with traffic.py, the
-modules that talk to libsumo).
+"""Hazard events made on purpose near the ego, with SUMO's own commands (with traffic.py and
+hazard_roads.py, the modules that talk to libsumo).
 
-Each hazard kind of the scenario is due about ``per_minute`` times a simulated minute (spaced
-0.5 to 1.5 times 60 / per_minute apart, from the scenario's seed); when one is due, it starts
-at the first step where the traffic around the ego allows it, and the next is due from when
-this one was (up to two events a kind are owed, so waiting for the traffic does not lower the
-rate where it allows events later).
+Each hazard kind of the scenario is due ``per_minute`` times a simulated minute: one event in
+each period of 60 / per_minute seconds, at a time drawn in its middle half (from the scenario's
+seed; :mod:`cosim.hazard_plan`). Before an event is due, its actor is prepared: found in the
+traffic around the ego and brought into place, or, where the traffic has none, made where no
+sensor of the rig sees it and no label reaches (a car on the road the ego came along, far enough
+behind; a pedestrian at the kerb far enough ahead, or hidden in front of a parked car), so that
+it drives or walks into view as any other road user. The event starts when it is due and its
+actor is in place (an event that had to wait does not push the next ones back: up to two a
+kind are owed).
 
-Cut-ins, hard braking and jaywalkers start only where the ego's way (its lane and the lanes its
-route goes on) runs straight ahead (a time to collision under constant velocity means little in
-a bend, and a jaywalker crosses in the direction the road has at its start); a hard brake also
-on a gentle bend when its leader is in line with the ego.
+Cut-ins and hard braking start only where the ego's way (its lane and the lanes its route goes
+on) runs straight ahead (a time to collision under constant velocity means little in a bend),
+a hard brake also on a gentle bend when its leader is in line with the ego; jaywalkers cross
+straight roads (their direction is fixed when they step out).
 
-- ``cut_in``: a vehicle in a lane beside the ego (SUMO's nearest neighbours left and right, from
-  30 m behind to 40 m ahead, whose route goes on where the ego's does) is driven at the ego's
-  speed, up to 6 m/s faster or 4 m/s slower, until it is a gap within ``distance_m`` and
-  ``time_gap_s`` ahead, at the ego's pace, with room before the ego's leader; then it changes
-  into the ego's lane at once (lane-change mode 0: SUMO's safety checks off for this change)
-  and slows to half the ego's speed within 2 s (braking at most at 5 m/s^2), holding it 4 s.
-  The ego keeps its lane and its driver reacts a second late (SUMO's action step length), then
-  brakes with SUMO's car-following.
-- ``hard_brake``: the ego's leader within ``distance_m`` brakes at ``decel_mps2`` to
-  ``to_speed_mps``, holds it 2 s, then drives on; the ego follows with SUMO's car-following.
+- ``cut_in``: a vehicle in a lane beside the ego going its way (from up to 30 m behind to 40 m
+  ahead, brought from farther behind, or made out of sight behind the ego) is paced so that
+  it is a gap within ``distance_m`` and ``time_gap_s`` ahead, at the ego's pace, when the event
+  is due; then it changes into the ego's lane at once (lane-change mode 0: SUMO's safety checks
+  off for this change) and slows to half the ego's speed within 2 s (braking at most at
+  4 m/s^2), holding it 4 s. The ego keeps its lane and its driver reacts 0.6 s late (SUMO's
+  action step length), then brakes with SUMO's car-following.
+- ``hard_brake``: the ego's leader (within 120 m ahead, paced to a gap within ``distance_m``;
+  where the ego has none, a vehicle from beside it, or made behind it, overtakes and changes
+  into the ego's lane ahead of it) brakes at ``decel_mps2`` to ``to_speed_mps``, holds it 2 s,
+  then drives on; the ego follows with SUMO's car-following.
 - ``jaywalker``: a pedestrian (by default a child of Euro NCAP's child target size) steps off
   the kerb on the ego's side and walks across at ``walk_mps`` outside any crossing, where it
   reaches the ego's path when the ego is its braking distance (at 7.5 m/s^2) plus 5 m away
-  (within ``distance_m``); from just before the front bumper of the tallest parked car
-  standing near there, in line behind it as the ego sees it (with ``behind_parked``, a
-  jaywalker due waits up to 20 s for such a place, then steps out in the open). The ego brakes (up to 7.5 m/s^2)
-  for a pedestrian within 40 m ahead that is in its path or will be before it could stop.
+  (within ``distance_m``): with ``behind_parked``, from just before the front bumper of a
+  parked car on the ego's way, in line behind it as the ego sees it (placed there as it steps
+  out, hidden by the car); elsewhere from where it stood waiting at the kerb, placed before
+  the rig could see it. The ego brakes (up to 7.5 m/s^2) for a pedestrian within 40 m ahead
+  that is in its path or will be before it could stop.
 - ``red_light``: while the ego approaches a green light ``distance_m`` away, a vehicle on a
   crossing approach with red (moving, or the first in its queue) drives through (speed mode 7:
   red lights and right of way ignored), timed to clear the junction at least 1.5 s before the
@@ -37,20 +43,21 @@ on a gentle bend when its leader is in line with the ego.
 
 An event ends after a fixed time (cut_in 6 s, hard_brake when its hold ends, jaywalker when
 the pedestrian has crossed, red_light 10 s) or when an actor leaves the simulation; the
-actors (and the ego) get their SUMO settings back. :meth:`HazardController.active` lists the
-events under way, which the world state carries to the labels.
+actors (and the ego) get their SUMO settings back. A pedestrian who crossed (or waited in
+vain) is taken out of the simulation once no sensor sees it. :meth:`HazardController.active`
+lists the events under way, which the world state carries to the labels.
 """
 
 from __future__ import annotations
 
 import contextlib
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from cosim.kinematics import sumo_angle_to_yaw
+from cosim import hazard_roads as roads
+from cosim.hazard_plan import Schedule, Sight
 from cosim.scenario import HazardConfig
 from gtgen.frame import ActiveHazard
 from networks.sumo_tools import sumo_home
@@ -61,9 +68,12 @@ import libsumo  # noqa: E402
 # Jaywalking children: a pedestrian type of Euro NCAP's child target's size, made with the controller.
 CHILD_TYPE = "pedestrian_child"
 CHILD_LWH_M = (0.25, 0.4, 1.15)
+MADE = "hazard"  # vehicles made for events are named hazard_1, hazard_2, ...
 
 LANE_CHANGE_DEFAULT = 0b011001010101  # SUMO's default lane-change mode (1621)
+KEEP_LANE = 0b011000000001  # while prepared: changes for its route and asked ones only, into safe gaps
 SPEED_DEFAULT = 31
+OVER_THE_LIMIT = 64  # speed mode: a speed asked may exceed the lane's speed limit
 IGNORE_RED_AND_RIGHT_OF_WAY = 7  # speed mode: safe speed, acceleration and deceleration limits only
 EGO_STOP_DECEL = 7.5
 CUT_IN_HOLD_S, CUT_IN_S = 4.0, 6.0
@@ -72,14 +82,22 @@ REACTION_S = 0.6  # the ego's driver decides this often while surprised (SUMO's 
 CUT_IN_LATERAL_MPS = 2.5  # the cutting vehicle's sideways speed
 CUT_IN_ROOM_M = 1.0  # free space it needs in front of it in the ego's lane (no one is cut into)
 CUT_IN_MAX_DECEL = 4.0  # m/s^2: the cutting vehicle brakes no harder than this (the ego can follow)
-CUT_IN_SPEED_FACTOR = 1.3  # of the speed limit, while it overtakes the ego
+CUT_IN_SPEED_FACTOR = 1.3  # of the speed limit: the fastest a prepared vehicle drives (or 6 m/s above the ego)
 CUT_IN_BEHIND_M = 30.0  # it may start up to this far behind the ego's front, and overtake
 CUT_IN_OVERTAKE_MPS = 6.0  # how much faster than the ego it overtakes
-CUT_IN_LOOK_M, CUT_IN_APPROACH_MPS, CUT_IN_APPROACH_S = 40.0, 4.0, 12.0  # its approach: from up to 40 m ahead
+CUT_IN_LOOK_M, CUT_IN_APPROACH_MPS = 40.0, 4.0  # it may start up to 40 m ahead, and drop back
 CUT_IN_ROAD_M = 120.0  # or where the ego's road goes on this far: it drives beside the ego as long
-CUT_IN_LOST_S = 1.0  # an approach ends this long after its vehicle is no longer beside the ego
+LOST_S = 3.0  # a preparation ends this long after its vehicle is no longer where it needs it
+CATCH_UP_MPS = 10.0  # how much faster than the ego a vehicle drives while it catches up from far behind
+CAR_RADIUS_M, HIDDEN_MARGIN_M = 3.0, 5.0  # a vehicle is made this far beyond the rig's sight and labels
+SIDE_LEAD_S = 12.0  # a vehicle beside the ego is brought to its gap from this long before the event is due
+MAKE_LEAD_S = 20.0  # and, where none is, a vehicle is made behind the ego this long before
+LATE_S = 10.0  # a preparation is given up this long after its event was due (another is tried)
+AHEAD_OF_TIME_S = 3.0  # a prepared vehicle is brought to its place this long before its event is due
+LEADER_LOOK_M = 120.0  # a hard brake's leader is found within this distance ahead of the ego
+LEADER_PACE_MPS = 5.0  # and paced at most this much slower or faster than the ego to its gap
+LEADER_JOIN_S = 4.0  # a vehicle brought from beside joins the ego's lane this long before it is due
 HOLD_S = 2.0
-BACKLOG = 2.0  # events of a kind owed at most, when the traffic held them back
 RED_LIGHT_S = 10.0
 RED_RUN_MPS = 9.0  # a red-light runner speeds up to at least this
 RED_MARGIN_S = 1.5  # it leaves the junction this long before the ego can reach it (or enters after)
@@ -87,105 +105,193 @@ JUNCTION_M = 25.0  # the way through a junction
 JAYWALK_PATH_M, JAYWALK_LOOK_M = 1.8, 40.0  # the ego's path: this far either side of its lane centre
 JAYWALK_STEP_M = 0.6  # the pedestrian starts this far beyond the kerb
 JAYWALK_HIDDEN_M = 0.5  # and this much farther when it starts in front of a parked car
-JAYWALK_PARKED_WAIT_S = 20.0  # a jaywalker due waits this long for a place behind a parked car
+JAYWALK_LEAD_S = 20.0  # its place is chosen this long before it is due
+JAYWALK_LATE_S = 40.0  # and given up this long after (the ego may wait at a red light before it)
+JAYWALK_PACE_SHARE = 0.7  # of the speed limit: the ego's pace, to tell where it will be when it is due
+JAYWALK_ROAD_M = 25.0  # it steps out at least this far along its road, and 10 m before the road's end
+LEADS_S = {"cut_in": MAKE_LEAD_S, "hard_brake": MAKE_LEAD_S, "jaywalker": JAYWALK_LEAD_S, "red_light": 0.0}
+PREPARED_AT_ONCE = {"cut_in": 2, "hard_brake": 1, "jaywalker": 2, "red_light": 1}  # a kind's next events
 
 
 @dataclass(slots=True)
 class _Event:
-    number: int
-    kind: str
+    index: int  # the scenario's hazard entry it is made for
+    config: HazardConfig
     actors: list[str]
-    ends_s: float
+    due_s: float
+    ends_s: float  # while prepared: when it is given up; under way: when it ends
     restore: list[Callable[[], None]] = field(default_factory=list)
-    path: tuple[np.ndarray, np.ndarray, float] | None = None  # jaywalker: start, unit direction, length
+    number: int = 0  # 0 while it is being prepared (not an event yet)
     started_s: float = 0.0
-    hidden: bool = False  # a cut-in's approach: not an event yet
-    gap_m: float = 0.0  # the gap a cut-in is made at
-    beside_s: float = 0.0  # the last time a cut-in's vehicle was seen beside the ego
-    config: HazardConfig | None = None  # the scenario's entry it was made for
+    gap_m: float = 0.0  # cut_in: the gap it cuts in at; hard_brake: the gap its leader is paced to
+    seen_s: float = 0.0  # when its actor was last where the preparation needs it
+    leading: bool = False  # hard_brake: its vehicle has been the ego's leader
+    spot: tuple[str, float] = ("", 0.0)  # jaywalker: the road and the position where it steps out
+    parked: str = ""  # jaywalker: the parked car it steps out in front of
+    path: tuple[np.ndarray, np.ndarray, float] | None = None  # jaywalker: start, unit direction, length
+
+    @property
+    def kind(self) -> str:
+        return self.config.kind
 
 
 class HazardController:
     def __init__(
-        self, hazards: tuple[HazardConfig, ...], seed: int, parked: set[str], walk_edges: list[str],
-        pedestrian_type: str = "",
+        self, hazards: tuple[HazardConfig, ...], seed: int, parked: set[str], walk_edges: list[str], sight: Sight,
+        pedestrian_type: str = "", car_types: tuple[str, ...] = (),
     ) -> None:  # fmt: skip
         self._hazards = hazards
         self._pedestrian_type = pedestrian_type  # the jaywalkers' (the smallest of the scene's pedestrians)
         self._walk_edges = sorted(walk_edges)
+        self._sight = sight
+        self._behind_m = sight.clear_behind_m(3.5, CAR_RADIUS_M + HIDDEN_MARGIN_M) + 10.0
+        self._car_types = car_types  # vehicles made for events are cars of these types
         self._rng = np.random.default_rng([seed, 0x4A2D])
+        self._seed = seed
         self._parked = parked
-        self._due: list[float] | None = None  # by hazard: when the next is due (drawn at the first step)
-        self._retry: list[float] = []  # by hazard: not before (after a cut-in's approach came to nothing)
-        self._late_s = 0.0  # how long the event being started has been due
-        self._active: dict[int, _Event] = {}  # by hazard index
+        self._parked_at: dict[str, tuple[str, float]] = {}  # parked car: its road and front bumper's position
+        self._schedules: list[Schedule] = []  # by hazard (made at the first step)
+        self._retry = [0.0 for _ in hazards]  # by hazard: no preparation before (after one came to nothing)
+        self._events: list[_Event] = []
+        self._way_back = roads.WayBack()
         self._count = 0
         self._people = 0
+        self._made = 0
+        self._pending: set[str] = set()  # vehicles made, not on the road yet
+        self._ego_mode: int | None = None  # the ego's own lane-change mode while cut-ins hold its lane
+        self._held: dict[str, tuple[float, float, float]] = {}  # pedestrians standing: x, y, SUMO angle
+        self._leftover: set[str] = set()  # those of past events, removed once out of sight
         if any(h.kind == "jaywalker" and h.child for h in hazards):
             libsumo.vehicletype.copy("DEFAULT_PEDTYPE", CHILD_TYPE)
             libsumo.vehicletype.setLength(CHILD_TYPE, CHILD_LWH_M[0])
             libsumo.vehicletype.setWidth(CHILD_TYPE, CHILD_LWH_M[1])
             libsumo.vehicletype.setHeight(CHILD_TYPE, CHILD_LWH_M[2])
 
-    def _wait(self, hazard: HazardConfig) -> float:
-        """The time from one event of a kind to the next: 0.5 to 1.5 times 60 / per_minute."""
-        return float(self._rng.uniform(0.5, 1.5)) * 60.0 / hazard.per_minute
+    @property
+    def lead_s(self) -> float:
+        """How long before an event is due its preparation may start."""
+        return max(LEADS_S[h.kind] for h in self._hazards)
 
-    def _schedule_next(self, index: int, now: float) -> None:
-        """An event of this kind started: the next is due a wait after the one that was due, so
-        an event that had to wait for the traffic does not push the later ones back (at most
-        ``BACKLOG`` events are owed)."""
-        assert self._due is not None
-        mean = 60.0 / self._hazards[index].per_minute
-        self._due[index] = max(self._due[index] + self._wait(self._hazards[index]), now - BACKLOG * mean)
+    def begin(self, start_s: float) -> None:
+        """Events are due from ``start_s`` on (the first step's time, if not called)."""
+        self._schedules = [Schedule(60.0 / h.per_minute, start_s, np.random.default_rng([self._seed, 0x5C4E, i]))
+                           for i, h in enumerate(self._hazards)]  # fmt: skip
 
     def step(self, ego: str, now: float) -> None:
-        """Move the events under way, end those that are over, start those that are due."""
-        if self._due is None:
-            self._due = [now + self._wait(h) for h in self._hazards]
-            self._retry = [now for _ in self._hazards]
-        due, retry = self._due, self._retry
-        for index, event in list(self._active.items()):
-            was_hidden = event.hidden
-            try:
-                done = self._advance(event, ego, now)
-            except libsumo.TraCIException:
-                done = True  # an actor left the simulation
-            if was_hidden and not event.hidden:  # a cut-in's approach became the event
-                self._schedule_next(index, now)
-            elif was_hidden and done:
-                retry[index] = now + 1.0  # the approach came to nothing: another candidate soon
-            if done:
-                for undo in event.restore:
-                    with contextlib.suppress(libsumo.TraCIException):  # an actor gone
-                        undo()
-                del self._active[index]
+        """Move the events under way and those being prepared, end those that are over,
+        prepare those due soon."""
+        if not self._schedules:
+            self.begin(now)
+        self._way_back.note(ego)
+        self._hold_people(ego)
+        for event in list(self._events):
+            self._move(event, ego, now)
         for index, hazard in enumerate(self._hazards):
-            if index in self._active or now < due[index] or now < retry[index]:
-                continue
-            self._late_s = now - due[index]
-            try:
-                started = self._start(hazard, ego, now)
-            except libsumo.TraCIException:
-                started = None
-            if started is not None:
-                started.started_s = now
-                self._active[index] = started
-                if not started.hidden:
-                    self._schedule_next(index, now)
+            self._prepare(index, hazard, ego, now)
+        self._hold_ego_lane(ego)
 
     def active(self, track_id: Callable[[str], int], ego: str) -> tuple[ActiveHazard, ...]:
-        shown = sorted((e for e in self._active.values() if not e.hidden), key=lambda e: e.number)
+        shown = sorted((e for e in self._events if e.number), key=lambda e: e.number)
         return tuple(ActiveHazard(f"{e.kind}-{e.number}", e.kind, tuple(track_id(a) for a in e.actors),
                                   track_id(ego)) for e in shown)  # fmt: skip
+
+    # --- the events' life ----------------------------------------------------------------
+    def _prepare(self, index: int, hazard: HazardConfig, ego: str, now: float) -> None:
+        """Start preparing the next event of a kind when it is due within its lead time."""
+        preparing = {e.due_s for e in self._events if e.index == index and not e.number}
+        if now < self._retry[index] or len(preparing) >= PREPARED_AT_ONCE[hazard.kind]:
+            return
+        due = next(d for d in map(self._schedules[index].due_s, range(len(preparing) + 1)) if d not in preparing)
+        if now < due - LEADS_S[hazard.kind]:
+            return
+        make = {"cut_in": self._make_cut_in, "hard_brake": self._make_hard_brake, "jaywalker": self._make_jaywalker,
+                "red_light": self._red_light}[hazard.kind]  # fmt: skip
+        try:
+            event = make(_Event(index, hazard, [], due, due + LATE_S), ego, now)
+        except libsumo.TraCIException:
+            event = None
+        if event is not None:
+            self._events.append(event)
+
+    def _move(self, event: _Event, ego: str, now: float) -> None:
+        prepared = not event.number
+        try:
+            if prepared and self._not_made(event):
+                done = True
+            else:
+                done = self._ready(event, ego, now) if prepared else self._advance(event, ego, now)
+        except libsumo.TraCIException:
+            done = True  # an actor left the simulation
+        if done:
+            for undo in reversed(event.restore):  # the last change first
+                with contextlib.suppress(libsumo.TraCIException):  # an actor gone
+                    undo()
+            self._events.remove(event)
+            if not event.number:
+                self._retry[event.index] = now + 1.0  # it came to nothing: another actor soon
+
+    def _ready(self, event: _Event, ego: str, now: float) -> bool:
+        """One step of a preparation (it may start the event); True: it is given up."""
+        ready = {"cut_in": self._cut_in_ready, "hard_brake": self._hard_brake_ready,
+                 "jaywalker": self._jaywalker_ready}[event.kind]  # fmt: skip
+        return ready(event, ego, now)
+
+    def _turn_on(self, event: _Event, now: float, ends_s: float) -> None:
+        """A prepared event starts: it gets its number, and the next of its kind is due."""
+        self._count += 1
+        event.number, event.started_s, event.ends_s = self._count, now, ends_s
+        self._schedules[event.index].take(now)
+
+    def _under_way(self, index: int) -> bool:
+        return any(e.index == index and e.number for e in self._events)
+
+    def _not_made(self, event: _Event) -> bool:
+        """Whether the vehicle made for a preparation could not enter the road (it is taken
+        back rather than entering later, when it could be in sight)."""
+        made = [a for a in event.actors if a in self._pending]
+        if not made:
+            return False
+        self._pending.difference_update(made)
+        waiting = set(libsumo.simulation.getPendingVehicles())
+        for vid in waiting.intersection(made):
+            libsumo.vehicle.remove(vid)
+        return bool(waiting.intersection(made))
+
+    def _hold_ego_lane(self, ego: str) -> None:
+        """The ego keeps its lane while a cut-in is prepared (lane changes its route needs
+        only) and changes none while one is under way; then it gets its own lane changes back."""
+        cut_ins = [e for e in self._events if e.kind == "cut_in"]
+        mode = 0 if any(e.number for e in cut_ins) else KEEP_LANE if cut_ins else None
+        if mode is None and self._ego_mode is not None:
+            libsumo.vehicle.setLaneChangeMode(ego, self._ego_mode)
+            self._ego_mode = None
+        elif mode is not None:
+            if self._ego_mode is None:
+                self._ego_mode = libsumo.vehicle.getLaneChangeMode(ego)
+            libsumo.vehicle.setLaneChangeMode(ego, mode)
+
+    def _hold_people(self, ego: str) -> None:
+        """Keep standing pedestrians where they stand (SUMO would take a waiting person back to
+        its road); those of past events leave the simulation once no sensor sees them."""
+        for person, (x, y, angle) in sorted(self._held.items()):
+            try:
+                if person in self._leftover and not self._sight.sees(roads.in_ego_frame(ego, np.array([x, y])), 1.0):
+                    libsumo.person.remove(person)
+                    raise libsumo.TraCIException("removed")
+                libsumo.person.moveToXY(person, "", x, y, angle, keepRoute=2)
+            except libsumo.TraCIException:
+                del self._held[person]
+                self._leftover.discard(person)
+
+    def _release(self, person: str) -> None:
+        """A jaywalker's event is over: it stands where it is until out of sight."""
+        x, y = libsumo.person.getPosition(person)
+        self._held[person] = (x, y, libsumo.person.getAngle(person))
+        self._leftover.add(person)
 
     # --- one step of an event under way ----------------------------------------------------
     def _advance(self, event: _Event, ego: str, now: float) -> bool:
         config = event.config
-        if config is None:
-            return True
-        if event.hidden:
-            return not self._cut_now(event, config, ego, now)
         if event.kind == "jaywalker" and event.path is not None:
             start, direction, length = event.path
             walked = (now - event.started_s) * config.walk_mps
@@ -193,9 +299,9 @@ class HazardController:
             if walked >= length:
                 return True
             x, y = start + direction * walked
-            libsumo.person.moveToXY(person, "", float(x), float(y), _sumo_angle(direction), keepRoute=2)
+            libsumo.person.moveToXY(person, "", float(x), float(y), roads.sumo_angle(direction), keepRoute=2)
             ex, ey = libsumo.vehicle.getPosition(ego)
-            fwd = _forward(ego)
+            fwd = roads.forward(ego)
             rel = np.array([x - ex, y - ey])
             along, across = float(rel @ fwd), float(rel @ np.array([-fwd[1], fwd[0]]))
             speed = libsumo.vehicle.getSpeed(ego)
@@ -207,72 +313,176 @@ class HazardController:
                 libsumo.vehicle.setSpeed(ego, -1.0)
         return now >= event.ends_s
 
-    # --- starting an event ------------------------------------------------------------------
-    def _start(self, hazard: HazardConfig, ego: str, now: float) -> _Event | None:
-        start = {"cut_in": self._cut_in, "hard_brake": self._hard_brake, "jaywalker": self._jaywalker,
-                 "red_light": self._red_light}[hazard.kind]  # fmt: skip
-        event = start(hazard, ego, now)
-        if event is not None:
-            event.config = hazard
-        if event is not None and not event.hidden:
-            self._count += 1
-            event.number = self._count
-        return event
-
+    # --- actors ----------------------------------------------------------------------------
     def _movable(self, vid: str, ego: str) -> bool:
         """A vehicle that can act in a new event: not the ego, parked, a bicycle, or in an event."""
-        busy = {a for e in self._active.values() for a in e.actors}
+        busy = {a for e in self._events for a in e.actors}
         return (bool(vid) and vid != ego and vid not in self._parked and vid not in busy
                 and libsumo.vehicle.getVehicleClass(vid) not in ("bicycle", "pedestrian"))  # fmt: skip
 
-    def _cut_in(self, hazard: HazardConfig, ego: str, now: float) -> _Event | None:
-        """A vehicle in a lane beside the ego is driven (unseen as an event: its approach)
-        until it is the drawn gap ahead; :meth:`_cut_now` then makes it cut in."""
-        ego_speed = libsumo.vehicle.getSpeed(ego)
-        if ego_speed < 3.0 or not _straight_ahead(ego, STRAIGHT_REACH_M):
+    def _beside(self, ego: str, now: float, due: float, wanted_m: float) -> tuple[str, float] | None:
+        """A vehicle to bring beside the ego, ``wanted_m`` ahead of it, for an event due at
+        ``due``, with its gap ahead of the ego now. Once it needs the time left to get there:
+        the first in a lane beside the ego's on either side of that place (from as far behind
+        the ego as a car is made to 40 m ahead); where a lane beside it
+        is empty up to there, from ``MAKE_LEAD_S`` before, a car made there out of the rig's
+        sight; else one from a lane farther out (it moves over). Of those, the one that gets
+        there soonest."""
+        if now < due - MAKE_LEAD_S:
             return None
-        gaps = _side_gaps(ego)
-        candidates = [vid for vid, gap in gaps.items()
-                      if self._movable(vid, ego) and -CUT_IN_BEHIND_M <= gap <= CUT_IN_LOOK_M
-                      and _same_way(ego, vid)]  # fmt: skip
-        if not candidates:
+        around = self._around(ego)
+        index = libsumo.vehicle.getLaneIndex(ego)
+        firsts, empty = [], []
+        for side in (1, -1):
+            line = [(gap, vid) for vid, (lane, gap) in around.items() if lane == index + side]
+            if not line and not roads.has_lane(ego, index + side):
+                continue
+            behind = [f for f in line if f[0] < wanted_m]
+            ahead = [f for f in line if f[0] >= wanted_m]
+            firsts += [max(behind)] if behind else []
+            firsts += [min(ahead)] if ahead else []
+            if not [f for f in line if f[0] < wanted_m + 10.0]:
+                empty.append(side)
+        found = [(vid, gap) for gap, vid in firsts if self._usable(vid, ego)]
+        if not found and empty:
+            vid = self._make_behind(ego, empty)
+            return None if vid is None else (vid, -self._behind_m)
+        if not found:  # from a lane farther out, or from behind the ego in its lane
+            found = [(vid, gap) for vid, (lane, gap) in around.items() if self._usable(vid, ego)
+                     and abs(lane - index) != 1 and -CUT_IN_BEHIND_M <= gap <= CUT_IN_LOOK_M]  # fmt: skip
+        if not found:
             return None
-        near, far = _cut_in_gaps(hazard, ego_speed)
-        if near >= far:
-            return None  # no gap in metres is also one in seconds at this speed
-        vid = sorted(candidates)[int(self._rng.integers(0, len(candidates)))]
-        gap_m = float(self._rng.uniform(near, far))
+        vid, gap = min(found, key=lambda f: (_approach_s(f[1], wanted_m), f[0]))  # the one there soonest
+        return (vid, gap) if now >= due - _approach_s(gap, wanted_m) else None
+
+    def _around(self, ego: str) -> dict[str, tuple[int, float]]:
+        """The vehicles in the lanes open to cars of the ego's road and the roads just behind
+        and ahead (not ahead of it in its lane), from as far behind it as a car is made to 40 m
+        ahead: their lane indices and gaps ahead of it."""
+        starts = roads.way_starts(ego, self._way_back, self._behind_m)
+        own = libsumo.vehicle.getLaneID(ego)
+        found: dict[str, tuple[int, float]] = {}
+        for road, start in starts.items():
+            for lane in roads.car_lanes(road):
+                for vid in libsumo.lane.getLastStepVehicleIDs(lane):
+                    gap = start + libsumo.vehicle.getLanePosition(vid) - libsumo.vehicle.getLength(vid)
+                    if -self._behind_m <= gap <= CUT_IN_LOOK_M and not (lane == own and gap > 0.0):
+                        found[vid] = (int(lane.rsplit("_", 1)[1]), gap)
+        return dict(sorted(found.items()))
+
+    def _usable(self, vid: str, ego: str) -> bool:
+        """A vehicle beside the ego can act: free, going its way, and 3 m/s faster than it if need be."""
+        return (self._movable(vid, ego) and libsumo.vehicle.getMaxSpeed(vid) >= libsumo.vehicle.getSpeed(ego) + 3.0
+                and roads.same_way(ego, vid, CUT_IN_ROAD_M))  # fmt: skip
+
+    def _make_behind(self, ego: str, sides: list[int]) -> str | None:
+        """A car made in a lane beside the ego's (on one of ``sides``, +1 left, -1 right) on the
+        road it came along, at the nearest point behind it that no sensor sees, routed along the
+        ego's way."""
+        if not self._car_types or libsumo.vehicle.getRoadID(ego).startswith(":"):
+            return None
+        index = libsumo.vehicle.getLaneIndex(ego)
+        for back_m in np.arange(20.0, self._behind_m + 1.0, 10.0):
+            place = self._way_back.place(ego, float(back_m))
+            if place is None:
+                return None
+            way, pos = place
+            lanes = [int(lane.rsplit("_", 1)[1]) for lane in roads.car_lanes(way[0])]
+            for lane_index in (index + side for side in sides if index + side in lanes):
+                if not _free(f"{way[0]}_{lane_index}", pos, 25.0):
+                    continue
+                xy = np.array(libsumo.simulation.convert2D(way[0], pos, lane_index))
+                if not self._sight.sees(roads.in_ego_frame(ego, xy), CAR_RADIUS_M + HIDDEN_MARGIN_M):
+                    return self._add_car(ego, way, pos, lane_index)
+        return None
+
+    def _add_car(self, ego: str, way: list[str], pos: float, lane_index: int) -> str:
+        self._made += 1
+        vid = f"{MADE}_{self._made}"
+        route, at = libsumo.vehicle.getRoute(ego), libsumo.vehicle.getRouteIndex(ego)
+        libsumo.route.add(f"{vid}_route", [*way, *route[at + 1 :]])
+        type_id = self._car_types[int(self._rng.integers(0, len(self._car_types)))]
+        libsumo.vehicle.add(vid, f"{vid}_route", typeID=type_id, depart="now", departLane=str(lane_index),
+                            departPos=f"{pos:.2f}", departSpeed="max")  # fmt: skip
+        self._pending.add(vid)
+        return vid
+
+    def _drive(self, event: _Event, vid: str, now: float, gap_m: float) -> None:
+        """Take a vehicle's speed and lane changes over for a preparation (given back at its
+        end); one that has far to come has longer than ``LATE_S`` after it is due."""
+        event.ends_s = max(event.due_s, now + abs(gap_m - event.gap_m) / CATCH_UP_MPS) + LATE_S
+        event.seen_s = now
+        speed_mode, mode = libsumo.vehicle.getSpeedMode(vid), libsumo.vehicle.getLaneChangeMode(vid)
         factor = libsumo.vehicle.getSpeedFactor(vid)
-        libsumo.vehicle.setSpeedFactor(vid, max(factor, CUT_IN_SPEED_FACTOR))  # it may pass the ego at the limit
-        libsumo.vehicle.setSpeed(vid, _approach_speed(ego_speed, gaps[vid], gap_m))
-        restore = [lambda: libsumo.vehicle.setSpeed(vid, -1.0), lambda: libsumo.vehicle.setSpeedFactor(vid, factor)]
-        event = _Event(0, "cut_in", [vid], now + CUT_IN_APPROACH_S, restore)
-        event.hidden, event.gap_m, event.beside_s = True, gap_m, now
+        libsumo.vehicle.setSpeedMode(vid, SPEED_DEFAULT | OVER_THE_LIMIT)  # it may pass the ego above the limit
+        libsumo.vehicle.setSpeedFactor(vid, max(factor, CUT_IN_SPEED_FACTOR))  # and wants to (passing slower ones)
+        libsumo.vehicle.setLaneChangeMode(vid, KEEP_LANE)
+        event.actors.append(vid)
+        event.restore += [lambda: libsumo.vehicle.setSpeed(vid, -1.0),
+                          lambda: libsumo.vehicle.setSpeedMode(vid, speed_mode),
+                          lambda: libsumo.vehicle.setSpeedFactor(vid, factor),
+                          lambda: libsumo.vehicle.setLaneChangeMode(vid, mode)]  # fmt: skip
+
+    def _bring_beside(self, event: _Event, ego: str, now: float, wanted_m: float, left_s: float) -> float | None:
+        """Pace a prepared vehicle beside the ego to a gap ``wanted_m`` ahead in ``left_s``;
+        its gap now (along the ego's heading while it is beside it, else along its way), None
+        while it is not on the ego's way or a slower vehicle ahead of it holds it back."""
+        vid = event.actors[0]
+        gap = roads.beside_gap(ego, vid)
+        gap = roads.route_gap(ego, vid) if gap is None else gap
+        if gap is None or _blocked(vid, gap, wanted_m):
+            return None
+        event.seen_s = now
+        ego_speed = libsumo.vehicle.getSpeed(ego)
+        fastest = max(CUT_IN_SPEED_FACTOR * libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(vid)),
+                      ego_speed + CUT_IN_OVERTAKE_MPS)  # fmt: skip
+        libsumo.vehicle.setSpeed(vid, min(_pace(ego_speed, gap, wanted_m, left_s), fastest))
+        road, lane = libsumo.vehicle.getRoadID(vid), libsumo.vehicle.getLaneIndex(vid)
+        ego_lane = libsumo.vehicle.getLaneIndex(ego)
+        if road == libsumo.vehicle.getRoadID(ego) and abs(lane - ego_lane) != 1:
+            side = 1 if lane > ego_lane or (lane == ego_lane and lane + 1 < libsumo.edge.getLaneNumber(road)) else -1
+            libsumo.vehicle.changeLane(vid, ego_lane + side, 1.0)  # to a lane beside the ego's
+        return gap
+
+    # --- cut-ins -----------------------------------------------------------------------------
+    def _make_cut_in(self, event: _Event, ego: str, now: float) -> _Event | None:
+        ego_speed = libsumo.vehicle.getSpeed(ego)
+        near, far = _cut_in_gaps(event.config, ego_speed)
+        if ego_speed < 3.0 or near >= far:
+            return None  # no gap in metres is also one in seconds at this speed
+        gap_m = float(self._rng.uniform(near, far))
+        found = self._beside(ego, now, event.due_s, gap_m)
+        if found is None:
+            return None
+        event.gap_m = gap_m
+        self._drive(event, found[0], now, found[1])
         return event
 
-    def _cut_now(self, event: _Event, hazard: HazardConfig, ego: str, now: float) -> bool:
-        """During a cut-in's approach: cut in once the gap is as drawn (True: the event goes on)."""
-        vid = event.actors[0]
-        ego_speed = libsumo.vehicle.getSpeed(ego)
-        gap = _beside_gap(ego, vid)
-        if gap is None:
-            return now - event.beside_s < CUT_IN_LOST_S  # gone from beside the ego: another candidate
-        event.beside_s = now
-        if ego_speed < 3.0:
-            return now < event.ends_s
-        libsumo.vehicle.setSpeed(vid, _approach_speed(ego_speed, gap, event.gap_m - 1.0))  # aims a metre short
-        near, _ = _cut_in_gaps(hazard, ego_speed)
-        if not near <= gap <= event.gap_m:
-            return now < event.ends_s  # not yet at the gap drawn, or closer than the scenario allows
+    def _cut_in_ready(self, event: _Event, ego: str, now: float) -> bool:
+        """A cut-in's vehicle paced to its gap; it cuts in once due and at the gap drawn."""
+        vid, ego_speed = event.actors[0], libsumo.vehicle.getSpeed(ego)
+        near, far = _cut_in_gaps(event.config, ego_speed)
+        wanted = float(np.clip(event.gap_m, near + 1.0, max(far, near + 1.0)))  # the gap drawn, at today's speed
+        if self._bring_beside(event, ego, now, wanted - 0.5, event.due_s - now - AHEAD_OF_TIME_S) is None:
+            return now - event.seen_s >= LOST_S  # gone from the ego's way: another candidate
+        gap = roads.beside_gap(ego, vid)
+        if gap is None or now < event.due_s or ego_speed < 3.0 or self._under_way(event.index):
+            return now >= event.ends_s
+        if not near <= gap <= wanted:
+            return now >= event.ends_s  # not yet at the gap drawn, or closer than the scenario allows
         speed = libsumo.vehicle.getSpeed(vid)
-        off_pace = not ego_speed - CUT_IN_APPROACH_MPS - 2.0 <= speed <= ego_speed + 0.5  # rammed, or pulling away
+        off_pace = not ego_speed - CUT_IN_APPROACH_MPS - 2.0 <= speed <= ego_speed + 3.0  # rammed, or pulling away
         leader = libsumo.vehicle.getLeader(ego, gap + 40.0)
         room = not leader or not leader[0] or leader[1] >= gap + libsumo.vehicle.getLength(vid) + CUT_IN_ROOM_M
-        if off_pace or not room:
-            return now < event.ends_s
-        lane = _into_ego_lane(ego, vid)
-        if lane is None or not _straight_ahead(ego, STRAIGHT_REACH_M):
-            return now < event.ends_s
+        lane = roads.into_ego_lane(ego, vid)
+        if off_pace or not room or lane is None or not roads.straight_ahead(ego, STRAIGHT_REACH_M):
+            return now >= event.ends_s
+        self._cut(event, ego, vid, lane, ego_speed)
+        self._turn_on(event, now, now + CUT_IN_S)
+        return False
+
+    @staticmethod
+    def _cut(event: _Event, ego: str, vid: str, lane: int, ego_speed: float) -> None:
         lateral = libsumo.vehicle.getMaxSpeedLat(vid)
         libsumo.vehicle.setMaxSpeedLat(vid, CUT_IN_LATERAL_MPS)  # across in about 1.5 s (a lane change is 3 s)
         libsumo.vehicle.setLaneChangeMode(vid, 0)
@@ -282,99 +492,215 @@ class HazardController:
         libsumo.vehicle.setDecel(vid, max(decel, (ego_speed - slower) / CUT_IN_BRAKE_S))
         libsumo.vehicle.slowDown(vid, slower, CUT_IN_BRAKE_S)
         libsumo.vehicle.setSpeed(vid, slower)
-        ego_mode = libsumo.vehicle.getLaneChangeMode(ego)
         libsumo.vehicle.setLaneChangeMode(ego, 0)  # the ego keeps its lane and brakes (no swerving around)
         event.restore.append(_react_late(ego))
         event.restore += [lambda: libsumo.vehicle.setDecel(vid, decel),
-                          lambda: libsumo.vehicle.setMaxSpeedLat(vid, lateral),
-                          lambda: libsumo.vehicle.setLaneChangeMode(vid, LANE_CHANGE_DEFAULT),
-                          lambda: libsumo.vehicle.setLaneChangeMode(ego, ego_mode)]  # fmt: skip
-        self._count += 1
-        event.number, event.hidden, event.started_s, event.ends_s = self._count, False, now, now + CUT_IN_S
-        return True
+                          lambda: libsumo.vehicle.setMaxSpeedLat(vid, lateral)]  # fmt: skip
 
-    def _hard_brake(self, hazard: HazardConfig, ego: str, now: float) -> _Event | None:
+    # --- hard braking --------------------------------------------------------------------------
+    def _make_hard_brake(self, event: _Event, ego: str, now: float) -> _Event | None:
+        """The ego's leader, else a vehicle from beside it (or made behind it) that will join
+        its lane ahead of it, paced to a gap within ``distance_m`` by the time it is due."""
+        hazard = event.config
+        ego_speed = libsumo.vehicle.getSpeed(ego)
+        if ego_speed < hazard.to_speed_mps + 4.0:
+            return None
         lo, hi = hazard.distance_m
-        leader = libsumo.vehicle.getLeader(ego, hi)
-        if not leader or not leader[0]:
+        event.gap_m = float(np.clip(ego_speed, lo + 0.25 * (hi - lo), hi - 0.25 * (hi - lo)))  # about 1 s
+        leader = libsumo.vehicle.getLeader(ego, LEADER_LOOK_M)
+        if leader and leader[0]:
+            if not self._movable(leader[0], ego) or now < event.due_s - SIDE_LEAD_S:
+                return None
+            found: tuple[str, float] | None = (leader[0], leader[1])
+        else:
+            found = self._beside(ego, now, event.due_s, event.gap_m)
+        if found is None:
             return None
-        vid, gap = leader
+        self._drive(event, found[0], now, found[1])
+        return event
+
+    def _hard_brake_ready(self, event: _Event, ego: str, now: float) -> bool:
+        vid, hazard = event.actors[0], event.config
+        leader = libsumo.vehicle.getLeader(ego, LEADER_LOOK_M)
+        if not leader or leader[0] != vid:
+            if event.leading:
+                return now - event.seen_s >= LOST_S  # another vehicle came between them
+            left_s = event.due_s - now - LEADER_JOIN_S - AHEAD_OF_TIME_S
+            if self._bring_beside(event, ego, now, event.gap_m + 2.0, left_s) is None:
+                return now - event.seen_s >= LOST_S
+            lane = roads.into_ego_lane(ego, vid)
+            gap = roads.beside_gap(ego, vid)
+            if lane is not None and gap is not None and gap >= event.gap_m - 2.0:
+                libsumo.vehicle.changeLane(vid, lane, 1.0)  # into the ego's lane ahead of it, into a safe gap
+            return now >= event.ends_s
+        event.leading, event.seen_s, gap = True, now, leader[1]
+        ego_speed = libsumo.vehicle.getSpeed(ego)
+        change = np.clip((event.gap_m - gap) / max(event.due_s - now, 1.0), -LEADER_PACE_MPS, LEADER_PACE_MPS)
+        libsumo.vehicle.setSpeed(vid, max(ego_speed + float(change), 1.0))
+        if now < event.due_s or self._under_way(event.index):
+            return now >= event.ends_s
+        lo, hi = hazard.distance_m
         speed = libsumo.vehicle.getSpeed(vid)
-        if not self._movable(vid, ego) or not lo <= gap <= hi or speed < hazard.to_speed_mps + 4.0:
-            return None
-        if not _straight_ahead(ego, gap + 10.0) and not _in_line(ego, vid):
-            return None
+        if not lo <= gap <= hi or speed < hazard.to_speed_mps + 4.0:
+            return now >= event.ends_s
+        if not roads.straight_ahead(ego, gap + 10.0) and not roads.in_line(ego, vid):
+            return now >= event.ends_s
+        braking_s = self._brake(event, vid, speed)
+        self._turn_on(event, now, now + braking_s + HOLD_S)
+        return False
+
+    @staticmethod
+    def _brake(event: _Event, vid: str, speed: float) -> float:
+        hazard = event.config
         decel, emergency = libsumo.vehicle.getDecel(vid), libsumo.vehicle.getEmergencyDecel(vid)
         libsumo.vehicle.setEmergencyDecel(vid, max(emergency, hazard.decel_mps2))
         libsumo.vehicle.setDecel(vid, hazard.decel_mps2)
         braking_s = (speed - hazard.to_speed_mps) / hazard.decel_mps2
         libsumo.vehicle.slowDown(vid, hazard.to_speed_mps, braking_s)
         libsumo.vehicle.setSpeed(vid, hazard.to_speed_mps)
-        restore = [lambda: libsumo.vehicle.setSpeed(vid, -1.0), lambda: libsumo.vehicle.setDecel(vid, decel),
-                   lambda: libsumo.vehicle.setEmergencyDecel(vid, emergency)]  # fmt: skip
-        return _Event(0, "hard_brake", [vid], now + braking_s + HOLD_S, restore)
+        event.restore += [lambda: libsumo.vehicle.setDecel(vid, decel),
+                          lambda: libsumo.vehicle.setEmergencyDecel(vid, emergency)]  # fmt: skip
+        return braking_s
 
-    def _jaywalker(self, hazard: HazardConfig, ego: str, now: float) -> _Event | None:
-        """A pedestrian at the kerb on the ego's side steps out where it reaches the ego's path
-        when the ego is about its braking distance (plus 5 m) away."""
-        lane_id = libsumo.vehicle.getLaneID(ego)
-        speed = libsumo.vehicle.getSpeed(ego)
-        if speed < 2.0 or not self._walk_edges or not _straight_ahead(ego, STRAIGHT_REACH_M):
-            return None  # on a straight road: the crossing direction, fixed at the start, stays across
-        edge, lane_index = libsumo.vehicle.getRoadID(ego), libsumo.vehicle.getLaneIndex(ego)
-        lanes = libsumo.edge.getLaneNumber(edge)
-        driving = [i for i in range(lanes) if "passenger" not in libsumo.lane.getDisallowed(f"{edge}_{i}")]
-        if lane_index not in driving:
+    # --- jaywalkers ----------------------------------------------------------------------------
+    def _make_jaywalker(self, event: _Event, ego: str, now: float) -> _Event | None:
+        """Where on the ego's way a jaywalker steps out: in front of a parked car on the ego's
+        side (``behind_parked``) about where the ego will be when it is due, else at the kerb
+        there, or beyond the rig's sight, where a pedestrian is placed to wait."""
+        hazard = event.config
+        if not self._walk_edges or libsumo.vehicle.getRoadID(ego).startswith(":"):
             return None
-        widths = [libsumo.lane.getWidth(f"{edge}_{i}") for i in range(lanes)]
-        kerb_m = widths[lane_index] / 2.0 + sum(widths[min(driving) : lane_index])  # ego lane centre to kerb
-        across_path = kerb_m + JAYWALK_STEP_M - JAYWALK_PATH_M  # walked until the pedestrian is in the ego's path
-        fast = speed + 2.0  # the ego may speed up meanwhile
-        reach = fast * across_path / hazard.walk_mps + fast * fast / (2.0 * EGO_STOP_DECEL) + 5.0
-        lo, hi = hazard.distance_m
-        if not lo <= reach <= hi:
-            return None
-        position = libsumo.vehicle.getLanePosition(ego)
-        if reach + 10.0 > libsumo.lane.getLength(lane_id) - position:
-            return None  # stay on the ego's road
-        # the road's own direction and the ego's place across it (the ego may be changing lanes)
-        ex, ey = libsumo.simulation.convert2D(edge, position, lane_index)
-        ax, ay = libsumo.simulation.convert2D(edge, position + reach, lane_index)
-        fwd = np.array([ax - ex, ay - ey]) / max(math.hypot(ax - ex, ay - ey), 1e-6)
-        left = np.array([-fwd[1], fwd[0]])
-        leader = libsumo.vehicle.getLeader(ego, reach + 20.0)
-        if leader and leader[0] and leader[1] < reach + 8.0:
-            return None  # a vehicle ahead would drive through the pedestrian
-        along, across = reach, -(kerb_m + JAYWALK_STEP_M)
-        if hazard.behind_parked:  # from just before the front bumper of the tallest parked car near there
-            near = []
-            for vid in sorted(self._parked):
-                px, py = libsumo.vehicle.getPosition(vid)  # its front bumper
-                rel = np.array([px - ex, py - ey])
-                if abs(float(rel @ fwd) - reach) < 6.0 and -kerb_m - 4.5 < float(rel @ left) < -kerb_m:
-                    near.append((libsumo.vehicle.getHeight(vid), float(rel @ fwd)))
-            if near:
-                along = max(near)[1] + 0.6
-                across -= JAYWALK_HIDDEN_M  # in line behind it, seen from the ego
-            elif self._late_s < JAYWALK_PARKED_WAIT_S:
-                return None  # wait a while for a place with a parked car, then step out in the open
-        start = np.array([ex, ey]) + fwd * along + left * across
-        length = abs(across) + widths[lane_index] / 2.0 + sum(widths[lane_index + 1 : max(driving) + 1]) + 1.0
-        self._people += 1
-        person = f"jaywalker_{self._people}"
-        kind = CHILD_TYPE if hazard.child else self._pedestrian_type or "DEFAULT_PEDTYPE"
-        libsumo.person.add(person, self._walk_edges[0], 0.0, typeID=kind)
-        libsumo.person.appendWaitingStage(person, 3600.0)
-        libsumo.person.moveToXY(person, "", float(start[0]), float(start[1]), _sumo_angle(left), keepRoute=2)
-        decel = libsumo.vehicle.getDecel(ego)
-        libsumo.vehicle.setDecel(ego, max(decel, EGO_STOP_DECEL))
-        restore = [lambda: libsumo.person.remove(person), lambda: libsumo.vehicle.setSpeed(ego, -1.0),
-                   lambda: libsumo.vehicle.setDecel(ego, decel)]  # fmt: skip
-        event = _Event(0, "jaywalker", [person], now + length / hazard.walk_mps + 1.0, restore)
-        event.path = (start, left.copy(), length)
+        limit = libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(ego))
+        pace = max(libsumo.vehicle.getSpeed(ego), JAYWALK_PACE_SHARE * limit)
+        want = _jaywalk_reach(hazard, pace, 2.0) + pace * max(event.due_s - now, 0.0)
+        parked = self._parked_ahead(ego, want) if hazard.behind_parked else None
+        if parked is not None:
+            event.parked, event.spot = parked, self._parked_at[parked]
+        else:
+            spot = self._open_spot(ego, want)
+            if spot is None:
+                return None
+            event.spot = spot
+            self._place_waiting(event, ego)
+        event.ends_s = event.due_s + JAYWALK_LATE_S
         return event
 
-    def _red_light(self, hazard: HazardConfig, ego: str, now: float) -> _Event | None:
+    def _parked_ahead(self, ego: str, want_m: float) -> str | None:
+        """The parked car on the ego's side of its way whose front is nearest ``want_m`` ahead
+        (between 20 m and ``want_m + 60`` m) on a straight stretch of its road."""
+        route = set(libsumo.vehicle.getRoute(ego)[libsumo.vehicle.getRouteIndex(ego) :])
+        best: tuple[float, str] | None = None
+        for vid, (road, pos) in self._parked_places().items():
+            if road not in route:
+                continue
+            ahead = libsumo.vehicle.getDrivingDistance(ego, road, pos)
+            if ahead == roads.INVALID or not 20.0 <= ahead <= want_m + 60.0 or not self._crossable(road, pos):
+                continue
+            place = roads.kerb(road, pos)
+            side = float((np.array(libsumo.vehicle.getPosition(vid)) - place.xy_m) @ place.left) if place else 0.0
+            if -4.5 < side < 0.0 and (best is None or abs(ahead - want_m) < best[0]):  # at the ego's kerb
+                best = (abs(ahead - want_m), vid)
+        return None if best is None else best[1]
+
+    def _parked_places(self) -> dict[str, tuple[str, float]]:
+        """Each parked car's road and the position of its front bumper along it."""
+        if not self._parked_at and self._parked:
+            self._parked_at = {v: (libsumo.vehicle.getRoadID(v), libsumo.vehicle.getLanePosition(v))
+                               for v in sorted(self._parked)}  # fmt: skip
+        return self._parked_at
+
+    def _open_spot(self, ego: str, want_m: float) -> tuple[str, float] | None:
+        """A place on the ego's way at least ``want_m`` ahead, on a straight stretch away from
+        parked cars, at a kerb that no sensor sees now."""
+        route, at = libsumo.vehicle.getRoute(ego), libsumo.vehicle.getRouteIndex(ego)
+        for road in route[at : at + 6]:
+            start = libsumo.vehicle.getDrivingDistance(ego, road, 0.0)
+            if start == roads.INVALID:
+                continue
+            length = libsumo.lane.getLength(f"{road}_0")
+            for pos in np.arange(max(want_m - start, JAYWALK_ROAD_M), length - 10.0, 10.0):
+                if not self._crossable(road, float(pos)) or self._parked_near(road, float(pos)):
+                    continue
+                place = roads.kerb(road, float(pos))
+                if place and not self._sight.sees(roads.in_ego_frame(ego, place.xy_m), 1.0 + HIDDEN_MARGIN_M):
+                    return road, float(pos)
+        return None
+
+    def _crossable(self, road: str, pos: float) -> bool:
+        """Whether a road is straight 40 m before ``pos`` and 10 m after, which lies on it."""
+        lane = f"{road}_0"
+        return JAYWALK_ROAD_M <= pos <= libsumo.lane.getLength(lane) - 10.0 and roads.straight_lane(
+            lane, max(pos - 40.0, 0.0), pos + 10.0
+        )
+
+    def _parked_near(self, road: str, pos: float) -> bool:
+        return any(r == road and abs(p - pos) < 8.0 for r, p in self._parked_places().values())
+
+    def _place_waiting(self, event: _Event, ego: str) -> None:
+        """A pedestrian placed at the kerb of the event's spot, facing across, waiting."""
+        start, direction, _ = self._crossing(event, ego)
+        self._people += 1
+        person = f"jaywalker_{self._people}"
+        kind = CHILD_TYPE if event.config.child else self._pedestrian_type or "DEFAULT_PEDTYPE"
+        libsumo.person.add(person, self._walk_edges[0], 0.0, typeID=kind)
+        libsumo.person.appendWaitingStage(person, 3600.0)
+        self._held[person] = (float(start[0]), float(start[1]), roads.sumo_angle(direction))
+        libsumo.person.moveToXY(person, "", *self._held[person], keepRoute=2)
+        event.actors.append(person)
+        event.restore.append(lambda: self._release(person))
+
+    def _crossing(self, event: _Event, ego: str) -> tuple[np.ndarray, np.ndarray, float]:
+        """Where the jaywalker starts (beyond the kerb; in front of the parked car, in line behind
+        it), its direction across the road and the length of its walk past the last lane."""
+        road, pos = event.spot
+        place = roads.kerb(road, pos)
+        if place is None:
+            raise libsumo.TraCIException(f"road {road} has no lane open to cars")
+        start = place.xy_m - place.left * JAYWALK_STEP_M
+        if event.parked:
+            front = np.array(libsumo.vehicle.getPosition(event.parked))
+            start = start + place.forward * (float((front - place.xy_m) @ place.forward) + 0.6)
+            start = start - place.left * JAYWALK_HIDDEN_M  # in line behind the car, seen from the ego
+        length = float((place.xy_m - start) @ place.left) + place.across_m() + 1.0
+        return start, place.left.copy(), length
+
+    def _jaywalker_ready(self, event: _Event, ego: str, now: float) -> bool:
+        """The jaywalker steps out once the ego is its reach away from the spot."""
+        hazard, (road, pos) = event.config, event.spot
+        ahead = libsumo.vehicle.getDrivingDistance(ego, road, pos)
+        if ahead == roads.INVALID or ahead < 0.0:
+            return True  # the ego went another way, or passed
+        speed = libsumo.vehicle.getSpeed(ego)
+        place = roads.kerb(road, pos)
+        lane = _lane_on(ego, road)
+        if place is None or speed < 2.0 or lane is None or self._under_way(event.index):
+            return now >= event.ends_s
+        lo, hi = hazard.distance_m
+        reach = float(np.clip(_jaywalk_reach(hazard, speed, place.to_lane_m(lane)), lo, hi))
+        leader = libsumo.vehicle.getLeader(ego, ahead + 20.0)
+        if ahead > reach or (leader and leader[0] and leader[1] < ahead + 8.0):
+            return now >= event.ends_s  # not there yet, or a vehicle ahead would drive through the pedestrian
+        if not roads.straight_ahead(ego, min(ahead, STRAIGHT_REACH_M)):
+            return now >= event.ends_s
+        start, direction, length = self._crossing(event, ego)
+        if event.parked:
+            self._place_waiting(event, ego)  # hidden by the parked car
+        event.actors = event.actors[-1:]
+        self._held.pop(event.actors[0], None)  # it walks
+        libsumo.person.moveToXY(event.actors[0], "", float(start[0]), float(start[1]), roads.sumo_angle(direction),
+                                keepRoute=2)  # fmt: skip
+        event.path = (start, direction, length)
+        decel = libsumo.vehicle.getDecel(ego)
+        libsumo.vehicle.setDecel(ego, max(decel, EGO_STOP_DECEL))
+        event.restore += [lambda: libsumo.vehicle.setSpeed(ego, -1.0), lambda: libsumo.vehicle.setDecel(ego, decel)]
+        self._turn_on(event, now, now + length / hazard.walk_mps + 1.0)
+        return False
+
+    # --- red-light runners ------------------------------------------------------------------------
+    def _red_light(self, event: _Event, ego: str, now: float) -> _Event | None:
+        hazard = event.config
+        if now < event.due_s or self._under_way(event.index):
+            return None
         lo, hi = hazard.distance_m
         ahead = [t for t in libsumo.vehicle.getNextTLS(ego) if lo <= t[2] <= hi]
         if not ahead:
@@ -414,27 +740,46 @@ class HazardController:
         vid, speed, lasts_s = sorted(candidates)[int(self._rng.integers(0, len(candidates)))]
         libsumo.vehicle.setSpeedMode(vid, IGNORE_RED_AND_RIGHT_OF_WAY)
         libsumo.vehicle.setSpeed(vid, speed)
-        restore = [
-            lambda: libsumo.vehicle.setSpeed(vid, -1.0),
-            lambda: libsumo.vehicle.setSpeedMode(vid, SPEED_DEFAULT),
-        ]
-        return _Event(0, "red_light", [vid], now + max(RED_LIGHT_S, lasts_s), restore)
+        event.actors.append(vid)
+        event.restore += [lambda: libsumo.vehicle.setSpeed(vid, -1.0),
+                          lambda: libsumo.vehicle.setSpeedMode(vid, SPEED_DEFAULT)]  # fmt: skip
+        self._turn_on(event, now, now + max(RED_LIGHT_S, lasts_s))
+        return event
 
 
-STRAIGHT_DEG = 6.0
 STRAIGHT_REACH_M = 30.0
-IN_LINE_M, IN_LINE_DEG = 1.0, 8.0
 
 
-def _forward(vid: str) -> np.ndarray:
-    """A vehicle's unit heading in the map plane."""
-    yaw = float(sumo_angle_to_yaw(libsumo.vehicle.getAngle(vid)))
-    return np.array([math.cos(yaw), math.sin(yaw)])
+def _blocked(vid: str, gap_m: float, wanted_m: float) -> bool:
+    """Whether a vehicle short of its gap has a leader in its lane, no faster than it, before
+    the place it should reach."""
+    leader = libsumo.vehicle.getLeader(vid, max(wanted_m - gap_m, 0.0) + 10.0)
+    if gap_m >= wanted_m - 2.0 or not leader or not leader[0]:
+        return False
+    return bool(libsumo.vehicle.getSpeed(leader[0]) <= libsumo.vehicle.getSpeed(vid) + 1.0)
 
 
-def _sumo_angle(direction: np.ndarray) -> float:
-    """SUMO's angle of a direction in the map plane: degrees clockwise from north."""
-    return math.degrees(math.atan2(direction[0], direction[1])) % 360.0
+def _free(lane: str, pos: float, margin_m: float) -> bool:
+    """Whether no vehicle on a lane is within ``margin_m`` of ``pos``."""
+    on_lane = libsumo.lane.getLastStepVehicleIDs(lane)
+    return all(abs(libsumo.vehicle.getLanePosition(v) - pos) > margin_m for v in on_lane)
+
+
+def _lane_on(ego: str, road: str) -> int | None:
+    """The ego's lane index on a road of its way: its own on its road, else the lane its
+    route continues on there."""
+    if libsumo.vehicle.getRoadID(ego) == road:
+        return int(libsumo.vehicle.getLaneIndex(ego))
+    lane = next((lane for lane in roads.lane_ahead(ego) if lane.rsplit("_", 1)[0] == road), None)
+    return None if lane is None else int(lane.rsplit("_", 1)[1])
+
+
+def _jaywalk_reach(hazard: HazardConfig, speed: float, kerb_m: float) -> float:
+    """How far ahead of the ego a jaywalker steps out: the ego's way (at 2 m/s faster, it may
+    speed up) while the pedestrian walks into its path, plus its braking distance and 5 m."""
+    fast = speed + 2.0
+    across_path = kerb_m + JAYWALK_STEP_M - JAYWALK_PATH_M
+    return fast * across_path / hazard.walk_mps + fast * fast / (2.0 * EGO_STOP_DECEL) + 5.0
 
 
 def _react_late(ego: str) -> Callable[[], None]:
@@ -451,114 +796,21 @@ def _cut_in_gaps(hazard: HazardConfig, ego_speed: float) -> tuple[float, float]:
             min(hazard.distance_m[1], hazard.time_gap_s[1] * ego_speed))  # fmt: skip
 
 
-def _approach_speed(ego_speed: float, gap_m: float, wanted_m: float) -> float:
-    """A cut-in's approach: the ego's speed, up to 6 m/s faster while the gap is short of the
-    wanted one and up to 4 m/s slower while it is longer (closing the difference in a second)."""
-    change = float(np.clip(wanted_m - gap_m, -CUT_IN_APPROACH_MPS, CUT_IN_OVERTAKE_MPS))
+def _approach_s(gap_m: float, wanted_m: float) -> float:
+    """About how long a vehicle beside the ego takes from a gap to the one wanted (from far
+    behind at 3/4 of ``CATCH_UP_MPS``), with 3 s to spare."""
+    far = max(-CUT_IN_BEHIND_M - gap_m, 0.0)
+    near = abs(wanted_m - max(gap_m, -CUT_IN_BEHIND_M))
+    return far / (0.75 * CATCH_UP_MPS) + near / (0.75 * CUT_IN_OVERTAKE_MPS) + 3.0
+
+
+def _pace(ego_speed: float, gap_m: float, wanted_m: float, left_s: float) -> float:
+    """A speed that brings a vehicle's gap ahead of the ego to ``wanted_m`` in ``left_s`` (at
+    least 1 s): up to 6 m/s faster than the ego (10 m/s while more than 30 m behind it), up to
+    4 m/s slower."""
+    fastest = CUT_IN_OVERTAKE_MPS if gap_m >= -CUT_IN_BEHIND_M else CATCH_UP_MPS
+    change = float(np.clip((wanted_m - gap_m) / max(left_s, 1.0), -CUT_IN_APPROACH_MPS, fastest))
     return max(ego_speed + change, 1.0)
-
-
-def _same_way(ego: str, vid: str) -> bool:
-    """Whether a vehicle's route goes on where the ego's does: the ego's next road is among its
-    next two, or the ego's road goes on for ``CUT_IN_ROAD_M`` (they drive side by side as long)."""
-    route, at = libsumo.vehicle.getRoute(ego), libsumo.vehicle.getRouteIndex(ego)
-    left_m = libsumo.lane.getLength(libsumo.vehicle.getLaneID(ego)) - libsumo.vehicle.getLanePosition(ego)
-    if at + 1 >= len(route) or left_m >= CUT_IN_ROAD_M:
-        return True
-    theirs, their_at = libsumo.vehicle.getRoute(vid), libsumo.vehicle.getRouteIndex(vid)
-    return route[at + 1] in theirs[their_at + 1 : their_at + 3]
-
-
-def _beside_gap(ego: str, vid: str) -> float | None:
-    """A vehicle's gap ahead of the ego (its rear from the ego's front bumper, along the ego's
-    heading) while it drives in a lane beside the ego's (its centre 1.5 to 6 m to the side, its
-    heading within 20 degrees); None otherwise."""
-    forward, their_forward = _forward(ego), _forward(vid)
-    length = libsumo.vehicle.getLength(vid)
-    rear = np.array(libsumo.vehicle.getPosition(vid)) - length * their_forward
-    offset = rear + 0.5 * length * their_forward - np.array(libsumo.vehicle.getPosition(ego))
-    across = abs(float(offset @ np.array([-forward[1], forward[0]])))
-    if not 1.5 <= across <= 6.0 or float(forward @ their_forward) < math.cos(math.radians(20.0)):
-        return None
-    return float((rear - np.array(libsumo.vehicle.getPosition(ego))) @ forward)
-
-
-def _side_gaps(ego: str) -> dict[str, float]:
-    """The nearest vehicles ahead and behind in the lanes left and right of the ego's (SUMO's
-    neighbours, across the road's edges), each with its gap ahead of the ego (from the ego's
-    front bumper to its rear; negative: beside or behind)."""
-    gaps = {}
-    ego_length, ego_min_gap = libsumo.vehicle.getLength(ego), libsumo.vehicle.getMinGap(ego)
-    for mode in (0, 1):  # followers left, right: their front bumper (and min gap) behind the ego's rear
-        for vid, behind in libsumo.vehicle.getNeighbors(ego, mode):
-            length, min_gap = libsumo.vehicle.getLength(vid), libsumo.vehicle.getMinGap(vid)
-            gaps[vid] = -(behind + min_gap + ego_length + length)
-    for mode in (2, 3):  # leaders left, right: their rear ahead of the ego's front bumper and min gap
-        for vid, ahead in libsumo.vehicle.getNeighbors(ego, mode):
-            gaps[vid] = ahead + ego_min_gap
-    return gaps
-
-
-def _into_ego_lane(ego: str, vid: str) -> int | None:
-    """The lane index a vehicle beside the ego changes to, to be in the ego's lane or the one
-    the ego's route continues on (None: no lane beside it is)."""
-    lane = libsumo.vehicle.getLaneID(ego)
-    ahead = next((best[5] for best in libsumo.vehicle.getBestLanes(ego) if best[0] == lane), (lane,))
-    edge, index = libsumo.vehicle.getRoadID(vid), int(libsumo.vehicle.getLaneIndex(vid))
-    for side in (index - 1, index + 1):
-        if f"{edge}_{side}" in (lane, *ahead):
-            return side
-    return None
-
-
-def _straight_ahead(ego: str, reach_m: float) -> bool:
-    """Whether the ego's way runs straight (within ``STRAIGHT_DEG``) over ``reach_m`` ahead, along
-    its lane and the lanes its route continues on: there, constant velocities predict where
-    the ego and the vehicles ahead go, and a time to collision means what it says."""
-    road = libsumo.vehicle.getRoadID(ego)
-    if road.startswith(":"):
-        return False
-    lane = libsumo.vehicle.getLaneID(ego)
-    ahead = next((best[5] for best in libsumo.vehicle.getBestLanes(ego) if best[0] == lane), (lane,))
-    path = [np.array(libsumo.vehicle.getPosition(ego))]
-    travelled = libsumo.vehicle.getLanePosition(ego)  # along the first lane's shape
-    for next_lane in ahead or (lane,):
-        shape = np.array(libsumo.lane.getShape(next_lane), dtype=float)
-        along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(shape, axis=0), axis=1))])
-        path += list(shape[along > travelled])
-        travelled = 0.0
-        if _length(np.array(path)) >= reach_m:
-            break
-    points = np.array(path)
-    if _length(points) < reach_m:
-        return False  # the route ends (or is not known) within reach
-    x0, x1, x2 = (_at(points, s) for s in (0.0, reach_m / 2.0, reach_m))
-    turn = math.atan2(*(x2 - x1)[::-1]) - math.atan2(*(x1 - x0)[::-1])
-    return abs(math.degrees(math.atan2(math.sin(turn), math.cos(turn)))) <= STRAIGHT_DEG
-
-
-def _in_line(ego: str, vid: str) -> bool:
-    """Whether a vehicle ahead is in line with the ego (a leader on a gentle bend): its centre
-    within ``IN_LINE_M`` of the ego's heading line, its heading within ``IN_LINE_DEG``; a time to
-    collision under constant velocity then still says how close a stop ahead comes."""
-    forward, their_forward = _forward(ego), _forward(vid)
-    half = libsumo.vehicle.getLength(vid) / 2.0
-    centre = np.array(libsumo.vehicle.getPosition(vid)) - half * their_forward
-    offset = centre - np.array(libsumo.vehicle.getPosition(ego))
-    left = np.array([-forward[1], forward[0]])
-    across = abs(float(offset @ left))
-    turn = math.degrees(math.atan2(float(their_forward @ left), float(their_forward @ forward)))
-    return across <= IN_LINE_M and abs(turn) <= IN_LINE_DEG
-
-
-def _length(points: np.ndarray) -> float:
-    return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()) if len(points) > 1 else 0.0
-
-
-def _at(points: np.ndarray, distance_m: float) -> np.ndarray:
-    """The point ``distance_m`` along a polyline."""
-    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
-    return np.array([np.interp(distance_m, along, points[:, 0]), np.interp(distance_m, along, points[:, 1])])
 
 
 __all__ = ["ActiveHazard", "HazardController"]

@@ -50,6 +50,8 @@ REROUTING_OPTIONS = ("--device.rerouting.probability", "1", "--device.rerouting.
 # 60 m: a scene is recorded where there is traffic, not on an empty edge of the town.
 EGO_BUSY_RADIUS_M = 60.0
 EGO_BUSY_SHARE = 0.25
+HAZARD_EGO_FLOW, HAZARD_EGO_ROAD_M = 0.5, 1500.0  # in a hazard scene, the ego is picked among cars driving at
+# least this share of the speed limit whose route stays on roads as fast this far
 # A turning vehicle waits for a pedestrian this close to their conflict point (SUMO's
 # default, 10 m, lets a busy crossing hold a turn for minutes and jam the junction).
 CROSSING_GAP_M = 4.0
@@ -132,11 +134,14 @@ class Traffic:
         self.counts = TrafficCounts()
         self._hazards: HazardController | None = None
         if scenario.hazards:
+            from cosim.hazard_plan import Sight
             from cosim.hazards import HazardController
 
             shortest = min(self._variants.get("pedestrian", []), key=lambda v: v.height_m, default=None)
+            cars = tuple(v.type_id for v in self._variants.get("car", []))
             self._hazards = HazardController(scenario.hazards, scenario.seed, self._parked, self._index.walk_edges,
-                                             shortest.type_id if shortest is not None else "")  # fmt: skip
+                                             Sight.of_rig(scenario.sensors),
+                                             shortest.type_id if shortest is not None else "", cars)  # fmt: skip
         self._ego_collided = False
 
     def _open_targets(self, targets: dict[str, int]) -> dict[str, int]:
@@ -278,16 +283,24 @@ class Traffic:
 
     # --- stepping --------------------------------------------------------------------------
     def warm_up(self) -> None:
-        """Fill the town: run the warm-up, then pick (or insert) the ego."""
-        steps = round(self._scenario.warmup_s / self._scenario.step_s)
+        """Fill the town: run the warm-up, then pick (or insert) the ego. In a hazard scene the
+        ego is picked the hazards' lead time before the warm-up ends (at most all of it), and
+        the first events are prepared meanwhile."""
+        step_s = self._scenario.step_s
+        steps = round(self._scenario.warmup_s / step_s)
+        lead = 0 if self._hazards is None else min(round(self._hazards.lead_s / step_s), steps)
         self._add_parked()
-        for i in range(steps):
+        for i in range(steps - lead):
             if i % 10 == 0:
                 self._top_up(max_new=40)
             self._advance()
         self._choose_ego()
         x, y = libsumo.vehicle.getPosition(self._ego)
         self._ego_xy = (x, y)
+        if self._hazards is not None:
+            self._hazards.begin(self._time() + lead * step_s)  # the first events are due after the warm-up
+        for _ in range(lead):
+            self.step()
 
     def _choose_ego(self) -> None:
         ego = self._scenario.ego
@@ -369,6 +382,9 @@ class Traffic:
                                 "network's longest route")  # fmt: skip
             self._insert_ego(self._longest_route(), "the network's longest route")
             return
+        if self._scenario.hazards:  # hazards need an ego that drives, not one queueing in a jam
+            flowing = [v for v in cars if _flowing(v)]
+            cars = [v for v in flowing if _staying(v)] or flowing or cars
         cars = [cars[i] for i in busiest(_positions(cars), _positions(), EGO_BUSY_RADIUS_M, EGO_BUSY_SHARE)]
         self._ego = cars[int(self._rng.integers(0, len(cars)))]
 
@@ -533,6 +549,27 @@ def _positions(vehicles: list[str] | None = None) -> npt.NDArray[np.float64]:
         return np.array([libsumo.vehicle.getPosition(v) for v in vehicles], dtype=np.float64).reshape(-1, 2)
     people = [libsumo.person.getPosition(p) for p in libsumo.person.getIDList()]
     return np.concatenate([_positions(list(libsumo.vehicle.getIDList())), np.array(people).reshape(-1, 2)])
+
+
+def _flowing(vid: str) -> bool:
+    """Whether a vehicle drives at least ``HAZARD_EGO_FLOW`` of its lane's speed limit."""
+    lane = libsumo.vehicle.getLaneID(vid)
+    return bool(lane) and libsumo.vehicle.getSpeed(vid) >= HAZARD_EGO_FLOW * libsumo.lane.getMaxSpeed(lane)
+
+
+def _staying(vid: str) -> bool:
+    """Whether a vehicle's route stays on roads as fast as its own for ``HAZARD_EGO_ROAD_M`` (it
+    is not about to leave a motorway)."""
+    limit = libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(vid))
+    route, at = libsumo.vehicle.getRoute(vid), libsumo.vehicle.getRouteIndex(vid)
+    ahead = -libsumo.vehicle.getLanePosition(vid)
+    for road in route[at:]:
+        if libsumo.lane.getMaxSpeed(f"{road}_0") < limit - 0.1:
+            return False
+        ahead += libsumo.lane.getLength(f"{road}_0")
+        if ahead >= HAZARD_EGO_ROAD_M:
+            return True
+    return False
 
 
 def _spread(items: list[str], count: int) -> list[str]:
