@@ -135,7 +135,8 @@ def beside_gap(ego: str, vid: str) -> float | None:
 
 def same_way(ego: str, vid: str, road_m: float) -> bool:
     """Whether a vehicle's route goes on where the ego's does: the ego's next road is among its
-    next two, or the ego's road goes on for ``road_m`` (they drive side by side as long)."""
+    next two, or the ego's road goes on for ``road_m`` (they drive side by side as long; inf:
+    the next road must be theirs)."""
     route, at = libsumo.vehicle.getRoute(ego), libsumo.vehicle.getRouteIndex(ego)
     left_m = libsumo.lane.getLength(libsumo.vehicle.getLaneID(ego)) - libsumo.vehicle.getLanePosition(ego)
     if at + 1 >= len(route) or left_m >= road_m:

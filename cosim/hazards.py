@@ -82,7 +82,7 @@ REACTION_S = 0.6  # the ego's driver decides this often while surprised (SUMO's 
 CUT_IN_LATERAL_MPS = 2.5  # the cutting vehicle's sideways speed
 CUT_IN_ROOM_M = 1.0  # free space it needs in front of it in the ego's lane (no one is cut into)
 CUT_IN_MAX_DECEL = 4.0  # m/s^2: the cutting vehicle brakes no harder than this (the ego can follow)
-CUT_IN_SPEED_FACTOR = 1.3  # of the speed limit: the fastest a prepared vehicle drives (or 6 m/s above the ego)
+CUT_IN_SPEED_FACTOR = 1.3  # of the speed limit: the fastest a prepared vehicle drives (or as fast as it must)
 CUT_IN_BEHIND_M = 30.0  # it may start up to this far behind the ego's front, and overtake
 CUT_IN_OVERTAKE_MPS = 6.0  # how much faster than the ego it overtakes
 CUT_IN_LOOK_M, CUT_IN_APPROACH_MPS = 40.0, 4.0  # it may start up to 40 m ahead, and drop back
@@ -97,11 +97,17 @@ AHEAD_OF_TIME_S = 3.0  # a prepared vehicle is brought to its place this long be
 LEADER_LOOK_M = 120.0  # a hard brake's leader is found within this distance ahead of the ego
 LEADER_PACE_MPS = 5.0  # and paced at most this much slower or faster than the ego to its gap
 LEADER_JOIN_S = 4.0  # a vehicle brought from beside joins the ego's lane this long before it is due
+LEADER_SETTLE_S = 3.0  # and brakes no sooner than this after it became the ego's leader
 HOLD_S = 2.0
 RED_LIGHT_S = 10.0
 RED_RUN_MPS = 9.0  # a red-light runner speeds up to at least this
 RED_MARGIN_S = 1.5  # it leaves the junction this long before the ego can reach it (or enters after)
 JUNCTION_M = 25.0  # the way through a junction
+RED_NEAR_M = 60.0  # a runner is within this of its stop line
+RED_LEAD_S, RED_LATE_S = 15.0, 30.0  # a red-light runner is prepared this long before it is due, given up after
+RED_EARLY_S = 2.0  # and may run this long before it is due
+RED_ACTUATE_S = 10.0  # the ego's light turns green for it if it would reach it within this, from this before due
+RED_PLAN_M = 200.0  # the ego's next light is looked at within this
 JAYWALK_PATH_M, JAYWALK_LOOK_M = 1.8, 40.0  # the ego's path: this far either side of its lane centre
 JAYWALK_STEP_M = 0.6  # the pedestrian starts this far beyond the kerb
 JAYWALK_HIDDEN_M = 0.5  # and this much farther when it starts in front of a parked car
@@ -109,7 +115,9 @@ JAYWALK_LEAD_S = 20.0  # its place is chosen this long before it is due
 JAYWALK_LATE_S = 40.0  # and given up this long after (the ego may wait at a red light before it)
 JAYWALK_PACE_SHARE = 0.7  # of the speed limit: the ego's pace, to tell where it will be when it is due
 JAYWALK_ROAD_M = 25.0  # it steps out at least this far along its road, and 10 m before the road's end
-LEADS_S = {"cut_in": MAKE_LEAD_S, "hard_brake": MAKE_LEAD_S, "jaywalker": JAYWALK_LEAD_S, "red_light": 0.0}
+JAYWALK_PARKED_WAIT_S = 10.0  # a jaywalker due waits this long for the ego to come to a parked car
+JAYWALK_CATCH_M = 4.0  # it steps out when the ego is its reach or up to this much less away
+LEADS_S = {"cut_in": MAKE_LEAD_S, "hard_brake": MAKE_LEAD_S, "jaywalker": JAYWALK_LEAD_S, "red_light": RED_LEAD_S}
 PREPARED_AT_ONCE = {"cut_in": 2, "hard_brake": 1, "jaywalker": 2, "red_light": 1}  # a kind's next events
 
 
@@ -126,6 +134,7 @@ class _Event:
     gap_m: float = 0.0  # cut_in: the gap it cuts in at; hard_brake: the gap its leader is paced to
     seen_s: float = 0.0  # when its actor was last where the preparation needs it
     leading: bool = False  # hard_brake: its vehicle has been the ego's leader
+    led_s: float = 0.0  # since then
     spot: tuple[str, float] = ("", 0.0)  # jaywalker: the road and the position where it steps out
     parked: str = ""  # jaywalker: the parked car it steps out in front of
     path: tuple[np.ndarray, np.ndarray, float] | None = None  # jaywalker: start, unit direction, length
@@ -183,6 +192,7 @@ class HazardController:
         if not self._schedules:
             self.begin(now)
         self._way_back.note(ego)
+        self._take_back_unmade()
         self._hold_people(ego)
         for event in list(self._events):
             self._move(event, ego, now)
@@ -205,7 +215,7 @@ class HazardController:
         if now < due - LEADS_S[hazard.kind]:
             return
         make = {"cut_in": self._make_cut_in, "hard_brake": self._make_hard_brake, "jaywalker": self._make_jaywalker,
-                "red_light": self._red_light}[hazard.kind]  # fmt: skip
+                "red_light": self._make_red_light}[hazard.kind]  # fmt: skip
         try:
             event = make(_Event(index, hazard, [], due, due + LATE_S), ego, now)
         except libsumo.TraCIException:
@@ -216,10 +226,7 @@ class HazardController:
     def _move(self, event: _Event, ego: str, now: float) -> None:
         prepared = not event.number
         try:
-            if prepared and self._not_made(event):
-                done = True
-            else:
-                done = self._ready(event, ego, now) if prepared else self._advance(event, ego, now)
+            done = self._ready(event, ego, now) if prepared else self._advance(event, ego, now)
         except libsumo.TraCIException:
             done = True  # an actor left the simulation
         if done:
@@ -233,7 +240,7 @@ class HazardController:
     def _ready(self, event: _Event, ego: str, now: float) -> bool:
         """One step of a preparation (it may start the event); True: it is given up."""
         ready = {"cut_in": self._cut_in_ready, "hard_brake": self._hard_brake_ready,
-                 "jaywalker": self._jaywalker_ready}[event.kind]  # fmt: skip
+                 "jaywalker": self._jaywalker_ready, "red_light": self._red_light_ready}[event.kind]  # fmt: skip
         return ready(event, ego, now)
 
     def _turn_on(self, event: _Event, now: float, ends_s: float) -> None:
@@ -245,23 +252,21 @@ class HazardController:
     def _under_way(self, index: int) -> bool:
         return any(e.index == index and e.number for e in self._events)
 
-    def _not_made(self, event: _Event) -> bool:
-        """Whether the vehicle made for a preparation could not enter the road (it is taken
-        back rather than entering later, when it could be in sight)."""
-        made = [a for a in event.actors if a in self._pending]
-        if not made:
-            return False
-        self._pending.difference_update(made)
+    def _take_back_unmade(self) -> None:
+        """Vehicles made last step that could not enter the road are taken back (rather than
+        entering later, when they could be in sight); their preparations end."""
         waiting = set(libsumo.simulation.getPendingVehicles())
-        for vid in waiting.intersection(made):
+        for vid in sorted(self._pending & waiting):
             libsumo.vehicle.remove(vid)
-        return bool(waiting.intersection(made))
+        self._pending.clear()
 
     def _hold_ego_lane(self, ego: str) -> None:
-        """The ego keeps its lane while a cut-in is prepared (lane changes its route needs
-        only) and changes none while one is under way; then it gets its own lane changes back."""
+        """The ego keeps its lane while a cut-in is prepared or its leader is paced for a hard
+        brake (lane changes its route needs only) and changes none while a cut-in is under way;
+        then it gets its own lane changes back."""
         cut_ins = [e for e in self._events if e.kind == "cut_in"]
-        mode = 0 if any(e.number for e in cut_ins) else KEEP_LANE if cut_ins else None
+        held = cut_ins or [e for e in self._events if e.kind == "hard_brake" and e.leading]
+        mode = 0 if any(e.number for e in cut_ins) else KEEP_LANE if held else None
         if mode is None and self._ego_mode is not None:
             libsumo.vehicle.setLaneChangeMode(ego, self._ego_mode)
             self._ego_mode = None
@@ -320,14 +325,14 @@ class HazardController:
         return (bool(vid) and vid != ego and vid not in self._parked and vid not in busy
                 and libsumo.vehicle.getVehicleClass(vid) not in ("bicycle", "pedestrian"))  # fmt: skip
 
-    def _beside(self, ego: str, now: float, due: float, wanted_m: float) -> tuple[str, float] | None:
+    def _beside(self, ego: str, now: float, due: float, wanted_m: float, road_m: float) -> tuple[str, float] | None:
         """A vehicle to bring beside the ego, ``wanted_m`` ahead of it, for an event due at
         ``due``, with its gap ahead of the ego now. Once it needs the time left to get there:
         the first in a lane beside the ego's on either side of that place (from as far behind
         the ego as a car is made to 40 m ahead); where a lane beside it
         is empty up to there, from ``MAKE_LEAD_S`` before, a car made there out of the rig's
         sight; else one from a lane farther out (it moves over). Of those, the one that gets
-        there soonest."""
+        there soonest. ``road_m``: how far along the ego's way it must go (see ``same_way``)."""
         if now < due - MAKE_LEAD_S:
             return None
         around = self._around(ego)
@@ -341,14 +346,14 @@ class HazardController:
             ahead = [f for f in line if f[0] >= wanted_m]
             firsts += [max(behind)] if behind else []
             firsts += [min(ahead)] if ahead else []
-            if not [f for f in line if f[0] < wanted_m + 10.0]:
-                empty.append(side)
-        found = [(vid, gap) for gap, vid in firsts if self._usable(vid, ego)]
+            if not [vid for gap, vid in line if gap < wanted_m + 10.0 and roads.same_way(ego, vid, float("inf"))]:
+                empty.append(side)  # but for vehicles about to leave the ego's way
+        found = [(vid, gap) for gap, vid in firsts if self._usable(vid, ego, gap, wanted_m, road_m)]
         if not found and empty:
             vid = self._make_behind(ego, empty)
             return None if vid is None else (vid, -self._behind_m)
         if not found:  # from a lane farther out, or from behind the ego in its lane
-            found = [(vid, gap) for vid, (lane, gap) in around.items() if self._usable(vid, ego)
+            found = [(vid, gap) for vid, (lane, gap) in around.items() if self._usable(vid, ego, gap, wanted_m, road_m)
                      and abs(lane - index) != 1 and -CUT_IN_BEHIND_M <= gap <= CUT_IN_LOOK_M]  # fmt: skip
         if not found:
             return None
@@ -366,14 +371,16 @@ class HazardController:
             for lane in roads.car_lanes(road):
                 for vid in libsumo.lane.getLastStepVehicleIDs(lane):
                     gap = start + libsumo.vehicle.getLanePosition(vid) - libsumo.vehicle.getLength(vid)
-                    if -self._behind_m <= gap <= CUT_IN_LOOK_M and not (lane == own and gap > 0.0):
+                    if -self._behind_m <= gap <= CUT_IN_LOOK_M and not (lane == own and gap > 0.0) and vid != ego:
                         found[vid] = (int(lane.rsplit("_", 1)[1]), gap)
         return dict(sorted(found.items()))
 
-    def _usable(self, vid: str, ego: str) -> bool:
-        """A vehicle beside the ego can act: free, going its way, and 3 m/s faster than it if need be."""
-        return (self._movable(vid, ego) and libsumo.vehicle.getMaxSpeed(vid) >= libsumo.vehicle.getSpeed(ego) + 3.0
-                and roads.same_way(ego, vid, CUT_IN_ROAD_M))  # fmt: skip
+    def _usable(self, vid: str, ego: str, gap_m: float, wanted_m: float, road_m: float) -> bool:
+        """A vehicle beside the ego can act: free, going its way, and, when it is short of the
+        place wanted, able to drive 3 m/s faster than the ego and driving at half its speed or more."""
+        ego_speed = libsumo.vehicle.getSpeed(ego)
+        fast = libsumo.vehicle.getMaxSpeed(vid) >= ego_speed + 3.0 and libsumo.vehicle.getSpeed(vid) >= 0.5 * ego_speed
+        return self._movable(vid, ego) and (gap_m >= wanted_m or fast) and roads.same_way(ego, vid, road_m)
 
     def _make_behind(self, ego: str, sides: list[int]) -> str | None:
         """A car made in a lane beside the ego's (on one of ``sides``, +1 left, -1 right) on the
@@ -393,14 +400,15 @@ class HazardController:
                     continue
                 xy = np.array(libsumo.simulation.convert2D(way[0], pos, lane_index))
                 if not self._sight.sees(roads.in_ego_frame(ego, xy), CAR_RADIUS_M + HIDDEN_MARGIN_M):
-                    return self._add_car(ego, way, pos, lane_index)
+                    route, at = libsumo.vehicle.getRoute(ego), libsumo.vehicle.getRouteIndex(ego)
+                    return self._add_car([*way, *route[at + 1 :]], pos, lane_index)
         return None
 
-    def _add_car(self, ego: str, way: list[str], pos: float, lane_index: int) -> str:
+    def _add_car(self, roads_on: list[str], pos: float, lane_index: int) -> str:
+        """A car made on the first of ``roads_on`` (its route), ``pos`` along it."""
         self._made += 1
         vid = f"{MADE}_{self._made}"
-        route, at = libsumo.vehicle.getRoute(ego), libsumo.vehicle.getRouteIndex(ego)
-        libsumo.route.add(f"{vid}_route", [*way, *route[at + 1 :]])
+        libsumo.route.add(f"{vid}_route", roads_on)
         type_id = self._car_types[int(self._rng.integers(0, len(self._car_types)))]
         libsumo.vehicle.add(vid, f"{vid}_route", typeID=type_id, depart="now", departLane=str(lane_index),
                             departPos=f"{pos:.2f}", departSpeed="max")  # fmt: skip
@@ -426,20 +434,26 @@ class HazardController:
     def _bring_beside(self, event: _Event, ego: str, now: float, wanted_m: float, left_s: float) -> float | None:
         """Pace a prepared vehicle beside the ego to a gap ``wanted_m`` ahead in ``left_s``;
         its gap now (along the ego's heading while it is beside it, else along its way), None
-        while it is not on the ego's way or a slower vehicle ahead of it holds it back."""
+        while it is not on the ego's way or, near the ego, a slower vehicle ahead of it holds it
+        back (far behind, it changes lanes to pass)."""
         vid = event.actors[0]
         gap = roads.beside_gap(ego, vid)
         gap = roads.route_gap(ego, vid) if gap is None else gap
-        if gap is None or _blocked(vid, gap, wanted_m):
+        far = gap is not None and gap < -CUT_IN_BEHIND_M
+        if gap is None or (_blocked(vid, gap, wanted_m) and not far):
             return None
         event.seen_s = now
         ego_speed = libsumo.vehicle.getSpeed(ego)
-        fastest = max(CUT_IN_SPEED_FACTOR * libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(vid)),
-                      ego_speed + CUT_IN_OVERTAKE_MPS)  # fmt: skip
+        faster = CATCH_UP_MPS if far else CUT_IN_OVERTAKE_MPS
+        fastest = max(
+            CUT_IN_SPEED_FACTOR * libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(vid)), ego_speed + faster
+        )
         libsumo.vehicle.setSpeed(vid, min(_pace(ego_speed, gap, wanted_m, left_s), fastest))
         road, lane = libsumo.vehicle.getRoadID(vid), libsumo.vehicle.getLaneIndex(vid)
         ego_lane = libsumo.vehicle.getLaneIndex(ego)
-        if road == libsumo.vehicle.getRoadID(ego) and abs(lane - ego_lane) != 1:
+        if far and _blocked(vid, gap, wanted_m):  # far behind: it passes the slower one in another lane
+            libsumo.vehicle.changeLane(vid, lane + (1 if lane + 1 < libsumo.edge.getLaneNumber(road) else -1), 1.0)
+        elif not far and road == libsumo.vehicle.getRoadID(ego) and abs(lane - ego_lane) != 1:
             side = 1 if lane > ego_lane or (lane == ego_lane and lane + 1 < libsumo.edge.getLaneNumber(road)) else -1
             libsumo.vehicle.changeLane(vid, ego_lane + side, 1.0)  # to a lane beside the ego's
         return gap
@@ -451,7 +465,7 @@ class HazardController:
         if ego_speed < 3.0 or near >= far:
             return None  # no gap in metres is also one in seconds at this speed
         gap_m = float(self._rng.uniform(near, far))
-        found = self._beside(ego, now, event.due_s, gap_m)
+        found = self._beside(ego, now, event.due_s, gap_m, CUT_IN_ROAD_M)
         if found is None:
             return None
         event.gap_m = gap_m
@@ -501,19 +515,19 @@ class HazardController:
     def _make_hard_brake(self, event: _Event, ego: str, now: float) -> _Event | None:
         """The ego's leader, else a vehicle from beside it (or made behind it) that will join
         its lane ahead of it, paced to a gap within ``distance_m`` by the time it is due."""
-        hazard = event.config
-        ego_speed = libsumo.vehicle.getSpeed(ego)
-        if ego_speed < hazard.to_speed_mps + 4.0:
-            return None
-        lo, hi = hazard.distance_m
-        event.gap_m = float(np.clip(ego_speed, lo + 0.25 * (hi - lo), hi - 0.25 * (hi - lo)))  # about 1 s
+        lo, hi = event.config.distance_m
+        event.gap_m = float(np.clip(libsumo.vehicle.getSpeed(ego), lo + 0.25 * (hi - lo), hi - 0.25 * (hi - lo)))
         leader = libsumo.vehicle.getLeader(ego, LEADER_LOOK_M)
-        if leader and leader[0]:
-            if not self._movable(leader[0], ego) or now < event.due_s - SIDE_LEAD_S:
+        if leader and leader[0] and leader[1] <= LEADER_LOOK_M:
+            vid, gap = leader
+            if not self._movable(vid, ego) or not roads.same_way(ego, vid, float("inf")):
+                return None  # one that cannot act, or turns off: wait
+            lead_s = max(SIDE_LEAD_S, abs(gap - event.gap_m) / (0.75 * LEADER_PACE_MPS) + AHEAD_OF_TIME_S)
+            if now < event.due_s - lead_s:
                 return None
-            found: tuple[str, float] | None = (leader[0], leader[1])
+            found: tuple[str, float] | None = (vid, gap)
         else:
-            found = self._beside(ego, now, event.due_s, event.gap_m)
+            found = self._beside(ego, now, event.due_s, event.gap_m, float("inf"))  # it will lead the ego
         if found is None:
             return None
         self._drive(event, found[0], now, found[1])
@@ -522,9 +536,11 @@ class HazardController:
     def _hard_brake_ready(self, event: _Event, ego: str, now: float) -> bool:
         vid, hazard = event.actors[0], event.config
         leader = libsumo.vehicle.getLeader(ego, LEADER_LOOK_M)
-        if not leader or leader[0] != vid:
+        if not leader or leader[0] != vid or leader[1] > LEADER_LOOK_M:
             if event.leading:
                 return now - event.seen_s >= LOST_S  # another vehicle came between them
+            if leader and leader[0] and leader[1] <= LEADER_LOOK_M and self._movable(leader[0], ego):
+                return roads.same_way(ego, leader[0], float("inf"))  # the ego has a leader now: that one
             left_s = event.due_s - now - LEADER_JOIN_S - AHEAD_OF_TIME_S
             if self._bring_beside(event, ego, now, event.gap_m + 2.0, left_s) is None:
                 return now - event.seen_s >= LOST_S
@@ -533,11 +549,14 @@ class HazardController:
             if lane is not None and gap is not None and gap >= event.gap_m - 2.0:
                 libsumo.vehicle.changeLane(vid, lane, 1.0)  # into the ego's lane ahead of it, into a safe gap
             return now >= event.ends_s
-        event.leading, event.seen_s, gap = True, now, leader[1]
+        if not event.leading:
+            event.leading, event.led_s = True, now
+        event.seen_s, gap = now, leader[1]
         ego_speed = libsumo.vehicle.getSpeed(ego)
-        change = np.clip((event.gap_m - gap) / max(event.due_s - now, 1.0), -LEADER_PACE_MPS, LEADER_PACE_MPS)
+        left_s = max(event.due_s - now - AHEAD_OF_TIME_S, 1.0)
+        change = np.clip((event.gap_m - gap) / left_s, -LEADER_PACE_MPS, LEADER_PACE_MPS)
         libsumo.vehicle.setSpeed(vid, max(ego_speed + float(change), 1.0))
-        if now < event.due_s or self._under_way(event.index):
+        if now < max(event.due_s, event.led_s + LEADER_SETTLE_S) or self._under_way(event.index):
             return now >= event.ends_s
         lo, hi = hazard.distance_m
         speed = libsumo.vehicle.getSpeed(vid)
@@ -564,49 +583,67 @@ class HazardController:
 
     # --- jaywalkers ----------------------------------------------------------------------------
     def _make_jaywalker(self, event: _Event, ego: str, now: float) -> _Event | None:
-        """Where on the ego's way a jaywalker steps out: in front of a parked car on the ego's
-        side (``behind_parked``) about where the ego will be when it is due, else at the kerb
-        there, or beyond the rig's sight, where a pedestrian is placed to wait."""
+        """A jaywalker to come: with ``behind_parked`` and parked cars on the ego's way, it steps
+        out in front of the parked car the ego comes to when it is due; else from a kerb on the
+        ego's way about where the ego will be then, beyond the rig's sight, where a pedestrian
+        is placed to wait."""
         hazard = event.config
         if not self._walk_edges or libsumo.vehicle.getRoadID(ego).startswith(":"):
             return None
+        event.ends_s = event.due_s + JAYWALK_LATE_S
+        if hazard.behind_parked and self._parked_on_way(ego):
+            return event  # the parked car is picked as the ego comes to one
+        return event if self._place_open(event, ego, now) else None
+
+    def _place_open(self, event: _Event, ego: str, now: float) -> bool:
+        """A pedestrian placed to wait at a kerb of the ego's way beyond the rig's sight, about
+        where the ego will be when the event is due."""
         limit = libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(ego))
         pace = max(libsumo.vehicle.getSpeed(ego), JAYWALK_PACE_SHARE * limit)
-        want = _jaywalk_reach(hazard, pace, 2.0) + pace * max(event.due_s - now, 0.0)
-        parked = self._parked_ahead(ego, want) if hazard.behind_parked else None
-        if parked is not None:
-            event.parked, event.spot = parked, self._parked_at[parked]
-        else:
-            spot = self._open_spot(ego, want)
-            if spot is None:
-                return None
-            event.spot = spot
-            self._place_waiting(event, ego)
-        event.ends_s = event.due_s + JAYWALK_LATE_S
-        return event
+        spot = self._open_spot(ego, _jaywalk_reach(event.config, pace, 2.0) + pace * max(event.due_s - now, 0.0))
+        if spot is None:
+            return False
+        event.spot = spot
+        self._place_waiting(event, ego)
+        return True
 
-    def _parked_ahead(self, ego: str, want_m: float) -> str | None:
-        """The parked car on the ego's side of its way whose front is nearest ``want_m`` ahead
-        (between 20 m and ``want_m + 60`` m) on a straight stretch of its road."""
-        route = set(libsumo.vehicle.getRoute(ego)[libsumo.vehicle.getRouteIndex(ego) :])
+    def _parked_for(self, event: _Event, ego: str, now: float) -> str | None:
+        """The parked car on the ego's side of its way the ego comes to its reach from nearest
+        the time the event is due (at its speed, or 0.7 of the limit if slower)."""
+        limit = libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(ego))
+        pace = max(libsumo.vehicle.getSpeed(ego), JAYWALK_PACE_SHARE * limit)
+        reach = self._reach(event, ego, None) or _jaywalk_reach(event.config, pace, 2.0)
         best: tuple[float, str] | None = None
+        for vid, ahead in self._parked_on_way(ego):
+            if ahead >= reach - JAYWALK_CATCH_M:
+                off_s = abs((ahead - reach) / pace - (event.due_s - now))
+                best = (off_s, vid) if best is None or off_s < best[0] else best
+        return None if best is None else best[1]
+
+    def _parked_on_way(self, ego: str) -> list[tuple[str, float]]:
+        """The parked cars at the kerb on the ego's side of its way, on straight stretches, not
+        taken by another jaywalker: with how far ahead of the ego each one's front is."""
+        route = set(libsumo.vehicle.getRoute(ego)[libsumo.vehicle.getRouteIndex(ego) :])
+        found = []
         for vid, (road, pos) in self._parked_places().items():
-            if road not in route:
+            if road not in route or self._spot_taken(road, pos):
                 continue
             ahead = libsumo.vehicle.getDrivingDistance(ego, road, pos)
-            if ahead == roads.INVALID or not 20.0 <= ahead <= want_m + 60.0 or not self._crossable(road, pos):
+            if ahead == roads.INVALID or ahead < 0.0 or not self._crossable(road, pos):
                 continue
             place = roads.kerb(road, pos)
             side = float((np.array(libsumo.vehicle.getPosition(vid)) - place.xy_m) @ place.left) if place else 0.0
-            if -4.5 < side < 0.0 and (best is None or abs(ahead - want_m) < best[0]):  # at the ego's kerb
-                best = (abs(ahead - want_m), vid)
-        return None if best is None else best[1]
+            if -4.5 < side < 0.0:
+                found.append((vid, ahead))
+        return found
 
     def _parked_places(self) -> dict[str, tuple[str, float]]:
         """Each parked car's road and the position of its front bumper along it."""
         if not self._parked_at and self._parked:
-            self._parked_at = {v: (libsumo.vehicle.getRoadID(v), libsumo.vehicle.getLanePosition(v))
-                               for v in sorted(self._parked)}  # fmt: skip
+            for vid in sorted(self._parked):  # parked off the lane: its place along the road, from where it stands
+                road, pos, _ = libsumo.simulation.convertRoad(*libsumo.vehicle.getPosition(vid), vClass="passenger")
+                if road == libsumo.vehicle.getRoadID(vid):
+                    self._parked_at[vid] = (road, pos)
         return self._parked_at
 
     def _open_spot(self, ego: str, want_m: float) -> tuple[str, float] | None:
@@ -621,6 +658,8 @@ class HazardController:
             for pos in np.arange(max(want_m - start, JAYWALK_ROAD_M), length - 10.0, 10.0):
                 if not self._crossable(road, float(pos)) or self._parked_near(road, float(pos)):
                     continue
+                if self._spot_taken(road, float(pos)):
+                    continue
                 place = roads.kerb(road, float(pos))
                 if place and not self._sight.sees(roads.in_ego_frame(ego, place.xy_m), 1.0 + HIDDEN_MARGIN_M):
                     return road, float(pos)
@@ -632,6 +671,10 @@ class HazardController:
         return JAYWALK_ROAD_M <= pos <= libsumo.lane.getLength(lane) - 10.0 and roads.straight_lane(
             lane, max(pos - 40.0, 0.0), pos + 10.0
         )
+
+    def _spot_taken(self, road: str, pos: float) -> bool:
+        """Whether another jaywalker steps out within 40 m of a place."""
+        return any(e.spot[0] == road and abs(e.spot[1] - pos) < 40.0 for e in self._events if e.kind == "jaywalker")
 
     def _parked_near(self, road: str, pos: float) -> bool:
         return any(r == road and abs(p - pos) < 8.0 for r, p in self._parked_places().values())
@@ -665,25 +708,48 @@ class HazardController:
         return start, place.left.copy(), length
 
     def _jaywalker_ready(self, event: _Event, ego: str, now: float) -> bool:
-        """The jaywalker steps out once the ego is its reach away from the spot."""
-        hazard, (road, pos) = event.config, event.spot
-        ahead = libsumo.vehicle.getDrivingDistance(ego, road, pos)
-        if ahead == roads.INVALID or ahead < 0.0:
-            return True  # the ego went another way, or passed
+        """The jaywalker steps out once the ego is its reach away from its place: the parked car
+        the ego comes to nearest the time it is due (``JAYWALK_PARKED_WAIT_S`` after it, a waiting
+        pedestrian is placed in the open instead), or the kerb where it waits."""
+        if event.spot[0]:
+            ahead = libsumo.vehicle.getDrivingDistance(ego, *event.spot)
+            if ahead == roads.INVALID or ahead < 0.0:
+                return True  # the ego went another way, or passed
+            return False if self._step_out(event, ego, now, event.spot, "") else now >= event.ends_s
+        if now >= event.due_s + JAYWALK_PARKED_WAIT_S:
+            self._place_open(event, ego, now)
+            return now >= event.ends_s
+        parked = self._parked_for(event, ego, now)
+        if parked is not None and self._step_out(event, ego, now, self._parked_at[parked], parked):
+            return False
+        return now >= event.ends_s
+
+    def _reach(self, event: _Event, ego: str, spot: tuple[str, float] | None) -> float | None:
+        """Where, ahead of the ego, its jaywalker steps out at the ego's speed (within
+        ``distance_m``); None while the ego is slower than 2 m/s or off a road of its way."""
+        road, pos = spot or (libsumo.vehicle.getRoadID(ego), libsumo.vehicle.getLanePosition(ego))
+        place, lane = roads.kerb(road, pos), _lane_on(ego, road)
         speed = libsumo.vehicle.getSpeed(ego)
-        place = roads.kerb(road, pos)
-        lane = _lane_on(ego, road)
-        if place is None or speed < 2.0 or lane is None or self._under_way(event.index):
-            return now >= event.ends_s
-        lo, hi = hazard.distance_m
-        reach = float(np.clip(_jaywalk_reach(hazard, speed, place.to_lane_m(lane)), lo, hi))
+        if place is None or lane is None or speed < 2.0:
+            return None
+        lo, hi = event.config.distance_m
+        return float(np.clip(_jaywalk_reach(event.config, speed, place.to_lane_m(lane)), lo, hi))
+
+    def _step_out(self, event: _Event, ego: str, now: float, spot: tuple[str, float], parked: str) -> bool:
+        """The jaywalker steps out at ``spot`` (in front of the ``parked`` car) if the ego is its
+        reach away from it, on a straight way, with no vehicle between them."""
+        ahead = libsumo.vehicle.getDrivingDistance(ego, *spot)
+        reach = self._reach(event, ego, spot)
+        if reach is None or self._under_way(event.index) or not reach - JAYWALK_CATCH_M <= ahead <= reach:
+            return False
         leader = libsumo.vehicle.getLeader(ego, ahead + 20.0)
-        if ahead > reach or (leader and leader[0] and leader[1] < ahead + 8.0):
-            return now >= event.ends_s  # not there yet, or a vehicle ahead would drive through the pedestrian
+        if leader and leader[0] and leader[1] < ahead + 8.0:
+            return False  # a vehicle ahead would drive through the pedestrian
         if not roads.straight_ahead(ego, min(ahead, STRAIGHT_REACH_M)):
-            return now >= event.ends_s
+            return False
+        event.spot, event.parked = spot, parked
         start, direction, length = self._crossing(event, ego)
-        if event.parked:
+        if parked:
             self._place_waiting(event, ego)  # hidden by the parked car
         event.actors = event.actors[-1:]
         self._held.pop(event.actors[0], None)  # it walks
@@ -693,21 +759,88 @@ class HazardController:
         decel = libsumo.vehicle.getDecel(ego)
         libsumo.vehicle.setDecel(ego, max(decel, EGO_STOP_DECEL))
         event.restore += [lambda: libsumo.vehicle.setSpeed(ego, -1.0), lambda: libsumo.vehicle.setDecel(ego, decel)]
-        self._turn_on(event, now, now + length / hazard.walk_mps + 1.0)
-        return False
+        self._turn_on(event, now, now + length / event.config.walk_mps + 1.0)
+        return True
 
     # --- red-light runners ------------------------------------------------------------------------
-    def _red_light(self, event: _Event, ego: str, now: float) -> _Event | None:
-        hazard = event.config
-        if now < event.due_s or self._under_way(event.index):
+    def _make_red_light(self, event: _Event, ego: str, now: float) -> _Event | None:
+        """A red-light runner to come (the ego's light is made green as it comes, and a crossing
+        vehicle made where none could run the red)."""
+        event.ends_s = event.due_s + RED_LATE_S
+        return event
+
+    def _red_light_ready(self, event: _Event, ego: str, now: float) -> bool:
+        if now >= event.due_s - RED_EARLY_S and not self._under_way(event.index) and self._run_red(event, ego, now):
+            return False
+        soon = now >= event.due_s - RED_ACTUATE_S
+        ahead = self._green_ahead(ego, soon)
+        if soon and ahead is not None and event.spot[0] != ahead[0] and self._make_crosser(ego, *ahead):
+            event.spot = (ahead[0], 0.0)  # one for each light
+        return now >= event.ends_s
+
+    def _green_ahead(self, ego: str, actuate: bool) -> tuple[str, int, float] | None:
+        """The ego's next light (its id, the ego's link and distance) if it shows the ego green,
+        within ``RED_PLAN_M``; with ``actuate``, a red one the ego would stop at is switched to
+        green for it first (as a light that detects it coming would: the crossing direction's
+        green ends at once, through its yellow)."""
+        ahead = libsumo.vehicle.getNextTLS(ego)
+        if not ahead or ahead[0][2] > RED_PLAN_M:
             return None
-        lo, hi = hazard.distance_m
+        tls, link, dist, state = ahead[0]
+        if state in "Gg":
+            return tls, link, dist
+        lane = libsumo.vehicle.getLaneID(ego)
+        speed = max(libsumo.vehicle.getSpeed(ego), 0.5 * libsumo.lane.getMaxSpeed(lane) if lane else 1.0)
+        waiting = libsumo.vehicle.getSpeed(ego) < 1.0  # in the queue at the light: it may turn green at once
+        if actuate and state in "rR" and dist / speed <= RED_ACTUATE_S:
+            _green_for(tls, link, float("inf") if waiting else dist / speed)
+        return None
+
+    def _make_crosser(self, ego: str, tls: str, ego_link: int, ego_dist: float) -> bool:
+        """A car made on a crossing approach of a light the ego comes to (one whose link has red
+        when the ego's has green), where no sensor sees it, routed across; none is made where a
+        vehicle could run the red already. True: made (or not needed)."""
+        links = libsumo.trafficlight.getControlledLinks(tls)
+        state = libsumo.trafficlight.getRedYellowGreenState(tls)
+        ego_in = links[ego_link][0][0].rsplit("_", 1)[0] if links[ego_link] else ""
+        crossing = [i for i, link in enumerate(links) if link and state[i] in "rRyY"
+                    and link[0][0].rsplit("_", 1)[0] != ego_in
+                    and "passenger" not in libsumo.lane.getDisallowed(link[0][0])]  # fmt: skip
+        if not crossing or any(self._runners(tls, i, ego) for i in crossing):
+            return bool(crossing)
+        index = crossing[int(self._rng.integers(0, len(crossing)))]
+        in_lane, out_lane, _ = links[index][0]
+        road, lane_index = in_lane.rsplit("_", 1)
+        length = libsumo.lane.getLength(in_lane)
+        for pos in np.arange(length - RED_NEAR_M, 5.0, -10.0):
+            xy = np.array(libsumo.simulation.convert2D(road, float(pos), int(lane_index)))
+            if _free(in_lane, float(pos), 20.0) and not self._sight.sees(
+                roads.in_ego_frame(ego, xy), CAR_RADIUS_M + HIDDEN_MARGIN_M
+            ):
+                self._add_car([road, out_lane.rsplit("_", 1)[0]], float(pos), int(lane_index))
+                return True
+        return False
+
+    def _runners(self, tls: str, index: int, ego: str) -> list[str]:
+        """Vehicles on the approach lane of a link that could run its red: within ``RED_NEAR_M``
+        of the stop line, moving, or the first in the queue."""
+        lane = libsumo.trafficlight.getControlledLinks(tls)[index][0][0]
+        queue = libsumo.lane.getLastStepVehicleIDs(lane)
+        front = max(queue, key=libsumo.vehicle.getLanePosition, default="")  # the nearest the stop line
+        length = libsumo.lane.getLength(lane)
+        return [vid for vid in queue if self._movable(vid, ego)
+                and (libsumo.vehicle.getSpeed(vid) >= 2.0 or vid == front)
+                and 0.5 <= length - libsumo.vehicle.getLanePosition(vid) <= RED_NEAR_M]  # fmt: skip
+
+    def _run_red(self, event: _Event, ego: str, now: float) -> bool:
+        """While the ego approaches its green within ``distance_m``, a vehicle on a crossing
+        approach with red runs it, timed to clear the junction before the ego or to enter it
+        after. True: it started."""
+        lo, hi = event.config.distance_m
         ahead = [t for t in libsumo.vehicle.getNextTLS(ego) if lo <= t[2] <= hi]
-        if not ahead:
-            return None
-        tls, ego_link, ego_dist, ego_state = ahead[0]
-        if ego_state not in "Gg":
-            return None
+        if not ahead or ahead[0][3] not in "Gg":
+            return False
+        tls, ego_link, ego_dist, _ = ahead[0]
         ego_speed = max(libsumo.vehicle.getSpeed(ego), 1.0)
         ego_time = ego_dist / ego_speed  # until the ego reaches its stop line
         ego_clear = (ego_dist + JUNCTION_M) / ego_speed + RED_MARGIN_S  # until it has crossed, with a margin
@@ -716,27 +849,19 @@ class HazardController:
         ego_in = links[ego_link][0][0] if links[ego_link] else ""
         candidates = []
         for index, link in enumerate(links):
-            if not link or state[index] not in "rR":
+            if not link or state[index] not in "rR" or link[0][0].rsplit("_", 1)[0] == ego_in.rsplit("_", 1)[0]:
                 continue
             lane = link[0][0]
-            if lane.rsplit("_", 1)[0] == ego_in.rsplit("_", 1)[0]:
-                continue
-            queue = libsumo.lane.getLastStepVehicleIDs(lane)
-            front = max(queue, key=libsumo.vehicle.getLanePosition, default="")  # the nearest the stop line
-            for vid in queue:
-                if not self._movable(vid, ego):
-                    continue
+            for vid in self._runners(tls, index, ego):
                 speed = libsumo.vehicle.getSpeed(vid)
                 dist = libsumo.lane.getLength(lane) - libsumo.vehicle.getLanePosition(vid)
-                if (speed < 2.0 and vid != front) or not 0.5 <= dist <= 60.0:  # the front one may start from a stop
-                    continue
                 run_speed = max(speed, RED_RUN_MPS)
                 if (dist + JUNCTION_M) / (0.5 * (speed + run_speed)) + RED_MARGIN_S <= ego_time:
                     candidates.append((vid, run_speed, RED_LIGHT_S))  # through before the ego
                 elif dist / ego_clear >= 3.0:  # through behind the ego, at a speed that brings it there then
                     candidates.append((vid, dist / ego_clear, ego_clear + JUNCTION_M / (dist / ego_clear) + 1.0))
         if not candidates:
-            return None
+            return False
         vid, speed, lasts_s = sorted(candidates)[int(self._rng.integers(0, len(candidates)))]
         libsumo.vehicle.setSpeedMode(vid, IGNORE_RED_AND_RIGHT_OF_WAY)
         libsumo.vehicle.setSpeed(vid, speed)
@@ -744,7 +869,27 @@ class HazardController:
         event.restore += [lambda: libsumo.vehicle.setSpeed(vid, -1.0),
                           lambda: libsumo.vehicle.setSpeedMode(vid, SPEED_DEFAULT)]  # fmt: skip
         self._turn_on(event, now, now + max(RED_LIGHT_S, lasts_s))
-        return event
+        return True
+
+
+def _green_for(tls: str, link: int, eta_s: float) -> bool:
+    """Switch a light to the yellow that ends the current green, and leads to the phase giving
+    ``link`` green, if the ego gets there no sooner than that yellow ends (and the program's
+    own order allows it: a link green now is yellow or green then, or goes red next anyway)."""
+    program = libsumo.trafficlight.getProgram(tls)
+    phases = next(logic.phases for logic in libsumo.trafficlight.getAllProgramLogics(tls) if logic.programID == program)
+    now_at, count = libsumo.trafficlight.getPhase(tls), len(phases)
+    green = next(
+        ((now_at + k) % count for k in range(1, count) if phases[(now_at + k) % count].state[link] in "Gg"), None
+    )
+    if green is None or (green - 1) % count == now_at:
+        return False
+    yellow, here, after = phases[(green - 1) % count], phases[now_at].state, phases[(now_at + 1) % count].state
+    safe = all(c not in "Gg" or y in "GgyY" or a in "rR" for c, y, a in zip(here, yellow.state, after, strict=True))
+    if not safe or eta_s < yellow.duration + 1.0:
+        return False
+    libsumo.trafficlight.setPhase(tls, (green - 1) % count)
+    return True
 
 
 STRAIGHT_REACH_M = 30.0
