@@ -92,6 +92,13 @@ class Sight:
             back += 5.0
         return back
 
+    def clear_ahead_m(self, radius_m: float) -> float:
+        """How far ahead of the ego a disc on its heading line is out of sight (5 m steps)."""
+        ahead = 0.0
+        while self.sees(np.array([ahead, 0.0]), radius_m):
+            ahead += 5.0
+        return ahead
+
     def reach_m(self) -> float:
         """The farthest anything can be seen or labelled."""
         return max(self.label_m, *(s[4] + math.hypot(s[0], s[1]) for s in self.sensors))

@@ -136,13 +136,29 @@ def beside_gap(ego: str, vid: str) -> float | None:
 def same_way(ego: str, vid: str, road_m: float) -> bool:
     """Whether a vehicle's route goes on where the ego's does: the ego's next road is among its
     next two, or the ego's road goes on for ``road_m`` (they drive side by side as long; inf:
-    the next road must be theirs)."""
+    the ego's next two roads must be its next ones, it is to lead the ego)."""
     route, at = libsumo.vehicle.getRoute(ego), libsumo.vehicle.getRouteIndex(ego)
     left_m = libsumo.lane.getLength(libsumo.vehicle.getLaneID(ego)) - libsumo.vehicle.getLanePosition(ego)
     if at + 1 >= len(route) or left_m >= road_m:
         return True
     theirs, their_at = libsumo.vehicle.getRoute(vid), libsumo.vehicle.getRouteIndex(vid)
+    if road_m == float("inf"):
+        ahead = list(theirs[their_at:])
+        ego_next = [r for r in route[at + 1 : at + 3] if r != theirs[their_at]]
+        start = ahead.index(ego_next[0]) if ego_next and ego_next[0] in ahead else -1
+        return start >= 0 and ahead[start : start + len(ego_next)] == ego_next
     return route[at + 1] in theirs[their_at + 1 : their_at + 3]
+
+
+def follow(vid: str, ego: str) -> bool:
+    """Route a vehicle along the ego's way from the road it is on (it leads the ego there);
+    False: it is not on the ego's way ahead (or in a junction)."""
+    road = libsumo.vehicle.getRoadID(vid)
+    route, at = list(libsumo.vehicle.getRoute(ego)), libsumo.vehicle.getRouteIndex(ego)
+    if road.startswith(":") or road not in route[at:]:
+        return False
+    libsumo.vehicle.setRoute(vid, route[route.index(road, at) :])
+    return True
 
 
 def lane_ahead(ego: str) -> tuple[str, ...]:

@@ -94,9 +94,9 @@ SIDE_LEAD_S = 12.0  # a vehicle beside the ego is brought to its gap from this l
 MAKE_LEAD_S = 20.0  # and, where none is, a vehicle is made behind the ego this long before
 LATE_S = 10.0  # a preparation is given up this long after its event was due (another is tried)
 AHEAD_OF_TIME_S = 3.0  # a prepared vehicle is brought to its place this long before its event is due
-LEADER_LOOK_M = 120.0  # a hard brake's leader is found within this distance ahead of the ego
-LEADER_PACE_MPS = 5.0  # and paced at most this much slower or faster than the ego to its gap
-LEADER_JOIN_S = 4.0  # a vehicle brought from beside joins the ego's lane this long before it is due
+LEADER_SLOWER_MPS, LEADER_FASTER_MPS = 10.0, 5.0  # a hard brake's leader is paced this much slower or faster
+LEADER_LEAD_S = 30.0  # one is made ahead of the ego up to this long before it is due
+LEADER_PACE_S = 20.0  # and the ego's leader is paced from at least this long before
 LEADER_SETTLE_S = 3.0  # and brakes no sooner than this after it became the ego's leader
 HOLD_S = 2.0
 RED_LIGHT_S = 10.0
@@ -117,7 +117,7 @@ JAYWALK_PACE_SHARE = 0.7  # of the speed limit: the ego's pace, to tell where it
 JAYWALK_ROAD_M = 25.0  # it steps out at least this far along its road, and 10 m before the road's end
 JAYWALK_PARKED_WAIT_S = 10.0  # a jaywalker due waits this long for the ego to come to a parked car
 JAYWALK_CATCH_M = 4.0  # it steps out when the ego is its reach or up to this much less away
-LEADS_S = {"cut_in": MAKE_LEAD_S, "hard_brake": MAKE_LEAD_S, "jaywalker": JAYWALK_LEAD_S, "red_light": RED_LEAD_S}
+LEADS_S = {"cut_in": MAKE_LEAD_S, "hard_brake": LEADER_LEAD_S, "jaywalker": JAYWALK_LEAD_S, "red_light": RED_LEAD_S}
 PREPARED_AT_ONCE = {"cut_in": 2, "hard_brake": 1, "jaywalker": 2, "red_light": 1}  # a kind's next events
 
 
@@ -154,6 +154,7 @@ class HazardController:
         self._walk_edges = sorted(walk_edges)
         self._sight = sight
         self._behind_m = sight.clear_behind_m(3.5, CAR_RADIUS_M + HIDDEN_MARGIN_M) + 10.0
+        self._ahead_m = sight.clear_ahead_m(CAR_RADIUS_M + HIDDEN_MARGIN_M) + 10.0  # where leaders are made
         self._car_types = car_types  # vehicles made for events are cars of these types
         self._rng = np.random.default_rng([seed, 0x4A2D])
         self._seed = seed
@@ -261,11 +262,11 @@ class HazardController:
         self._pending.clear()
 
     def _hold_ego_lane(self, ego: str) -> None:
-        """The ego keeps its lane while a cut-in is prepared or its leader is paced for a hard
-        brake (lane changes its route needs only) and changes none while a cut-in is under way;
-        then it gets its own lane changes back."""
+        """The ego keeps its lane while a cut-in or a hard brake is prepared or under way (lane
+        changes its route needs only; its leader stays its leader) and changes none while a
+        cut-in is under way; then it gets its own lane changes back."""
         cut_ins = [e for e in self._events if e.kind == "cut_in"]
-        held = cut_ins or [e for e in self._events if e.kind == "hard_brake" and e.leading]
+        held = cut_ins or [e for e in self._events if e.kind == "hard_brake"]
         mode = 0 if any(e.number for e in cut_ins) else KEEP_LANE if held else None
         if mode is None and self._ego_mode is not None:
             libsumo.vehicle.setLaneChangeMode(ego, self._ego_mode)
@@ -325,17 +326,20 @@ class HazardController:
         return (bool(vid) and vid != ego and vid not in self._parked and vid not in busy
                 and libsumo.vehicle.getVehicleClass(vid) not in ("bicycle", "pedestrian"))  # fmt: skip
 
-    def _beside(self, ego: str, now: float, due: float, wanted_m: float, road_m: float) -> tuple[str, float] | None:
+    def _beside(
+        self, ego: str, now: float, due: float, wanted_m: float, road_m: float, ahead_m: float = CUT_IN_LOOK_M
+    ) -> tuple[str, float] | None:
         """A vehicle to bring beside the ego, ``wanted_m`` ahead of it, for an event due at
         ``due``, with its gap ahead of the ego now. Once it needs the time left to get there:
         the first in a lane beside the ego's on either side of that place (from as far behind
         the ego as a car is made to 40 m ahead); where a lane beside it
         is empty up to there, from ``MAKE_LEAD_S`` before, a car made there out of the rig's
         sight; else one from a lane farther out (it moves over). Of those, the one that gets
-        there soonest. ``road_m``: how far along the ego's way it must go (see ``same_way``)."""
+        there soonest. ``road_m``: how far along the ego's way it must go (see ``same_way``);
+        ``ahead_m``: how far ahead of the ego it may be found."""
         if now < due - MAKE_LEAD_S:
             return None
-        around = self._around(ego)
+        around = self._around(ego, ahead_m)
         index = libsumo.vehicle.getLaneIndex(ego)
         firsts, empty = [], []
         for side in (1, -1):
@@ -354,16 +358,16 @@ class HazardController:
             return None if vid is None else (vid, -self._behind_m)
         if not found:  # from a lane farther out, or from behind the ego in its lane
             found = [(vid, gap) for vid, (lane, gap) in around.items() if self._usable(vid, ego, gap, wanted_m, road_m)
-                     and abs(lane - index) != 1 and -CUT_IN_BEHIND_M <= gap <= CUT_IN_LOOK_M]  # fmt: skip
+                     and abs(lane - index) != 1 and -CUT_IN_BEHIND_M <= gap <= ahead_m]  # fmt: skip
         if not found:
             return None
         vid, gap = min(found, key=lambda f: (_approach_s(f[1], wanted_m), f[0]))  # the one there soonest
         return (vid, gap) if now >= due - _approach_s(gap, wanted_m) else None
 
-    def _around(self, ego: str) -> dict[str, tuple[int, float]]:
+    def _around(self, ego: str, ahead_m: float) -> dict[str, tuple[int, float]]:
         """The vehicles in the lanes open to cars of the ego's road and the roads just behind
-        and ahead (not ahead of it in its lane), from as far behind it as a car is made to 40 m
-        ahead: their lane indices and gaps ahead of it."""
+        and ahead (not ahead of it in its lane), from as far behind it as a car is made to
+        ``ahead_m`` ahead: their lane indices and gaps ahead of it."""
         starts = roads.way_starts(ego, self._way_back, self._behind_m)
         own = libsumo.vehicle.getLaneID(ego)
         found: dict[str, tuple[int, float]] = {}
@@ -371,7 +375,7 @@ class HazardController:
             for lane in roads.car_lanes(road):
                 for vid in libsumo.lane.getLastStepVehicleIDs(lane):
                     gap = start + libsumo.vehicle.getLanePosition(vid) - libsumo.vehicle.getLength(vid)
-                    if -self._behind_m <= gap <= CUT_IN_LOOK_M and not (lane == own and gap > 0.0) and vid != ego:
+                    if -self._behind_m <= gap <= ahead_m and not (lane == own and gap > 0.0) and vid != ego:
                         found[vid] = (int(lane.rsplit("_", 1)[1]), gap)
         return dict(sorted(found.items()))
 
@@ -388,12 +392,14 @@ class HazardController:
         ego's way."""
         if not self._car_types or libsumo.vehicle.getRoadID(ego).startswith(":"):
             return None
-        index = libsumo.vehicle.getLaneIndex(ego)
+        index, here = libsumo.vehicle.getLaneIndex(ego), libsumo.vehicle.getRoadID(ego)
         for back_m in np.arange(20.0, self._behind_m + 1.0, 10.0):
             place = self._way_back.place(ego, float(back_m))
             if place is None:
                 return None
             way, pos = place
+            if libsumo.edge.getLaneNumber(way[0]) != libsumo.edge.getLaneNumber(here):
+                continue  # lanes added or dropped in between: a lane there need not lead beside the ego
             lanes = [int(lane.rsplit("_", 1)[1]) for lane in roads.car_lanes(way[0])]
             for lane_index in (index + side for side in sides if index + side in lanes):
                 if not _free(f"{way[0]}_{lane_index}", pos, 25.0):
@@ -513,49 +519,67 @@ class HazardController:
 
     # --- hard braking --------------------------------------------------------------------------
     def _make_hard_brake(self, event: _Event, ego: str, now: float) -> _Event | None:
-        """The ego's leader, else a vehicle from beside it (or made behind it) that will join
-        its lane ahead of it, paced to a gap within ``distance_m`` by the time it is due."""
+        """The ego's leader (within what the rig sees ahead; its route becomes the ego's, so that it
+        keeps leading), else a car made ahead of the ego on its lane's way, beyond the rig's
+        sight, slower than it: paced so that it leads the ego by a gap within ``distance_m`` by
+        the time the event is due."""
         lo, hi = event.config.distance_m
         event.gap_m = float(np.clip(libsumo.vehicle.getSpeed(ego), lo + 0.25 * (hi - lo), hi - 0.25 * (hi - lo)))
-        leader = libsumo.vehicle.getLeader(ego, LEADER_LOOK_M)
-        if leader and leader[0] and leader[1] <= LEADER_LOOK_M:
+        leader = libsumo.vehicle.getLeader(ego, self._ahead_m)
+        if leader and leader[0] and leader[1] <= self._ahead_m:
             vid, gap = leader
-            if not self._movable(vid, ego) or not roads.same_way(ego, vid, float("inf")):
-                return None  # one that cannot act, or turns off: wait
-            lead_s = max(SIDE_LEAD_S, abs(gap - event.gap_m) / (0.75 * LEADER_PACE_MPS) + AHEAD_OF_TIME_S)
-            if now < event.due_s - lead_s:
+            if not self._movable(vid, ego):
+                return None  # one that cannot act (a bicycle): wait
+            if now < event.due_s - _closing_s(gap, event.gap_m) or not roads.follow(vid, ego):
                 return None
-            found: tuple[str, float] | None = (vid, gap)
-        else:
-            found = self._beside(ego, now, event.due_s, event.gap_m, float("inf"))  # it will lead the ego
-        if found is None:
+            self._drive(event, vid, now, gap)
+            return event
+        made = self._make_ahead(ego) if now >= event.due_s - _closing_s(self._ahead_m, event.gap_m) else None
+        if made is None:
             return None
-        self._drive(event, found[0], now, found[1])
+        self._drive(event, made, now, self._ahead_m)
         return event
 
+    def _make_ahead(self, ego: str) -> str | None:
+        """A car made on the ego's way ahead (its lane and the lanes its route goes on), at the
+        nearest point beyond the rig's sight and labels, routed along the ego's way."""
+        if not self._car_types or libsumo.vehicle.getRoadID(ego).startswith(":"):
+            return None
+        lanes = [libsumo.vehicle.getLaneID(ego), *roads.lane_ahead(ego)]
+        route, at = libsumo.vehicle.getRoute(ego), libsumo.vehicle.getRouteIndex(ego)
+        start = -libsumo.vehicle.getLanePosition(ego)
+        for lane in dict.fromkeys(lanes):
+            road, length = lane.rsplit("_", 1)[0], libsumo.lane.getLength(lane)
+            for pos in np.arange(max(10.0, self._ahead_m - start), length - 10.0, 10.0):
+                xy = np.array(libsumo.simulation.convert2D(road, float(pos), int(lane.rsplit("_", 1)[1])))
+                hidden = not self._sight.sees(roads.in_ego_frame(ego, xy), CAR_RADIUS_M + HIDDEN_MARGIN_M)
+                if hidden and _free(lane, float(pos), 30.0) and road in route[at:]:
+                    way = list(route[list(route).index(road, at) :])
+                    return self._add_car(way, float(pos), int(lane.rsplit("_", 1)[1]))
+            start += length
+            if start > 2.0 * self._ahead_m:
+                break
+        return None
+
     def _hard_brake_ready(self, event: _Event, ego: str, now: float) -> bool:
+        """The leader is paced to its gap (from the ego's own free speed, so that the ego's
+        following does not feed back); once it is due and the leader has led for 3 s, at a gap
+        within ``distance_m`` on a straight way (or in line on a gentle bend), it brakes."""
         vid, hazard = event.actors[0], event.config
-        leader = libsumo.vehicle.getLeader(ego, LEADER_LOOK_M)
-        if not leader or leader[0] != vid or leader[1] > LEADER_LOOK_M:
-            if event.leading:
-                return now - event.seen_s >= LOST_S  # another vehicle came between them
-            if leader and leader[0] and leader[1] <= LEADER_LOOK_M and self._movable(leader[0], ego):
-                return roads.same_way(ego, leader[0], float("inf"))  # the ego has a leader now: that one
-            left_s = event.due_s - now - LEADER_JOIN_S - AHEAD_OF_TIME_S
-            if self._bring_beside(event, ego, now, event.gap_m + 2.0, left_s) is None:
-                return now - event.seen_s >= LOST_S
-            lane = roads.into_ego_lane(ego, vid)
-            gap = roads.beside_gap(ego, vid)
-            if lane is not None and gap is not None and gap >= event.gap_m - 2.0:
-                libsumo.vehicle.changeLane(vid, lane, 1.0)  # into the ego's lane ahead of it, into a safe gap
+        gap = roads.route_gap(ego, vid)
+        leader = libsumo.vehicle.getLeader(ego, max(self._ahead_m, gap or 0.0) + 10.0)
+        between = leader and leader[0] and leader[0] != vid and gap is not None and leader[1] < gap
+        if gap is None or gap < 0.0 or between or (event.leading and (not leader or leader[0] != vid)):
+            return now - event.seen_s >= LOST_S  # it left the ego's way or lane, or another came between them
+        event.seen_s = now
+        left_s = max(event.due_s - now - AHEAD_OF_TIME_S, 1.0)
+        cruise = libsumo.vehicle.getAllowedSpeed(ego)  # the ego's own free speed (no loop through its following)
+        libsumo.vehicle.setSpeed(vid, max(cruise + _leader_change(event.gap_m, gap, left_s), 1.0))
+        if not leader or leader[0] != vid:
             return now >= event.ends_s
         if not event.leading:
             event.leading, event.led_s = True, now
-        event.seen_s, gap = now, leader[1]
-        ego_speed = libsumo.vehicle.getSpeed(ego)
-        left_s = max(event.due_s - now - AHEAD_OF_TIME_S, 1.0)
-        change = np.clip((event.gap_m - gap) / left_s, -LEADER_PACE_MPS, LEADER_PACE_MPS)
-        libsumo.vehicle.setSpeed(vid, max(ego_speed + float(change), 1.0))
+        gap = leader[1]
         if now < max(event.due_s, event.led_s + LEADER_SETTLE_S) or self._under_way(event.index):
             return now >= event.ends_s
         lo, hi = hazard.distance_m
@@ -939,6 +963,19 @@ def _cut_in_gaps(hazard: HazardConfig, ego_speed: float) -> tuple[float, float]:
     """The gaps a cut-in may leave at this speed: within ``distance_m`` and ``time_gap_s``."""
     return (max(hazard.distance_m[0], hazard.time_gap_s[0] * ego_speed),
             min(hazard.distance_m[1], hazard.time_gap_s[1] * ego_speed))  # fmt: skip
+
+
+def _leader_change(wanted_m: float, gap_m: float, left_s: float) -> float:
+    """How much slower or faster than the ego's free speed a leader drives to bring its gap to
+    the one wanted in ``left_s``."""
+    return float(np.clip((wanted_m - gap_m) / left_s, -LEADER_SLOWER_MPS, LEADER_FASTER_MPS))
+
+
+def _closing_s(gap_m: float, wanted_m: float) -> float:
+    """About how long a leader takes from a gap to the one wanted, with 3 s to spare (and at
+    least ``LEADER_PACE_S``)."""
+    rate = 0.75 * (LEADER_SLOWER_MPS if gap_m > wanted_m else LEADER_FASTER_MPS)
+    return max(LEADER_PACE_S, abs(gap_m - wanted_m) / rate + AHEAD_OF_TIME_S)
 
 
 def _approach_s(gap_m: float, wanted_m: float) -> float:
