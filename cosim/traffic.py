@@ -134,8 +134,8 @@ class Traffic:
         self.counts = TrafficCounts()
         self._hazards: HazardController | None = None
         if scenario.hazards:
-            from cosim.hazard_plan import Sight
             from cosim.hazards import HazardController
+            from cosim.hazards.plan import Sight
 
             shortest = min(self._variants.get("pedestrian", []), key=lambda v: v.height_m, default=None)
             cars = tuple(v.type_id for v in self._variants.get("car", []))
