@@ -58,6 +58,8 @@ class Event:
 
 
 class Base:
+    """What the hazard kinds share (their mixins make up :class:`~cosim.hazards.HazardController`)."""
+
     def __init__(
         self, hazards: tuple[HazardConfig, ...], seed: int, parked: set[str], walk_edges: list[str], sight: Sight,
         pedestrian_type: str = "", car_types: tuple[str, ...] = (),

@@ -98,7 +98,3 @@ class Sight:
         while self.sees(np.array([ahead, 0.0]), radius_m):
             ahead += 5.0
         return ahead
-
-    def reach_m(self) -> float:
-        """The farthest anything can be seen or labelled."""
-        return max(self.label_m, *(s[4] + math.hypot(s[0], s[1]) for s in self.sensors))

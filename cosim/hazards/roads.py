@@ -151,11 +151,13 @@ def same_way(ego: str, vid: str, road_m: float) -> bool:
 
 
 def follow(vid: str, ego: str) -> bool:
-    """Route a vehicle along the ego's way from the road it is on (it leads the ego there);
-    False: it is not on the ego's way ahead (or in a junction)."""
+    """Route a vehicle along the ego's way from the road it is on (it leads the ego there; in a
+    junction, it keeps its route); False: it is not on the ego's way ahead."""
     road = libsumo.vehicle.getRoadID(vid)
     route, at = list(libsumo.vehicle.getRoute(ego)), libsumo.vehicle.getRouteIndex(ego)
-    if road.startswith(":") or road not in route[at:]:
+    if road.startswith(":"):
+        return True
+    if road not in route[at:]:
         return False
     libsumo.vehicle.setRoute(vid, route[route.index(road, at) :])
     return True

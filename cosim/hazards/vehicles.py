@@ -150,7 +150,10 @@ class Vehicles(Base):
         road, lane = libsumo.vehicle.getRoadID(vid), libsumo.vehicle.getLaneIndex(vid)
         ego_lane = libsumo.vehicle.getLaneIndex(ego)
         if far and _blocked(vid, gap, wanted_m):  # far behind: it passes the slower one in another lane
-            libsumo.vehicle.changeLane(vid, lane + (1 if lane + 1 < libsumo.edge.getLaneNumber(road) else -1), 1.0)
+            count = libsumo.edge.getLaneNumber(road)
+            passing = [i for i in (lane - 1, lane + 1) if 0 <= i < count and i != ego_lane]  # not behind the ego
+            if passing:
+                libsumo.vehicle.changeLane(vid, min(passing, key=lambda i: abs(i - ego_lane)), 1.0)
         elif not far and road == libsumo.vehicle.getRoadID(ego) and abs(lane - ego_lane) != 1:
             side = 1 if lane > ego_lane or (lane == ego_lane and lane + 1 < libsumo.edge.getLaneNumber(road)) else -1
             libsumo.vehicle.changeLane(vid, ego_lane + side, 1.0)  # to a lane beside the ego's
@@ -258,8 +261,8 @@ class Vehicles(Base):
         following does not feed back); once it is due and the leader has led for 3 s, at a gap
         within ``distance_m`` on a straight way (or in line on a gentle bend), it brakes."""
         vid, hazard = event.actors[0], event.config
-        gap = roads.route_gap(ego, vid)
-        leader = libsumo.vehicle.getLeader(ego, max(self._ahead_m, gap or 0.0) + 10.0)
+        leader = libsumo.vehicle.getLeader(ego, 2.0 * self._ahead_m)
+        gap = leader[1] if leader and leader[0] == vid else roads.route_gap(ego, vid)  # (through junctions too)
         between = leader and leader[0] and leader[0] != vid and gap is not None and leader[1] < gap
         if gap is None or gap < 0.0 or between or (event.leading and (not leader or leader[0] != vid)):
             return now - event.seen_s >= LOST_S  # it left the ego's way or lane, or another came between them
