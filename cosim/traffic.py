@@ -525,6 +525,11 @@ class Traffic:
         return cached
 
     @property
+    def ego_id(self) -> str:
+        """The SUMO id of the ego vehicle ("" before it is picked)."""
+        return self._ego
+
+    @property
     def ego_road_id(self) -> str:
         """The SUMO edge the ego is on (``:``-prefixed inside a junction)."""
         return str(libsumo.vehicle.getRoadID(self._ego))
