@@ -316,8 +316,26 @@ class Traffic:
                 self._insert_ego([ramp], f"entrance ramp {ramp}")
         else:
             self._pick_ego(ego.start)
+            if self._scenario.hazards:
+                self._keep_to_its_roads()
         libsumo.vehicle.setColor(self._ego, (255, 0, 0, 255))
         self._keep_ego_going()
+
+    def _keep_to_its_roads(self) -> None:
+        """A hazard scene's ego is sent to the destination, of 20 drawn among the roads as fast as
+        its own (and the one it had), whose route keeps to such roads the longest (a motorway ego
+        does not leave the motorway at the next exit)."""
+        route = list(libsumo.vehicle.getRoute(self._ego))
+        best = (_fast_ahead_m(self._ego), route[-1])
+        edges = self._ego_targets()
+        for _ in range(20):
+            target = edges[int(self._rng.integers(0, len(edges)))]
+            try:
+                libsumo.vehicle.changeTarget(self._ego, target)
+            except libsumo.TraCIException:
+                continue
+            best = max(best, (_fast_ahead_m(self._ego), target))
+        libsumo.vehicle.changeTarget(self._ego, best[1])
 
     def _insert_ego(self, route: list[str], what: str) -> None:
         """Insert a new ego at the start of ``route`` and step until it has entered."""
@@ -384,7 +402,7 @@ class Traffic:
             return
         if self._scenario.hazards:  # hazards need an ego that drives, not one queueing in a jam
             flowing = [v for v in cars if _flowing(v)]
-            cars = [v for v in flowing if _staying(v)] or flowing or cars
+            cars = [v for v in flowing if _staying(v, HAZARD_EGO_ROAD_M)] or flowing or cars
         cars = [cars[i] for i in busiest(_positions(cars), _positions(), EGO_BUSY_RADIUS_M, EGO_BUSY_SHARE)]
         self._ego = cars[int(self._rng.integers(0, len(cars)))]
 
@@ -392,7 +410,21 @@ class Traffic:
         route = libsumo.vehicle.getRoute(self._ego)
         if libsumo.vehicle.getRouteIndex(self._ego) < len(route) - 2:
             return
+        self._retarget_ego(self._ego_targets())
+
+    def _ego_targets(self) -> list[str]:
+        """Where the ego may be sent on: any road open to cars; in a hazard scene, the roads as
+        fast as the one it is on, where it is on a road (a motorway ego stays on the motorway)."""
         edges = self._index.edges_by_vclass["passenger"]
+        lane = libsumo.vehicle.getLaneID(self._ego)
+        if not self._scenario.hazards or not lane or lane.startswith(":"):
+            return edges
+        limit = libsumo.lane.getMaxSpeed(lane)
+        return [e for e in edges if libsumo.lane.getMaxSpeed(f"{e}_0") >= limit - 0.1] or edges
+
+    def _retarget_ego(self, edges: list[str]) -> None:
+        """Send the ego on to a road drawn from ``edges`` (its route then goes on for more than
+        three roads)."""
         for _ in range(20):
             target = edges[int(self._rng.integers(0, len(edges)))]
             try:
@@ -562,19 +594,22 @@ def _flowing(vid: str) -> bool:
     return bool(lane) and libsumo.vehicle.getSpeed(vid) >= HAZARD_EGO_FLOW * libsumo.lane.getMaxSpeed(lane)
 
 
-def _staying(vid: str) -> bool:
-    """Whether a vehicle's route stays on roads as fast as its own for ``HAZARD_EGO_ROAD_M`` (it
-    is not about to leave a motorway)."""
+def _staying(vid: str, road_m: float) -> bool:
+    """Whether a vehicle's route stays on roads as fast as its own for ``road_m`` (it is not
+    about to leave a motorway)."""
+    return _fast_ahead_m(vid, road_m) >= road_m
+
+
+def _fast_ahead_m(vid: str, up_to_m: float = 10_000.0) -> float:
+    """How far a vehicle's route goes on roads as fast as its own (up to ``up_to_m``)."""
     limit = libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(vid))
     route, at = libsumo.vehicle.getRoute(vid), libsumo.vehicle.getRouteIndex(vid)
     ahead = -libsumo.vehicle.getLanePosition(vid)
     for road in route[at:]:
-        if libsumo.lane.getMaxSpeed(f"{road}_0") < limit - 0.1:
-            return False
+        if libsumo.lane.getMaxSpeed(f"{road}_0") < limit - 0.1 or ahead >= up_to_m:
+            break
         ahead += libsumo.lane.getLength(f"{road}_0")
-        if ahead >= HAZARD_EGO_ROAD_M:
-            return True
-    return False
+    return float(max(ahead, 0.0))
 
 
 def _spread(items: list[str], count: int) -> list[str]:
