@@ -2,7 +2,7 @@
 
 :class:`Schedule`: events of one kind are due one in each period of ``60 / per_minute``
 seconds from the first step, at a point drawn in the middle half of the period (so two are
-0.5 to 1.5 periods apart, and any stretch of the run holds the number asked, give or take one).
+0.5 to 1.5 periods apart, and any stretch of the run holds the number asked to within 1.5).
 
 :class:`Sight`: the places around the ego that no sensor of the rig reaches and that are too
 far to be labelled: an actor made there for an event enters the sensors' view by driving or

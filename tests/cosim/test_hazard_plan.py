@@ -29,11 +29,11 @@ def test_one_event_is_due_in_the_middle_half_of_each_period():
 
 
 @given(st.integers(0, 2**32 - 1), st.floats(0.5, 30.0), st.floats(0.0, 300.0), st.floats(1.0, 300.0))
-def test_any_stretch_of_a_run_holds_the_rate_asked_give_or_take_one(seed, per_minute, start_s, length_s):
+def test_any_stretch_of_a_run_holds_the_rate_asked_to_within_one_and_a_half_events(seed, per_minute, start_s, length_s):
     period = 60.0 / per_minute
     dues = np.array(_dues(Schedule(period, 0.0, np.random.default_rng(seed)), start_s + length_s + period))
     count = np.count_nonzero((dues >= start_s) & (dues < start_s + length_s))
-    assert abs(count - length_s / period) <= 1.0
+    assert abs(count - length_s / period) <= 1.5
 
 
 def test_over_many_runs_the_mean_count_is_the_rate_asked():
