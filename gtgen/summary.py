@@ -158,7 +158,8 @@ def hazard_lines(out_dir: Path) -> list[str]:
         lines.append(f"hazard events, {row.kind}: {row.events} ({row.per_minute:.1f} a minute, "
                      f"{row.asked_per_minute:g} asked{ttc})")  # fmt: skip
         if row.per_minute < row.asked_per_minute / 2:
-            lines.append(f"  fewer than asked: a {row.kind} starts only where the traffic around the ego allows it")
+            lines.append(f"  fewer than asked: a {row.kind} starts only where the ego's way allows it "
+                         "(see Hazard scenes in the README)")  # fmt: skip
     return lines
 
 
