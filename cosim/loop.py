@@ -21,6 +21,7 @@ from tqdm import tqdm
 
 from cosim.errors import CosimError, RunStoppedError, Terminated, TrafficError
 from cosim.net_index import check_hazards
+from cosim.occupancy_step import OccupancyStep
 from cosim.resume import ResumePoint, begin, finish, kept_frames, resume_point, settle
 from cosim.rig import Rig, build_rig
 from cosim.scenario import Scenario
@@ -137,9 +138,11 @@ def sense_and_label(
     probe: FrameProbe = NO_PROBE,
     signals: StreetObjects | None = None,
     hazards: bool = False,
+    occupancy: OccupancyStep | None = None,
 ) -> FrameRecord:
     """Cast every sensor into one scene of this frame, then label what the rays saw (the
-    traffic lights' heads among the objects, with ``signals``)."""
+    traffic lights' heads among the objects, with ``signals``), and, with ``occupancy``, the
+    frame's occupancy."""
     map_SE3_ego = state.ego.map_SE3_ego()
     with probe.stage("scene"):
         static = crop.around(map_SE3_ego.translation)
@@ -159,9 +162,13 @@ def sense_and_label(
         labels = label_frame(frame_index, timestamp_ns, state.agents, state.ego, outputs, scene, rig.label_range_m,
                              rig.camera_names, events)  # fmt: skip
         lights = signals.labels(labels, state) if signals is not None else SignalLabels.empty()
+    occupied = None
+    if occupancy is not None:
+        with probe.stage("occupancy"):
+            occupied = occupancy.frame(static, scene, state, outputs)
     return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut, signals=lights,
                        ego_velocity_map_mps=state.ego.velocity_map_mps, hazards=state.hazards if hazards else None,
-                       ego_collided=state.ego_collided)  # fmt: skip
+                       ego_collided=state.ego_collided, occupancy=occupied)  # fmt: skip
 
 
 def prepare_map(prepared: PreparedNetwork) -> tuple[HdMap, Path]:
@@ -209,7 +216,7 @@ def sink_choice(
                       kitti_native_types=o.kitti_types == "native", kitti_image_3=kitti_image_3(scenario),
                       traffic_lights=scenario.street.traffic_lights or scenario.street.signs,
                       map_json=map_json, nuscenes=nuscenes_setup(scenario, out_dir, map_json),
-                      hazards=bool(scenario.hazards))  # fmt: skip
+                      hazards=bool(scenario.hazards), occupancy=o.occupancy.enabled)  # fmt: skip
 
 
 def kitti_image_3(scenario: Scenario) -> bool:
@@ -308,8 +315,9 @@ def run(
         left_hand = is_left_hand(prepared.net_path)
         objects = street_objects(prepared.net, left_hand, street.traffic_lights, street.signs, prepared.xodr_path)
         signals = StreetObjects(objects)
+    occupancy = OccupancyStep(scenario.outputs.occupancy.grid) if scenario.outputs.occupancy.enabled else None
     loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, counts, out_dir, progress, one_process, probe,
-                     signals, hdmap)  # fmt: skip
+                     signals, hdmap, occupancy)  # fmt: skip
     stopped: BaseException | None = None
     held: Handlers = {}
 
@@ -410,6 +418,7 @@ class FrameLoop:
     probe: FrameProbe
     signals: StreetObjects | None = None
     hdmap: HdMap | None = None
+    occupancy: OccupancyStep | None = None
 
     def frames(self, start: int, sinks: FrameSink, started: Callable[[], None]) -> None:
         """Frames ``start`` .. the last: the traffic (simulated up to ``start`` first), sensed,
@@ -432,7 +441,7 @@ class FrameLoop:
             for frame_index in bar:
                 state = traffic.next()
                 record = sense_and_label(frame_index, state, self.crop, self.rig, self.rng, probe, self.signals,
-                                         bool(scenario.hazards))  # fmt: skip
+                                         bool(scenario.hazards), self.occupancy)  # fmt: skip
                 if self.hdmap is not None:
                     with probe.stage("map"):
                         o = scenario.outputs

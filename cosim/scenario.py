@@ -11,10 +11,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+import numpy as np
+
 from cosim.config import build, read_yaml, set_override
 from cosim.errors import ScenarioError
 from cosim.rigs import NUSCENES_CAMERAS, NUSCENES_IMAGE, nuscenes_hfov_deg, with_rig
 from gtgen.sinks.live import LiveAddress, parse_live_address
+from gtgen.voxels import PRESETS, OccupancyGrid
 from networks.errors import quoted
 from sensors.camera import CameraSpec
 from sensors.lidar import LidarSpec
@@ -123,6 +126,39 @@ class StreetConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class OccupancyConfig:
+    """3D semantic occupancy, visibility masks and flow under ``occupancy/`` (gtgen/occupancy.py):
+    the grid of ``preset`` (occ3d: 0.4 m, 200 x 200 x 16; openoccupancy: 0.2 m, 512 x 512 x 40),
+    or ``voxel_m`` and ``range_m`` (x_min, y_min, z_min, x_max, y_max, z_max in the ego frame)."""
+
+    enabled: bool = False
+    preset: Literal["occ3d", "openoccupancy"] = "occ3d"
+    voxel_m: float = 0.0  # 0: the preset's
+    range_m: tuple[float, ...] = ()  # (): the preset's
+
+    def __post_init__(self) -> None:
+        _check(self.voxel_m == 0 or 0.05 <= self.voxel_m <= 2.0, "voxel_m", "metres in [0.05, 2] (0: the preset's)",
+               self.voxel_m)  # fmt: skip
+        r = self.range_m
+        _check(r == () or (len(r) == 6 and all(r[i] < r[i + 3] for i in range(3))), "range_m",
+               "(x_min, y_min, z_min, x_max, y_max, z_max) with each min below its max", r)  # fmt: skip
+        grid = self.grid
+        extents = [grid.range_m[i + 3] - grid.range_m[i] for i in range(3)]
+        _check(all(abs(e / grid.voxel_m - round(e / grid.voxel_m)) < 1e-6 for e in extents), "range_m",
+               f"extents that are whole multiples of voxel_m ({grid.voxel_m:g} m)", grid.range_m)  # fmt: skip
+        voxels = int(np.prod([round(e / grid.voxel_m) for e in extents]))
+        _check(voxels <= 40_000_000, "voxel_m", f"a grid of at most 40 million voxels (this one: {voxels:,})",
+               grid.voxel_m)  # fmt: skip
+
+    @property
+    def grid(self) -> OccupancyGrid:
+        preset = PRESETS[self.preset]
+        voxel = self.voxel_m or preset.voxel_m
+        r = self.range_m or preset.range_m
+        return OccupancyGrid(voxel, (r[0], r[1], r[2], r[3], r[4], r[5]))
+
+
+@dataclass(frozen=True, slots=True)
 class OutputsConfig:
     mcap: bool = True
     csv: bool = True
@@ -135,6 +171,7 @@ class OutputsConfig:
     map_range_m: tuple[float, float] = (30.0, 15.0)  # half extents ahead/behind and left/right of the ego
     map_resolution_m: float = 0.5  # of the rasters
     nuscenes: bool = False  # the nuScenes v1.0 layout under nuscenes/ (on with rig: nuscenes)
+    occupancy: OccupancyConfig = field(default_factory=OccupancyConfig)  # occupancy/ (off by default)
 
     def __post_init__(self) -> None:
         rx, ry = self.map_range_m

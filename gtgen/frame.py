@@ -10,6 +10,7 @@ import numpy.typing as npt
 
 from gtgen.labels import FrameLabels
 from gtgen.mapgt import MapFrame
+from gtgen.occupancy import OccupancyFrame
 from gtgen.signals import SignalLabels
 from networks.geometry import SE3
 from sensors.camera import CameraOutput
@@ -52,6 +53,7 @@ class FrameRecord:
     ego_velocity_map_mps: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     hazards: tuple[ActiveHazard, ...] | None = None  # the hazard events under way (None: the run makes none)
     ego_collided: bool = False  # the simulation saw the ego collide in this step
+    occupancy: OccupancyFrame | None = None  # occupancy, masks and flow around the ego (None: not asked for)
 
     @property
     def lidars(self) -> tuple[LidarOutput, ...]:

@@ -88,3 +88,10 @@ __all__ = [
     "radar_points",
     "topics",
 ]
+
+
+def load_occupancy(run_dir: Path, frame_index: int) -> dict[str, npt.NDArray[Any]]:
+    """A frame's ``occupancy/NNNNNN/labels.npz`` as arrays by name (see
+    :mod:`gtgen.sinks.occupancy_sink`): ``semantics``, ``mask_lidar``, ``mask_camera``, ``flow``..."""
+    with np.load(run_dir / "occupancy" / f"{frame_index:06d}" / "labels.npz") as data:
+        return {name: data[name] for name in data.files}

@@ -18,6 +18,7 @@ from gtgen.sinks.kitti_sink import KittiSink
 from gtgen.sinks.live import LiveAddress, LiveSink
 from gtgen.sinks.mcap_sink import McapSink
 from gtgen.sinks.nuscenes_sink import NuscenesSetup, NuscenesSink
+from gtgen.sinks.occupancy_sink import OccupancySink
 from gtgen.sinks.resume_sink import ResumeSink
 from gtgen.sinks.yolo_sink import YoloSink
 from gtgen.timing import NO_CLOCK, StageClock
@@ -47,6 +48,7 @@ class SinkChoice:
     map_json: Path | None = None  # the whole map (networks.hdmap): map/ is written (frames carry their part)
     nuscenes: NuscenesSetup | None = None  # the nuScenes layout under nuscenes/
     hazards: bool = False  # the run makes hazard events: events.csv (with csv), /gt/events
+    occupancy: bool = False  # occupancy/ (frames carry their occupancy)
 
     @property
     def map(self) -> bool:
@@ -64,7 +66,7 @@ class SinkChoice:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
         names = {"mcap": "run.mcap", "csv": "labels.csv", "lights_csv": "lights_and_signs.csv", "kitti": "kitti",
                  "yolo": "yolo", "map": "map", "nuscenes": "nuscenes",
-                 "events": "event_frames.csv"}  # fmt: skip
+                 "events": "event_frames.csv", "occupancy": "occupancy"}  # fmt: skip
         return [self.out_dir / f"{name}.partial" for kind, name in names.items() if getattr(self, kind)]
 
 
@@ -89,6 +91,8 @@ def _open_one(choice: SinkChoice, kind: str) -> Sink:
         return EventsSink(out, keep)
     if kind == "nuscenes" and choice.nuscenes is not None:
         return NuscenesSink(out / "nuscenes", choice.nuscenes, keep)
+    if kind == "occupancy":
+        return OccupancySink(out / "occupancy", keep)
     if kind == "resume":
         return ResumeSink(out, keep)
     return YoloSink(out / "yolo", choice.yolo_min_visible_px, keep)
@@ -117,7 +121,19 @@ class SinkGroup(ClosedOnExit):
         With ``announce``, their notices go to stderr."""
         kinds = [
             k
-            for k in ("mcap", "csv", "lights_csv", "events", "kitti", "yolo", "map", "nuscenes", "live", "resume")
+            for k in (
+                "mcap",
+                "csv",
+                "lights_csv",
+                "events",
+                "kitti",
+                "yolo",
+                "map",
+                "nuscenes",
+                "occupancy",
+                "live",
+                "resume",
+            )
             if getattr(choice, k)
         ]
         group = cls([], clock)

@@ -1,0 +1,41 @@
+"""The frame loop's occupancy step: the frame's occupancy from the static world near the ego, every
+agent of the frame, the LiDAR sweeps and the cameras' rays (cast at the grid's resolution into
+the frame's scene)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cosim.state import WorldState
+from gtgen.occupancy import OccupancyFrame, camera_rays, occupancy_frame
+from gtgen.voxels import OccupancyGrid
+from networks.mesh import ClassedMesh
+from sensors.camera import CameraOutput
+from sensors.engine import Scene
+from sensors.lidar import LidarOutput
+from sensors.sensor import SensorOutput
+from sensors.solids import Solids
+
+
+class OccupancyStep:
+    """Makes each frame's :class:`~gtgen.occupancy.OccupancyFrame` on ``grid`` (keeps the solids
+    of the current static crop)."""
+
+    def __init__(self, grid: OccupancyGrid) -> None:
+        self.grid = grid
+        self._static: ClassedMesh | None = None
+        self._solids: Solids | None = None
+
+    def frame(
+        self, static: ClassedMesh, scene: Scene, state: WorldState, outputs: tuple[SensorOutput, ...]
+    ) -> OccupancyFrame:
+        if self._solids is None or static is not self._static:
+            self._static, self._solids = static, Solids(static)
+        map_SE3_ego = state.ego.map_SE3_ego()
+        cameras = []
+        for camera in (o for o in outputs if isinstance(o, CameraOutput)):
+            hits = scene.cast(camera_rays(self.grid, camera.spec, map_SE3_ego))
+            cameras.append((camera.spec, hits.range_m.astype(np.float64)))
+        lidars = tuple(o for o in outputs if isinstance(o, LidarOutput))
+        return occupancy_frame(self.grid, static, self._solids, state.agents, map_SE3_ego,
+                               state.ego.velocity_map_mps, lidars, tuple(cameras))  # fmt: skip

@@ -1,0 +1,283 @@
+"""Semantic occupancy of a frame, what the sensors observed of it, and the motion of what fills it.
+
+The grid lies in the ego frame (Occ3D-nuScenes by default: 0.4 m voxels, x and y -40..40 m,
+z -1..5.4 m, 200 x 200 x 16). A voxel is occupied by every volume or surface that meets it:
+
+- agents (and traffic-light heads and sign plates): their 3D boxes, solid; each agent's body
+  lies inside its box, and the bodies are built of overlapping closed parts, which are not one
+  watertight mesh, so the box is the volume (:func:`gtgen.voxels.box_voxels`, exact overlap);
+- the static world's solids (buildings, trees, poles, bridge piers: closed prisms): their
+  surfaces and every voxel whose centre lies inside them (:mod:`sensors.solids`, ray parity
+  along each row of voxel centres); a voxel meets a solid iff it meets its surface or its
+  centre is inside, so this is exact;
+- the static world's surfaces (roads, sidewalks, curbs, crossings, markings, terrain): the
+  voxels their triangles meet (:func:`gtgen.voxels.triangle_voxels`, exact).
+
+Where several classes meet one voxel, the one earliest in :data:`PRIORITY` names it (small
+and moving things before large and static ones). ``semantics`` holds Occ3D-nuScenes's 18
+classes (:data:`OCC3D_CLASSES`, 17 = free), mapped from ours through nuScenes-lidarseg's
+categories (:data:`OCC3D_OF_CLASS`); ``semantics_native`` our own classes, 255 = free.
+
+``mask_lidar``: the voxels each LiDAR ray crossed from the sensor to its return, the return's
+voxel included (rays without a return are not counted). ``mask_camera``: the same for camera
+rays cast at the grid's resolution (one ray per voxel width at the grid's far corner) up to
+what they hit, or out of the grid. A voxel in neither mask was not observed.
+
+Flow: every agent voxel carries its agent's velocity in the ego frame's axes (``flow_mps``:
+the ego's motion taken out, the agent's velocity over the ground; ``flow_relative_mps``: minus
+the ego's velocity, as the ego sees it move; the ego's turning is not taken out). Every LiDAR
+point carries its scene flow to the next sweep: its object's velocity times the sweep period,
+in the LiDAR frame's axes (0 on the static world; constant velocity, no turning).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, LIDARSEG_LUT
+from gtgen.voxels import OccupancyGrid, VoxelGrid, box_voxels, segment_voxels, triangle_voxels
+from networks.classes import SemanticClass
+from networks.geometry import SE3, box_rotations
+from networks.mesh import ClassedMesh
+from networks.records import check_arrays
+from sensors.agents import Agents
+from sensors.camera import CameraSpec
+from sensors.lidar import LidarOutput
+from sensors.rays import sensor_rays
+
+if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
+    from sensors.solids import Solids
+
+FREE_NATIVE = 255
+OCC3D_CLASSES = (
+    "others", "barrier", "bicycle", "bus", "car", "construction_vehicle", "motorcycle", "pedestrian",
+    "traffic_cone", "trailer", "truck", "driveable_surface", "other_flat", "sidewalk", "terrain", "manmade",
+    "vegetation", "free",
+)  # fmt: skip
+OCC3D_FREE = OCC3D_CLASSES.index("free")
+# nuScenes-lidarseg category -> Occ3D-nuScenes class (the lidarseg challenge's 16 classes).
+_OCC3D_OF_CATEGORY = {
+    "human.pedestrian.adult": "pedestrian", "vehicle.bicycle": "bicycle", "vehicle.bus.rigid": "bus",
+    "vehicle.car": "car", "vehicle.motorcycle": "motorcycle", "vehicle.truck": "truck",
+    "flat.driveable_surface": "driveable_surface", "flat.sidewalk": "sidewalk", "flat.terrain": "terrain",
+    "static.manmade": "manmade", "static.vegetation": "vegetation",
+}  # fmt: skip
+OCC3D_OF_CLASS: dict[SemanticClass, str] = {
+    c: _OCC3D_OF_CATEGORY.get(LIDARSEG_CATEGORIES[LIDARSEG_LUT[int(c)]], "others") for c in SemanticClass
+}
+OCC3D_LUT = np.full(256, OCC3D_CLASSES.index("others"), np.uint8)
+for _cls, _name in OCC3D_OF_CLASS.items():
+    OCC3D_LUT[int(_cls)] = OCC3D_CLASSES.index(_name)
+OCC3D_LUT[FREE_NATIVE] = OCC3D_FREE
+
+PRIORITY = (
+    SemanticClass.PEDESTRIAN, SemanticClass.BICYCLE, SemanticClass.MOTORCYCLE, SemanticClass.CAR, SemanticClass.TRUCK,
+    SemanticClass.BUS, SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN, SemanticClass.POLE,
+    SemanticClass.VEGETATION, SemanticClass.BUILDING, SemanticClass.CURB, SemanticClass.SIDEWALK,
+    SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW, SemanticClass.CROSSING, SemanticClass.ROAD,
+    SemanticClass.TERRAIN, SemanticClass.NONE,
+)  # fmt: skip
+_RANK = np.full(256, len(PRIORITY), np.int64)
+for _rank, _cls in enumerate(PRIORITY):
+    _RANK[int(_cls)] = _rank
+
+
+@dataclass(frozen=True, slots=True)
+class OccupancyFrame:
+    """One frame's occupancy on ``grid``: ``semantics_native: (X, Y, Z) uint8`` (our classes, 255
+    free), ``instance: (X, Y, Z) uint32`` (the agent's track id, 0: none), ``mask_lidar`` and
+    ``mask_camera: (X, Y, Z) bool``, ``flow_mps`` and ``flow_relative_mps: (X, Y, Z, 3) float32``
+    (0 off agents), ``point_flow_m``: one ``(N, 3) float32`` per LiDAR output of the frame."""
+
+    grid: VoxelGrid
+    semantics_native: npt.NDArray[np.uint8]
+    instance: npt.NDArray[np.uint32]
+    mask_lidar: npt.NDArray[np.bool_]
+    mask_camera: npt.NDArray[np.bool_]
+    flow_mps: npt.NDArray[np.float32]
+    flow_relative_mps: npt.NDArray[np.float32]
+    point_flow_m: tuple[npt.NDArray[np.float32], ...] = ()
+
+    def __post_init__(self) -> None:
+        s = self.grid.shape
+        check_arrays(
+            self, semantics_native=(np.uint8, s), instance=(np.uint32, s), mask_lidar=(np.bool_, s),
+            mask_camera=(np.bool_, s), flow_mps=(np.float32, (*s, 3)), flow_relative_mps=(np.float32, (*s, 3)),
+        )  # fmt: skip
+
+    @property
+    def semantics(self) -> npt.NDArray[np.uint8]:
+        """Occ3D-nuScenes classes (:data:`OCC3D_CLASSES`, 17 = free)."""
+        return np.asarray(OCC3D_LUT[self.semantics_native], np.uint8)
+
+
+def occupancy_frame(
+    spec: OccupancyGrid, static: ClassedMesh, solids: Solids, agents: Agents, map_SE3_ego: SE3,
+    ego_velocity_map_mps: npt.NDArray[np.float64], lidars: tuple[LidarOutput, ...],
+    cameras: tuple[tuple[CameraSpec, npt.NDArray[np.float64]], ...] = (),
+) -> OccupancyFrame:  # fmt: skip
+    """The occupancy of one frame. ``static``: the world mesh near the ego (map frame);
+    ``solids``: its solids; ``agents`` in the map frame; ``cameras``: each camera's spec and the
+    distance (m) its grid-resolution rays (:func:`camera_rays`) travelled, inf where they hit
+    nothing."""
+    grid = spec.grid
+    ego_SE3_map = map_SE3_ego.inverse()
+    native, instance = _classes(grid, static, solids, agents, map_SE3_ego)
+    mask_lidar = np.zeros(grid.size, np.bool_)
+    for lidar in lidars:
+        ego_SE3_lidar = lidar.spec.ego_SE3_sensor
+        ends = ego_SE3_lidar.transform_from(lidar.scan.xyz_lidar_m.astype(np.float64))
+        starts = np.broadcast_to(ego_SE3_lidar.translation, ends.shape)
+        mask_lidar[segment_voxels(grid, starts, ends)] = True
+    mask_camera = np.zeros(grid.size, np.bool_)
+    for camera, distance_m in cameras:
+        starts, ends = camera_segments(spec, camera, distance_m)
+        mask_camera[segment_voxels(grid, starts, ends)] = True
+    flow, relative = _voxel_flow(grid, instance, agents, ego_SE3_map, ego_velocity_map_mps)
+    point_flow = tuple(point_flow_m(lidar, agents, map_SE3_ego) for lidar in lidars)
+    s = grid.shape
+    return OccupancyFrame(grid, native.reshape(s), instance.reshape(s), mask_lidar.reshape(s), mask_camera.reshape(s),
+                          flow.reshape(*s, 3), relative.reshape(*s, 3), point_flow)  # fmt: skip
+
+
+def _classes(
+    grid: VoxelGrid, static: ClassedMesh, solids: Solids, agents: Agents, map_SE3_ego: SE3
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32]]:
+    """Flat ``(native class, instance)`` of every voxel."""
+    ego_SE3_map = map_SE3_ego.inverse()
+    flats, classes, instances = [], [], []
+    near = _static_near_index(grid, static, map_SE3_ego)
+    tri_m = np.asarray(static.vertices_m[static.triangles[near]], np.float64)
+    flat, source = triangle_voxels(grid, ego_SE3_map.transform_from(tri_m.reshape(-1, 3)).reshape(-1, 3, 3))
+    tri_class = static.triangle_class[near]
+    flats.append(flat)
+    classes.append(tri_class[source])
+    instances.append(np.zeros(flat.shape[0], np.uint32))
+    flat, cls = _solid_insides(grid, solids, map_SE3_ego)
+    flats.append(flat)
+    classes.append(cls)
+    instances.append(np.zeros(flat.shape[0], np.uint32))
+    if len(agents):
+        center = ego_SE3_map.transform_from(agents.center_map_m)
+        rotations = ego_SE3_map.rotation @ box_rotations(agents.yaw_map_rad, agents.pitch_rad)
+        flat, source = box_voxels(grid, center, rotations, agents.lwh_m)
+        flats.append(flat)
+        classes.append(agents.semantic_class[source])
+        instances.append(agents.instance_id[source])
+    flat, cls, inst = np.concatenate(flats), np.concatenate(classes), np.concatenate(instances)
+    order = np.argsort(-_RANK[cls], kind="stable")  # lowest priority first: later writes win
+    native = np.full(grid.size, FREE_NATIVE, np.uint8)
+    instance = np.zeros(grid.size, np.uint32)
+    native[flat[order]] = cls[order]
+    instance[flat[order]] = inst[order]
+    return native, instance
+
+
+def _static_near_index(grid: VoxelGrid, static: ClassedMesh, map_SE3_ego: SE3) -> npt.NDArray[np.intp]:
+    """The static triangles whose bounding circle reaches the grid's bounding circle (map frame)."""
+    tri = static.vertices_m[static.triangles]
+    centroid = tri.mean(axis=1)
+    radius = np.linalg.norm(tri - centroid[:, None, :], axis=2).max(axis=1)
+    lo, hi = np.asarray(grid.lower_m), np.asarray(grid.upper_m)
+    grid_center = map_SE3_ego.transform_from((lo + hi) / 2.0)
+    reach = float(np.linalg.norm(hi - lo)) / 2.0
+    return np.flatnonzero(np.linalg.norm(centroid - grid_center, axis=1) <= reach + radius)
+
+
+SCAN_MARGIN_M = 60.0  # rows of voxel centres are scanned from this far outside the grid
+
+
+def _solid_insides(
+    grid: VoxelGrid, solids: Solids, map_SE3_ego: SE3
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint8]]:
+    """The voxels whose centre lies inside a solid, and the solid's class: one line along x per
+    row of voxel centres (y, z), from outside the grid to beyond it."""
+    nx, ny, nz = grid.shape
+    v = grid.voxel_m
+    j, k = np.meshgrid(np.arange(ny), np.arange(nz), indexing="ij")
+    y = grid.lower_m[1] + (j.ravel() + 0.5) * v
+    z = grid.lower_m[2] + (k.ravel() + 0.5) * v
+    x0, x1 = grid.lower_m[0] - SCAN_MARGIN_M, grid.upper_m[0] + SCAN_MARGIN_M
+    start = np.stack([np.full_like(y, x0), y, z], axis=1)
+    end = np.stack([np.full_like(y, x1), y, z], axis=1)
+    spans = solids.spans(map_SE3_ego.transform_from(start), map_SE3_ego.transform_from(end))
+    # voxel centres i with x0 + t0 L < lower + (i + 0.5) v < x0 + t1 L
+    length = x1 - x0
+    first = np.ceil((x0 + spans.t0 * length - grid.lower_m[0]) / v - 0.5).astype(np.int64)
+    last = np.floor((x0 + spans.t1 * length - grid.lower_m[0]) / v - 0.5).astype(np.int64)
+    first, last = np.maximum(first, 0), np.minimum(last, nx - 1)
+    count = np.maximum(last - first + 1, 0)
+    span = np.repeat(np.arange(count.shape[0]), count)
+    i = first[span] + (np.arange(span.shape[0]) - np.repeat(np.cumsum(count) - count, count))
+    row = spans.line[span]
+    flat = (i * ny + row // nz) * nz + row % nz
+    return flat, spans.semantic_class[span]
+
+
+def _voxel_flow(
+    grid: VoxelGrid, instance: npt.NDArray[np.uint32], agents: Agents, ego_SE3_map: SE3,
+    ego_velocity_map_mps: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:  # fmt: skip
+    flow = np.zeros((grid.size, 3), np.float32)
+    relative = np.zeros((grid.size, 3), np.float32)
+    filled = np.flatnonzero(instance)
+    if filled.size == 0 or len(agents) == 0:
+        return flow, relative
+    order = np.argsort(agents.instance_id)
+    at = order[np.searchsorted(agents.instance_id[order], instance[filled])]
+    velocity_ego = agents.velocity_map_mps @ ego_SE3_map.rotation.T
+    ego_ego = ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64)
+    flow[filled] = velocity_ego[at]
+    relative[filled] = velocity_ego[at] - ego_ego
+    return flow, relative
+
+
+def point_flow_m(lidar: LidarOutput, agents: Agents, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
+    """``(N, 3) float32``: where each point of the sweep moves by the next sweep (its object's
+    velocity times the sweep period, LiDAR axes); 0 on the static world and on unknown ids."""
+    scan = lidar.scan
+    flow = np.zeros((len(scan), 3), np.float32)
+    if len(agents) == 0 or len(scan) == 0:
+        return flow
+    order = np.argsort(agents.instance_id)
+    ids = agents.instance_id[order]
+    pos = np.clip(np.searchsorted(ids, scan.instance_id), 0, len(ids) - 1)
+    known = (scan.instance_id != 0) & (ids[pos] == scan.instance_id)
+    lidar_R_map = map_SE3_ego.compose(lidar.spec.ego_SE3_sensor).rotation.T
+    velocity = agents.velocity_map_mps[order[pos[known]]] @ lidar_R_map.T
+    flow[known] = velocity / lidar.spec.rate_hz
+    return flow
+
+
+def camera_directions(spec: OccupancyGrid, camera: CameraSpec) -> npt.NDArray[np.float32]:
+    """``(R, 3) float32`` unit rays of ``camera`` (optical frame) at the grid's resolution: the
+    image sampled so that neighbouring rays lie one voxel apart at the grid's farthest corner."""
+    lo, hi = np.asarray(spec.range_m[:3]), np.asarray(spec.range_m[3:])
+    far = float(np.max(np.linalg.norm(np.stack([lo, hi]) - np.asarray(camera.mount_xyz_m), axis=1)))
+    pinhole = camera.pinhole
+    step_px = max(1.0, spec.voxel_m / far * pinhole.focal_px)
+    u = np.arange(step_px / 2.0, camera.width_px, step_px) - 0.5
+    v = np.arange(step_px / 2.0, camera.height_px, step_px) - 0.5
+    uu, vv = np.meshgrid(u, v)
+    return pinhole.pixel_directions(uu, vv).astype(np.float32)
+
+
+def camera_rays(spec: OccupancyGrid, camera: CameraSpec, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
+    """``(R, 6) float32`` map-frame rays of :func:`camera_directions` (to cast into the frame's scene)."""
+    return sensor_rays(map_SE3_ego.compose(camera.ego_SE3_sensor), camera_directions(spec, camera))
+
+
+def camera_segments(
+    spec: OccupancyGrid, camera: CameraSpec, distance_m: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Ego-frame segments of the camera's grid-resolution rays, each as far as it travelled
+    (inf: out of the grid, at most the camera's range)."""
+    ego_SE3_cam = camera.ego_SE3_sensor
+    dirs = camera_directions(spec, camera).astype(np.float64) @ ego_SE3_cam.rotation.T
+    reach = np.minimum(np.nan_to_num(distance_m, posinf=camera.range_m), camera.range_m)
+    starts = np.broadcast_to(ego_SE3_cam.translation, dirs.shape)
+    return starts, starts + dirs * reach[:, None]

@@ -1,0 +1,137 @@
+"""Occupancy, visibility masks and flow on hand-built scenes with known answers."""
+
+import numpy as np
+import pytest
+from shapely.geometry import box as rect
+
+from gtgen.frame import FrameRecord
+from gtgen.labels import label_frame
+from gtgen.load import load_occupancy
+from gtgen.occupancy import FREE_NATIVE, OCC3D_CLASSES, camera_rays, occupancy_frame
+from gtgen.sinks.group import SinkChoice, SinkGroup
+from gtgen.voxels import OccupancyGrid, box_voxels
+from networks.classes import SemanticClass
+from networks.geometry import SE3, box_rotations
+from networks.mesh import flat_polygon, merge, prism
+from sensors.agents import Agents, EgoState
+from sensors.camera import CameraSpec
+from sensors.lidar import Lidar, LidarSpec
+from sensors.scene import FrameScene
+from sensors.solids import Solids
+from sensors.weather import DAY
+
+EGO = EgoState.at(SE3.identity())
+GROUND = flat_polygon(rect(-200, -200, 200, 200), 0.0, SemanticClass.ROAD)
+SPEC = OccupancyGrid()
+
+
+def car(x, y, speed_mps=0.0):
+    a = Agents.standing([4], [int(SemanticClass.CAR)], [[x, y, 0.75]], [[4.4, 1.8, 1.5]], [0.0])
+    velocity = np.array([[speed_mps, 0.0, 0.0]])
+    return Agents(a.instance_id, a.semantic_class, a.center_map_m, a.lwh_m, a.yaw_map_rad, a.pitch_rad, velocity,
+                  a.parked)  # fmt: skip
+
+
+def frame(static, agents, lidar=True, camera=True):
+    scene = FrameScene(static, agents)
+    rng = np.random.default_rng(0)
+    lidars = (Lidar(LidarSpec()).sense(scene, EGO, DAY, rng),) if lidar else ()
+    cameras = ()
+    if camera:
+        spec = CameraSpec(shading="flat")
+        hits = scene.cast(camera_rays(SPEC, spec, EGO.map_SE3_ego()))
+        cameras = ((spec, hits.range_m.astype(np.float64)),)
+    occupancy = occupancy_frame(SPEC, static, Solids(static), agents, EGO.map_SE3_ego(), EGO.velocity_map_mps, lidars,
+                                cameras)  # fmt: skip
+    return occupancy, lidars
+
+
+def test_box_agent_fills_exactly_its_box_and_the_road_fills_one_layer():
+    occupancy, _ = frame(GROUND, car(10.1, 0.3), lidar=False, camera=False)
+    grid = SPEC.grid
+    expected, _ = box_voxels(
+        grid, np.array([[10.1, 0.3, 0.75]]), box_rotations([0.0], [0.0]), np.array([[4.4, 1.8, 1.5]])
+    )
+    cars = np.flatnonzero(occupancy.semantics_native.ravel() == SemanticClass.CAR)
+    assert set(cars.tolist()) == set(expected.tolist())
+    # x 7.9..12.3 -> voxels 119..130, y -0.6..1.2 -> 98..102 (1.2 m is a voxel face), z 0..1.5 -> 2..6
+    ijk = np.stack(np.unravel_index(cars, grid.shape), axis=-1)
+    assert (ijk.min(0).tolist(), ijk.max(0).tolist()) == ([119, 98, 2], [130, 102, 6])
+    assert np.all(occupancy.instance.ravel()[cars] == 4)
+    road = occupancy.semantics_native == SemanticClass.ROAD
+    assert road.sum() + len(cars) - np.count_nonzero(ijk[:, 2] > 2) == 200 * 200
+    assert np.all(road[:, :, 2] | (occupancy.semantics_native[:, :, 2] == SemanticClass.CAR))
+    assert OCC3D_CLASSES[occupancy.semantics[125, 100, 4]] == "car"
+    assert (
+        occupancy.semantics_native[0, 0, 10] == FREE_NATIVE and OCC3D_CLASSES[occupancy.semantics[0, 0, 10]] == "free"
+    )
+
+
+def test_building_is_solid_inside_not_only_its_walls():
+    building = prism(rect(10.0, 10.0, 20.0, 20.0), -0.05, 12.0, SemanticClass.BUILDING)
+    occupancy, _ = frame(merge([GROUND, building]), Agents.empty(), lidar=False, camera=False)
+    inside = occupancy.semantics_native[125:150, 125:150, 3:]  # x, y 10..20 m, z 0.2..5.4 m
+    assert np.all(inside == SemanticClass.BUILDING)
+    assert np.all(occupancy.semantics_native[100:124, 100:124, 3:] == FREE_NATIVE)
+
+
+def test_wall_hides_the_voxels_behind_it_from_both_masks():
+    wall = prism(rect(8.0, -6.0, 8.4, 6.0), -0.05, 4.0, SemanticClass.BUILDING)
+    occupancy, _ = frame(merge([GROUND, wall]), Agents.empty())
+    behind = (slice(130, 140), slice(95, 105), slice(3, 8))  # x 12..16 m, y -2..2 m, z 0.2..2.2 m
+    before = (slice(110, 115), slice(95, 105), slice(5, 8))  # x 4..6 m, 1.0..2.2 m up
+    for mask in (occupancy.mask_lidar, occupancy.mask_camera):
+        assert not mask[behind].any()
+        assert mask[before].all()
+    assert np.all(occupancy.semantics_native[before] == FREE_NATIVE)
+    # the wall's voxels that face the sensors are observed, the air above the wall beyond it too
+    assert occupancy.mask_lidar[120, 100, 3:8].all()
+    assert occupancy.mask_lidar[:, :, :].sum() > occupancy.mask_lidar[behind].size
+
+
+def test_car_at_10_mps_has_voxel_flow_10_mps_and_its_points_move_10_mps_times_the_sweep_period():
+    occupancy, lidars = frame(GROUND, car(12.0, 0.0, speed_mps=10.0), camera=False)
+    cars = occupancy.semantics_native == SemanticClass.CAR
+    assert np.allclose(occupancy.flow_mps[cars], [10.0, 0.0, 0.0])
+    assert np.allclose(occupancy.flow_relative_mps[cars], [10.0, 0.0, 0.0])  # the ego stands still
+    assert not occupancy.flow_mps[~cars].any()
+    scan, flow = lidars[0].scan, occupancy.point_flow_m[0]
+    on_car = scan.instance_id == 4
+    assert on_car.sum() > 50
+    period = 1.0 / LidarSpec().rate_hz
+    assert np.allclose(flow[on_car], [10.0 * period, 0.0, 0.0], atol=1e-6)
+    assert not flow[~on_car].any()
+
+
+def test_occupancy_is_written_per_frame_and_read_back(tmp_path):
+    occupancy, lidars = frame(GROUND, car(12.0, 0.0, speed_mps=10.0), camera=False)
+    agents = car(12.0, 0.0, speed_mps=10.0)
+    labels = label_frame(3, 150_000_000, agents, EGO, lidars, FrameScene(GROUND, agents), 120.0)
+    record = FrameRecord(3, 150_000_000, SE3.identity(), lidars, labels, occupancy=occupancy)
+    choice = SinkChoice(tmp_path, mcap=False, csv=False, kitti=False, yolo=False, occupancy=True)
+    with SinkGroup.open(choice) as sinks:
+        sinks.write(record)
+    data = load_occupancy(tmp_path, 3)
+    assert data["semantics"].shape == (200, 200, 16) and data["semantics"].dtype == np.uint8
+    assert np.array_equal(data["semantics"], occupancy.semantics)
+    assert np.array_equal(data["mask_lidar"], occupancy.mask_lidar)
+    assert data["mask_camera"].dtype == np.bool_
+    assert np.array_equal(data["flow"], occupancy.flow_mps)
+    assert data["range_m"].tolist() == [-40.0, -40.0, -1.0, 40.0, 40.0, 5.4]
+    assert (tmp_path / "occupancy" / "classes.json").exists()
+
+
+@pytest.mark.parametrize("setting", ["voxel_m=0.3", "range_m=[-40,-40,-1,40,40]", "voxel_m=0.01"])
+def test_bad_occupancy_grid_is_one_line_naming_the_key(setting):
+    from cosim.errors import ScenarioError
+    from cosim.scenario import load_scenario
+
+    with pytest.raises(ScenarioError, match=r"outputs\.occupancy"):
+        load_scenario("town05_crowded", [f"outputs.occupancy.{setting}"])
+
+
+def test_presets_have_the_layouts_of_occ3d_and_openoccupancy():
+    from cosim.scenario import OccupancyConfig
+
+    assert OccupancyConfig().grid.grid.shape == (200, 200, 16)
+    assert OccupancyConfig(preset="openoccupancy").grid.grid.shape == (512, 512, 40)

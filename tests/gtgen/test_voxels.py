@@ -1,0 +1,119 @@
+"""Exact voxel geometry against brute force: triangles, boxes, segments."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from gtgen.voxels import VoxelGrid, box_voxels, segment_voxels, triangle_voxels
+from networks.geometry import box_rotations
+
+GRID = VoxelGrid((-4.0, -4.0, -1.0), 0.4, (20, 20, 10))
+
+
+def _meets_cube(tri, center):
+    """Reference separating-axis test of one triangle (3, 3) against the unit cube at ``center``."""
+    v = tri - center
+    e = v[[1, 2, 0]] - v
+    axes = [np.eye(3)[i] for i in range(3)] + [np.cross(e[0], e[1])]
+    axes += [np.cross(np.eye(3)[i], e[j]) for i in range(3) for j in range(3)]
+    for a in axes:
+        if np.linalg.norm(a) < 1e-12:
+            continue
+        p = v @ a
+        r = 0.5 * np.abs(a).sum()
+        if p.min() > r + 1e-9 or p.max() < -r - 1e-9:
+            return False
+    return True
+
+
+def _brute_triangle(grid, tri_m):
+    tri = grid.to_grid(tri_m)
+    lo = np.clip(np.floor(tri.min(0) - 1e-6).astype(int), 0, np.array(grid.shape) - 1)
+    hi = np.clip(np.floor(tri.max(0) + 1e-6).astype(int), 0, np.array(grid.shape) - 1)
+    found = set()
+    for ijk in np.ndindex(*(hi - lo + 1)):
+        ijk = np.asarray(ijk) + lo
+        if _meets_cube(tri, ijk + 0.5):
+            found.add(int(grid.flat(ijk)))
+    return found
+
+
+coords = st.floats(-4.5, 4.5, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(coords, min_size=9, max_size=9))
+def test_triangle_meets_exactly_the_voxels_a_separating_axis_test_finds(values):
+    tri = np.asarray(values).reshape(3, 3) + [0.0137, 0.0291, 0.0173]  # off the voxel faces (tolerances differ there)
+    tri[:, 2] = tri[:, 2] / 2.0 + 0.5  # within the grid's height mostly
+    flat, source = triangle_voxels(GRID, tri[None])
+    assert set(flat.tolist()) == _brute_triangle(GRID, tri)
+    assert np.all(source == 0)
+
+
+def test_flat_ground_fills_one_layer_and_nothing_above():
+    ground = np.array(
+        [[[-10, -10, 0.0], [10, -10, 0.0], [10, 10, 0.0]], [[-10, -10, 0.0], [10, 10, 0.0], [-10, 10, 0.0]]]
+    )
+    flat, _ = triangle_voxels(GRID, ground)
+    ijk = np.stack(np.unravel_index(np.unique(flat), GRID.shape), axis=-1)
+    assert len(ijk) == 20 * 20  # z = 0 lies inside layer 2 (-0.2 .. 0.2): one layer
+    assert set(ijk[:, 2].tolist()) == {2}
+
+
+def test_axis_aligned_box_fills_exactly_the_voxels_its_volume_covers():
+    # a box from x 0.1..2.3, y -0.5..0.7, z 0.0..1.5: voxels x 10..15, y 8..11, z 2..6
+    center = np.array([[1.2, 0.1, 0.75]])
+    flat, source = box_voxels(GRID, center, box_rotations([0.0], [0.0]), np.array([[2.2, 1.2, 1.5]]))
+    ijk = np.stack(np.unravel_index(flat, GRID.shape), axis=-1)
+    expected = {(i, j, k) for i in range(10, 16) for j in range(8, 12) for k in range(2, 7)}
+    assert {tuple(v) for v in ijk.tolist()} == expected
+    assert np.all(source == 0)
+
+
+def test_box_on_voxel_faces_does_not_fill_the_voxels_it_only_touches():
+    center = np.array([[0.4, 0.4, 0.2]])  # x 0..0.8, y 0..0.8, z -0.2..0.6: faces on voxel faces
+    flat, _ = box_voxels(GRID, center, box_rotations([0.0], [0.0]), np.array([[0.8, 0.8, 0.8]]))
+    assert len(flat) == 2 * 2 * 2
+
+
+def test_turned_box_fills_every_voxel_a_point_of_it_lies_in_and_no_voxel_away_from_it():
+    rng = np.random.default_rng(3)
+    center, lwh, yaw, pitch = np.array([[0.3, -0.2, 0.8]]), np.array([[3.1, 1.7, 1.4]]), 0.7, 0.15
+    R = box_rotations([yaw], [pitch])
+    flat, _ = box_voxels(GRID, center, R, lwh)
+    got = set(flat.tolist())
+    local = (rng.random((200_000, 3)) - 0.5) * lwh
+    points = local @ R[0].T + center
+    ijk = GRID.ijk_of(points)
+    assert set(GRID.flat(ijk[GRID.inside(ijk)]).tolist()) <= got
+    # every voxel found lies within a voxel's diagonal of the box (its centre, in the box's frame)
+    centers = (GRID.centers_m(np.asarray(sorted(got))) - center) @ R[0]
+    outside = np.maximum(np.abs(centers) - lwh / 2.0, 0.0)
+    assert np.linalg.norm(outside, axis=1).max() <= GRID.voxel_m * np.sqrt(3) / 2.0 + 1e-9
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-6, 6, allow_nan=False), min_size=6, max_size=6))
+def test_segment_crosses_every_voxel_a_dense_walk_along_it_visits(values):
+    start, end = np.asarray(values[:3]), np.asarray(values[3:])
+    start[2], end[2] = start[2] / 3.0 + 1.0, end[2] / 3.0 + 1.0
+    got = set(segment_voxels(GRID, start[None], end[None]).tolist())
+    t = np.linspace(0.0, 1.0, 20_001)[:, None]
+    g = GRID.to_grid(start + (end - start) * t)
+    g = g[np.all(np.abs(g - np.rint(g)) > 1e-6, axis=1)]  # points on a voxel face belong to either side
+    ijk = np.floor(g).astype(np.int64)
+    walked = set(GRID.flat(ijk[GRID.inside(ijk)]).tolist())
+    assert walked <= got
+    # nothing beyond: the segment meets every voxel found (slab test, closed cubes)
+    for flat in got:
+        lo = GRID.centers_m(np.asarray([flat]))[0] - GRID.voxel_m / 2.0
+        t0, t1 = 0.0, 1.0
+        for axis in range(3):
+            d = end[axis] - start[axis]
+            if abs(d) < 1e-12:
+                assert lo[axis] - 1e-9 <= start[axis] <= lo[axis] + GRID.voxel_m + 1e-9
+                continue
+            ta, tb = sorted(((lo[axis] - start[axis]) / d, (lo[axis] + GRID.voxel_m - start[axis]) / d))
+            t0, t1 = max(t0, ta), min(t1, tb)
+        assert t0 <= t1 + 1e-5
