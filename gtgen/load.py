@@ -17,6 +17,7 @@ from mcap_protobuf.decoder import DecoderFactory
 from gtgen.mapgt import load_map_frame
 from gtgen.objects import ObjectBoxes
 from gtgen.sinks.foxglove import LIDAR_POINT_DTYPE, RADAR_POINT_DTYPE
+from gtgen.sinks.occupancy_messages import LIDAR_FLOW_DTYPE
 
 
 class JsonDecoderFactory(McapDecoderFactory):
@@ -44,6 +45,8 @@ def topics(path: Path) -> list[str]:
 def lidar_points(cloud: Any) -> npt.NDArray[np.void]:
     """A ``foxglove.PointCloud`` written by the MCAP sink as a structured array
     with fields x, y, z, intensity, ring, class, instance."""
+    if cloud.point_stride == LIDAR_FLOW_DTYPE.itemsize:  # a run with occupancy: scene flow_x, flow_y, flow_z too
+        return np.frombuffer(cloud.data, dtype=LIDAR_FLOW_DTYPE)
     if cloud.point_stride != LIDAR_POINT_DTYPE.itemsize:
         raise ValueError(f"point stride {cloud.point_stride} is not the LiDAR layout ({LIDAR_POINT_DTYPE.itemsize})")
     return np.frombuffer(cloud.data, dtype=LIDAR_POINT_DTYPE)

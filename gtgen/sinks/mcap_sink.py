@@ -44,6 +44,7 @@ from gtgen.signals import SIGNAL_COLUMNS, signal_table
 from gtgen.sinks import foxglove as fx
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.layout import layout_for
+from gtgen.sinks.occupancy_messages import OCCUPANCY_TOPIC, occupancy_update, with_flow
 from gtgen.static_map import static_map_update
 from gtgen.table import COLUMNS, label_table
 from networks.world import read_world
@@ -150,7 +151,10 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
     sensors: tuple[SensorOutput, ...] = (*record.lidars, *record.radars, *record.cameras)
     transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in sensors]
     out: list[tuple[str, Any]] = [("/tf", FrameTransforms(transforms=transforms))]
-    out += [(f"/{lidar.spec.name}", fx.lidar_cloud(ns, lidar)) for lidar in record.lidars]
+    clouds = [fx.lidar_cloud(ns, lidar) for lidar in record.lidars]
+    if record.occupancy is not None:  # each point's scene flow as three more fields
+        clouds = [with_flow(c, f) for c, f in zip(clouds, record.occupancy.point_flow_m, strict=True)]
+    out += [(f"/{lidar.spec.name}", cloud) for lidar, cloud in zip(record.lidars, clouds, strict=True)]
     out += [(f"/{radar.spec.name}", fx.radar_cloud(ns, radar)) for radar in record.radars]
     for index, (camera, cam_labels) in enumerate(zip(record.cameras, record.labels.cameras, strict=True)):
         base = f"/{camera.spec.name}"
@@ -158,6 +162,8 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
         out.append((f"{base}/calibration", fx.calibration(ns, camera)))
         out.append((f"{base}/annotations", fx.image_annotations(ns, record.labels, cam_labels)))
     out.append(("/gt/boxes", fx.box_update(ns, record.labels, record.signals.state_of())))
+    if record.occupancy is not None:
+        out.append((OCCUPANCY_TOPIC, occupancy_update(ns, record.occupancy)))
     if record.map is not None:
         out.append((MAP_VECTORS_TOPIC, fx.map_lines(ns, record.map.vectors["elements"])))
     if record.hazards is not None:

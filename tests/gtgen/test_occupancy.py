@@ -135,3 +135,23 @@ def test_presets_have_the_layouts_of_occ3d_and_openoccupancy():
 
     assert OccupancyConfig().grid.grid.shape == (200, 200, 16)
     assert OccupancyConfig(preset="openoccupancy").grid.grid.shape == (512, 512, 40)
+
+
+def test_mcap_has_the_occupancy_cubes_and_each_points_flow(tmp_path):
+    from gtgen.load import iter_messages, lidar_points
+
+    agents = car(12.0, 0.0, speed_mps=10.0)
+    occupancy, lidars = frame(GROUND, agents, camera=False)
+    labels = label_frame(0, 0, agents, EGO, lidars, FrameScene(GROUND, agents), 120.0)
+    record = FrameRecord(0, 0, SE3.identity(), lidars, labels, occupancy=occupancy)
+    choice = SinkChoice(tmp_path, mcap=True, csv=False, kitti=False, yolo=False, occupancy=True)
+    with SinkGroup.open(choice) as sinks:
+        sinks.write(record)
+    messages = {topic: m for topic, _, m in iter_messages(tmp_path / "run.mcap", ["/occupancy", "/lidar"])}
+    cubes = messages["/occupancy"].entities[0].cubes
+    shown = (occupancy.semantics_native != FREE_NATIVE) & (occupancy.mask_lidar | occupancy.mask_camera)
+    assert len(cubes) == shown.sum() > 0
+    assert cubes[0].size.x == pytest.approx(0.4)
+    points = lidar_points(messages["/lidar"])
+    on_car = points["instance"] == 4
+    assert np.allclose(points["flow_x"][on_car], 0.5) and not points["flow_x"][~on_car].any()

@@ -44,7 +44,7 @@ coords = st.floats(-4.5, 4.5, allow_nan=False)
 @settings(max_examples=60, deadline=None)
 @given(st.lists(coords, min_size=9, max_size=9))
 def test_triangle_meets_exactly_the_voxels_a_separating_axis_test_finds(values):
-    tri = np.asarray(values).reshape(3, 3) + [0.0137, 0.0291, 0.0173]  # off the voxel faces (tolerances differ there)
+    tri = np.asarray(values).reshape(3, 3) + np.array([0.0137, 0.0291, 0.0173])  # off voxel faces (tolerances differ)
     tri[:, 2] = tri[:, 2] / 2.0 + 0.5  # within the grid's height mostly
     flat, source = triangle_voxels(GRID, tri[None])
     assert set(flat.tolist()) == _brute_triangle(GRID, tri)
