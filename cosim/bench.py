@@ -8,7 +8,8 @@ entry per case under ``cases``, each with the ray engine that ran and its frames
 Cases: ``full`` (the default rig on town05_crowded, all outputs, the default engine: the fast
 one when it starts), ``full-open3d`` (the same with Open3D), ``lidar`` and ``lidar-open3d``
 (a LiDAR-only rig, MCAP and CSV out), ``v500`` and ``v5000`` (the full rig with 500 and 5,000
-vehicles in the network). Per case: frames/s over the frame loop (after the warm-up; closing
+vehicles in the network), ``occupancy`` (the full rig with ``outputs.occupancy``: its stage
+is the occupancy's cost a frame). Per case: frames/s over the frame loop (after the warm-up; closing
 the sinks included), milliseconds per frame per stage (taken inside the loop), the engine's
 own cast time of the same rays on scenes kept from the first 100 frames (recast after the
 run), CPU milliseconds per frame of the loop's process and of its traffic and writer
@@ -47,7 +48,7 @@ MEMORY_FROM_FRAME = 100
 CAST_REPEATS = 3
 LIDAR_ONLY = ("sensors.cameras=[]", "sensors.radars=[]", "outputs.kitti=false", "outputs.yolo=false")
 TARGETS = {"full_fps": 15.0, "lidar_fps": 80.0, "cast_ratio": 1.25, "v5000_over_v500": 1.5, "rss_growth_pct": 5.0,
-           "street_map_cost_pct": 10.0}  # fmt: skip
+           "street_map_cost_pct": 10.0, "occupancy_ms": 15.0}  # fmt: skip
 NO_STREET = ("street.markings=false", "street.traffic_lights=false", "street.signs=false", "outputs.map=false")
 
 
@@ -75,6 +76,13 @@ def cases(quick: bool = False) -> list[Case]:
         Case("lidar", "LiDAR only, town05_crowded", "town05_crowded", lidar, LIDAR_ONLY),
         Case("lidar-open3d", "LiDAR only, Open3D", "town05_crowded", lidar, (*LIDAR_ONLY, *o3d), engine="open3d"),
         Case("nuscenes", "nuScenes rig and export, town05_crowded", "town05_crowded", nus, ("rig=nuscenes",)),
+        Case(
+            "occupancy",
+            "full rig and occupancy, town05_crowded",
+            "town05_crowded",
+            nus,
+            ("outputs.occupancy.enabled=true",),
+        ),
         Case("v500", "full rig, 500 vehicles", "town05_crowded", fleet, ("traffic.vehicles=500",)),
         Case("v5000", "full rig, 5,000 vehicles", "town05_crowded", fleet, ("traffic.vehicles=5000",)),
     ]
@@ -318,6 +326,7 @@ def targets(results: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
         "v5000_over_v500": v5000 / v500 if v5000 and v500 else None,
         "rss_growth_pct": get("full", "rss_growth_pct"),
         "street_map_cost_pct": 100.0 * (bare - full) / bare if full and bare else None,
+        "occupancy_ms": results.get("occupancy", {}).get("stages_ms", {}).get("occupancy"),
     }
     at_least = {"full_fps", "lidar_fps"}
     out = {}

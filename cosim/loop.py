@@ -33,6 +33,7 @@ from gtgen.errors import OutputKeptError
 from gtgen.frame import FrameRecord
 from gtgen.labels import FrameLabels, label_frame
 from gtgen.mapgt import MapRange, map_frame
+from gtgen.occ3d_export import write_occ3d_annotations
 from gtgen.signals import SignalLabels
 from gtgen.sinks.background import BackgroundSinks
 from gtgen.sinks.group import SinkChoice, SinkGroup
@@ -341,6 +342,8 @@ def run(
     finally:
         release_interrupts(held)
     probe.frame_done(scenario.frames)
+    if scenario.outputs.nuscenes and scenario.outputs.occupancy.enabled:
+        write_occ3d_annotations(out_dir, out_dir.resolve().name)
     summary_cut = summarize(out_dir, scenario) if summary else None
     in_summary = stopped is None and summary_cut is not None  # every frame is written
     stopped = stopped or summary_cut

@@ -4,7 +4,9 @@
 ``lidar_points.png``, and for a few frames ``bev_<frame>.png`` (LiDAR points by class with
 the label boxes) and ``camera_<frame>.png`` (the image with tight and projected boxes). A run
 with hazards adds ``events.csv`` (events per kind, per minute, median and smallest time to
-collision) and ``events.png`` (each event's minimum time to collision, by kind).
+collision) and ``events.png`` (each event's minimum time to collision, by kind). A run with
+occupancy adds ``occupancy_<frame>.png`` and ``occupancy_3d_<frame>.png`` of its middle frame
+(:mod:`gtgen.occupancy_pictures`).
 """
 
 from __future__ import annotations
@@ -187,6 +189,10 @@ def _write_summary(
     if n and (out_dir / "run.mcap").exists():
         picks = sorted({0, n // 2, n - 1}) if picture_frames >= 3 else [0]
         frame_pictures(out_dir / "run.mcap", labels, picks, folder)
+    if n and (out_dir / "occupancy").is_dir():
+        from gtgen.occupancy_pictures import occupancy_pictures
+
+        occupancy_pictures(out_dir, n // 2, folder)
     if (out_dir / "events.csv").exists():
         minutes = labels["timestamp"].nunique() and (labels["timestamp"].max() - labels["timestamp"].min()) / 60.0
         if asked is None:

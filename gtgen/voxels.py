@@ -103,6 +103,15 @@ def triangle_voxels(grid: VoxelGrid, triangles_m: F64) -> tuple[I64, I64]:
     tri, source = tri[keep], np.flatnonzero(keep).astype(np.int64)
     low = np.clip(np.floor(tri.min(axis=1) - EPS).astype(np.int64), 0, shape - 1)
     high = np.clip(np.floor(tri.max(axis=1) + EPS).astype(np.int64), 0, shape - 1)
+    one = np.all(low == high, axis=1)  # within one voxel (most triangles of a body): that voxel
+    if one.any():
+        rest_flat, rest_source = _rows(grid, tri[~one], source[~one], low[~one], high[~one])
+        return np.concatenate([grid.flat(low[one]), rest_flat]), np.concatenate([source[one], rest_source])
+    return _rows(grid, tri, source, low, high)
+
+
+def _rows(grid: VoxelGrid, tri: F64, source: I64, low: I64, high: I64) -> tuple[I64, I64]:
+    shape = np.asarray(grid.shape)
     rows_y, layers = high[:, 1] - low[:, 1] + 1, high[:, 2] - low[:, 2] + 1
     t, local = _ragged(rows_y * layers)
     j, k = low[t, 1] + local // layers[t], low[t, 2] + local % layers[t]

@@ -155,3 +155,38 @@ def test_mcap_has_the_occupancy_cubes_and_each_points_flow(tmp_path):
     points = lidar_points(messages["/lidar"])
     on_car = points["instance"] == 4
     assert np.allclose(points["flow_x"][on_car], 0.5) and not points["flow_x"][~on_car].any()
+
+
+def test_nuscenes_export_gets_occ3d_annotations_finding_each_keyframe_by_its_sample_token(records, tmp_path):
+    import json
+    from dataclasses import replace
+
+    from gtgen.occ3d_export import write_occ3d_annotations
+    from gtgen.sinks.nuscenes_sink import NuscenesSetup
+
+    setup = NuscenesSetup("run", 0.25, (("lidar", "lidar", 4.0), ("camera", "camera", 4.0), ("radar", "radar", 4.0)),
+                          "skeleton")  # fmt: skip
+    occupancy, _ = frame(GROUND, car(12.0, 0.0), lidar=False, camera=False)
+    out = tmp_path / "run"
+    out.mkdir()
+    choice = SinkChoice(out, mcap=False, csv=False, kitti=False, yolo=False, nuscenes=setup, occupancy=True)
+    with SinkGroup.open(choice) as sinks:
+        for record in records:  # keyframes at frames 0 and 2
+            sinks.write(replace(record, occupancy=replace(occupancy, point_flow_m=())))
+    path = write_occ3d_annotations(out, "run")
+    assert path == out / "nuscenes" / "annotations.json"
+    annotations = json.loads(path.read_text())
+    samples = {s["token"]: s for s in json.loads((out / "nuscenes" / "v1.0-trainval" / "sample.json").read_text())}
+    frames = {t: f for info in annotations["scene_infos"].values() for t, f in info.items()}
+    assert set(frames) == set(samples)
+    for sample_token, info in frames.items():
+        assert info["timestamp"] == samples[sample_token]["timestamp"]
+        assert info["gt_path"].endswith(f"/{sample_token}/labels.npz")
+        gt = np.load(out / "nuscenes" / info["gt_path"])
+        assert np.array_equal(gt["semantics"], occupancy.semantics)
+        (camera,) = info["camera_sensor"].values()  # the rig's one camera
+        assert np.asarray(camera["intrinsic"]).shape == (3, 3) and len(camera["extrinsic"]["rotation"]) == 4
+        assert (out / "nuscenes" / camera["img_path"]).exists()
+    assert sorted(annotations["train_split"] + annotations["val_split"] + annotations["test_split"]) == sorted(
+        annotations["scene_infos"]
+    )
