@@ -1,6 +1,7 @@
-"""Occupancy in the MCAP: ``/occupancy`` (a ``foxglove.SceneUpdate``: one cube per occupied voxel
-that a sensor observed, coloured by class, in the ego frame) and each LiDAR point's scene flow
-as the cloud's fields ``flow_x``, ``flow_y``, ``flow_z`` (metres to the next sweep, LiDAR axes)."""
+"""Occupancy in the MCAP: ``/occupancy`` (a ``foxglove.SceneUpdate``: cubes of the occupied voxels
+that a sensor observed, coloured by class, in the ego frame, a run of one class along x as one
+cube) and each LiDAR point's scene flow as the cloud's fields ``flow_x``, ``flow_y``, ``flow_z``
+(metres to the next sweep, LiDAR axes)."""
 
 from __future__ import annotations
 
@@ -45,22 +46,44 @@ def with_flow(cloud: PointCloud, flow_m: npt.NDArray[np.float32]) -> PointCloud:
 
 
 def occupancy_update(ns: int, occupancy: OccupancyFrame) -> SceneUpdate:
-    """One entity of cubes: every occupied voxel in either mask, coloured by class."""
+    """One entity of cubes: the occupied voxels that either mask observed, coloured by class; each
+    run of neighbouring voxels of one class along x is one long cube."""
     grid = occupancy.grid
     shown = (occupancy.semantics_native != FREE_NATIVE) & (occupancy.mask_lidar | occupancy.mask_camera)
-    flat = np.flatnonzero(shown)
-    centers = grid.centers_m(flat)
-    classes = occupancy.semantics_native.ravel()[flat]
-    size = Vector3(x=grid.voxel_m, y=grid.voxel_m, z=grid.voxel_m)
-    colours = {int(c): Color(r=r, g=g, b=b, a=1.0) for c, (r, g, b) in _rgb(np.unique(classes)).items()}
+    classes = np.where(shown, occupancy.semantics_native, FREE_NATIVE)
+    x0, length, j, k, cls = runs_along_x(classes)
+    keep = cls != FREE_NATIVE
+    x0, length, j, k, cls = x0[keep], length[keep], j[keep], k[keep], cls[keep]
+    lower, v = grid.lower_m, grid.voxel_m
+    x = lower[0] + (x0 + length / 2.0) * v
+    y, z = lower[1] + (j + 0.5) * v, lower[2] + (k + 0.5) * v
+    colours = {c: Color(r=r, g=g, b=b, a=1.0) for c, (r, g, b) in _rgb(np.unique(cls)).items()}
     identity = Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
     cubes = [
-        CubePrimitive(pose=Pose(position=Vector3(x=x, y=y, z=z), orientation=identity), size=size, color=colours[c])
-        for (x, y, z), c in zip(centers.tolist(), classes.tolist(), strict=True)
+        CubePrimitive(pose=Pose(position=Vector3(x=px, y=py, z=pz), orientation=identity),
+                      size=Vector3(x=n * v, y=v, z=v), color=colours[c])
+        for px, py, pz, n, c in zip(x.tolist(), y.tolist(), z.tolist(), length.tolist(), cls.tolist(), strict=True)
     ]  # fmt: skip
     entity = SceneEntity(timestamp=timestamp(ns), frame_id="ego", id="occupancy", cubes=cubes)
     deletion = SceneEntityDeletion(timestamp=timestamp(ns), type=SceneEntityDeletion.ALL)
     return SceneUpdate(deletions=[deletion], entities=[entity])
+
+
+def runs_along_x(
+    classes: npt.NDArray[np.uint8],
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64],
+           npt.NDArray[np.uint8]]:  # fmt: skip
+    """Runs of equal values along x of ``(X, Y, Z)`` classes: first x index, length, y, z, value."""
+    nx = classes.shape[0]
+    rows = np.moveaxis(classes, 0, -1).reshape(-1, nx)  # one row per (y, z), x along it
+    start = np.ones(rows.shape, np.bool_)
+    start[:, 1:] = rows[:, 1:] != rows[:, :-1]
+    row, x0 = np.nonzero(start)
+    flat = row * nx + x0
+    length = np.diff(np.append(flat, rows.size))
+    length = np.minimum(length, nx - x0)  # a run ends with its row
+    j, k = np.divmod(row, classes.shape[2])
+    return x0, length, j, k, rows[row, x0]
 
 
 def _rgb(classes: npt.NDArray[np.uint8]) -> dict[int, tuple[float, float, float]]:

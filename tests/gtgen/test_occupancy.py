@@ -150,8 +150,19 @@ def test_mcap_has_the_occupancy_cubes_and_each_points_flow(tmp_path):
     messages = {topic: m for topic, _, m in iter_messages(tmp_path / "run.mcap", ["/occupancy", "/lidar"])}
     cubes = messages["/occupancy"].entities[0].cubes
     shown = (occupancy.semantics_native != FREE_NATIVE) & (occupancy.mask_lidar | occupancy.mask_camera)
-    assert len(cubes) == shown.sum() > 0
-    assert cubes[0].size.x == pytest.approx(0.4)
+    assert 0 < len(cubes) < shown.sum()  # runs along x are one cube each
+    assert sum(round(c.size.x / 0.4) for c in cubes) == shown.sum()
+    assert all(c.size.y == pytest.approx(0.4) and c.size.z == pytest.approx(0.4) for c in cubes)
+    # the voxels the cubes cover are the shown ones, by class
+    covered = np.full(occupancy.semantics_native.shape, FREE_NATIVE, np.uint8)
+    rgb = {(round(c.color.r, 3), round(c.color.g, 3), round(c.color.b, 3)) for c in cubes}
+    assert len(rgb) == len(np.unique(occupancy.semantics_native[shown]))
+    for c in cubes:
+        n = round(c.size.x / 0.4)
+        i0 = round((c.pose.position.x - c.size.x / 2 + 40.0) / 0.4)
+        j, k = int((c.pose.position.y + 40.0) // 0.4), int((c.pose.position.z + 1.0) // 0.4)
+        covered[i0 : i0 + n, j, k] = 1
+    assert np.array_equal(covered == 1, shown)
     points = lidar_points(messages["/lidar"])
     on_car = points["instance"] == 4
     assert np.allclose(points["flow_x"][on_car], 0.5) and not points["flow_x"][~on_car].any()
