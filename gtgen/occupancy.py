@@ -3,13 +3,16 @@
 The grid lies in the ego frame (Occ3D-nuScenes by default: 0.4 m voxels, x and y -40..40 m,
 z -1..5.4 m, 200 x 200 x 16). A voxel is occupied by every volume or surface that meets it:
 
-- agents (and traffic-light heads and sign plates): their 3D boxes, solid; each agent's body
-  lies inside its box, and the bodies are built of overlapping closed parts, which are not one
-  watertight mesh, so the box is the volume (:func:`gtgen.voxels.box_voxels`, exact overlap);
+- agents (and traffic-light heads and sign plates): the voxels of the agent's 3D box
+  (:func:`gtgen.voxels.box_voxels`, exact overlap) that its body's surface meets, or that its
+  surface encloses (no path of face-neighbouring voxels free of its surface leads out of the
+  box). Bodies are built of overlapping closed parts, not one watertight mesh, so ray parity
+  (Open3D's ``compute_occupancy``) would count the overlaps as outside; the enclosure test
+  does not. An agent whose mesh is not in the frame's scene fills its whole box;
 - the static world's solids (buildings, trees, poles, bridge piers: closed prisms): their
   surfaces and every voxel whose centre lies inside them (:mod:`sensors.solids`, ray parity
   along each row of voxel centres); a voxel meets a solid iff it meets its surface or its
-  centre is inside, so this is exact;
+  centre is inside, so this is exact (their floors, not meshed, lie in the ground);
 - the static world's surfaces (roads, sidewalks, curbs, crossings, markings, terrain): the
   voxels their triangles meet (:func:`gtgen.voxels.triangle_voxels`, exact).
 
@@ -44,7 +47,7 @@ from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
 from networks.mesh import ClassedMesh
 from networks.records import check_arrays
-from sensors.agents import Agents
+from sensors.agents import AgentMeshes, Agents
 from sensors.camera import CameraSpec
 from sensors.lidar import LidarOutput
 from sensors.rays import sensor_rays
@@ -118,15 +121,16 @@ class OccupancyFrame:
 def occupancy_frame(
     spec: OccupancyGrid, static: ClassedMesh, solids: Solids, agents: Agents, map_SE3_ego: SE3,
     ego_velocity_map_mps: npt.NDArray[np.float64], lidars: tuple[LidarOutput, ...],
-    cameras: tuple[tuple[CameraSpec, npt.NDArray[np.float64]], ...] = (),
+    cameras: tuple[tuple[CameraSpec, npt.NDArray[np.float64]], ...] = (), agent_meshes: AgentMeshes | None = None,
 ) -> OccupancyFrame:  # fmt: skip
     """The occupancy of one frame. ``static``: the world mesh near the ego (map frame);
     ``solids``: its solids; ``agents`` in the map frame; ``cameras``: each camera's spec and the
     distance (m) its grid-resolution rays (:func:`camera_rays`) travelled, inf where they hit
-    nothing."""
+    nothing; ``agent_meshes``: the posed meshes of (some of) the agents (their volumes; the
+    others fill their boxes)."""
     grid = spec.grid
     ego_SE3_map = map_SE3_ego.inverse()
-    native, instance = _classes(grid, static, solids, agents, map_SE3_ego)
+    native, instance = _classes(grid, static, solids, agents, map_SE3_ego, agent_meshes)
     mask_lidar = np.zeros(grid.size, np.bool_)
     for lidar in lidars:
         ego_SE3_lidar = lidar.spec.ego_SE3_sensor
@@ -145,8 +149,9 @@ def occupancy_frame(
 
 
 def _classes(
-    grid: VoxelGrid, static: ClassedMesh, solids: Solids, agents: Agents, map_SE3_ego: SE3
-) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32]]:
+    grid: VoxelGrid, static: ClassedMesh, solids: Solids, agents: Agents, map_SE3_ego: SE3,
+    agent_meshes: AgentMeshes | None,
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32]]:  # fmt: skip
     """Flat ``(native class, instance)`` of every voxel."""
     ego_SE3_map = map_SE3_ego.inverse()
     flats, classes, instances = [], [], []
@@ -162,9 +167,7 @@ def _classes(
     classes.append(cls)
     instances.append(np.zeros(flat.shape[0], np.uint32))
     if len(agents):
-        center = ego_SE3_map.transform_from(agents.center_map_m)
-        rotations = ego_SE3_map.rotation @ box_rotations(agents.yaw_map_rad, agents.pitch_rad)
-        flat, source = box_voxels(grid, center, rotations, agents.lwh_m)
+        flat, source = _agent_voxels(grid, agents, agent_meshes, ego_SE3_map)
         flats.append(flat)
         classes.append(agents.semantic_class[source])
         instances.append(agents.instance_id[source])
@@ -186,6 +189,70 @@ def _static_near_index(grid: VoxelGrid, static: ClassedMesh, map_SE3_ego: SE3) -
     grid_center = map_SE3_ego.transform_from((lo + hi) / 2.0)
     reach = float(np.linalg.norm(hi - lo)) / 2.0
     return np.flatnonzero(np.linalg.norm(centroid - grid_center, axis=1) <= reach + radius)
+
+
+def _agent_voxels(
+    grid: VoxelGrid, agents: Agents, meshes: AgentMeshes | None, ego_SE3_map: SE3
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """``(flat, agent row)``: each agent's voxels. An agent with a mesh fills the voxels of its
+    box (:func:`~gtgen.voxels.box_voxels`) that its surface meets or that its surface encloses
+    (no path of face-neighbouring voxels free of its surface leads out of its box); one without
+    fills its box."""
+    center = ego_SE3_map.transform_from(agents.center_map_m)
+    rotations = ego_SE3_map.rotation @ box_rotations(agents.yaw_map_rad, agents.pitch_rad)
+    flat, row = box_voxels(grid, center, rotations, agents.lwh_m)
+    if meshes is None or meshes.triangles.shape[0] == 0 or flat.size == 0:
+        return flat, row
+    in_grid = np.isin(meshes.triangle_instance, agents.instance_id[np.unique(row)])
+    triangles = meshes.triangles[in_grid]
+    tri_m = ego_SE3_map.transform_from(meshes.vertices_m[triangles].reshape(-1, 3).astype(np.float64))
+    surface, tri = triangle_voxels(grid, tri_m.reshape(-1, 3, 3))
+    surface_id = meshes.triangle_instance[in_grid][tri]
+    kept_flat, kept_row = [], []
+    order = np.argsort(row, kind="stable")
+    flat, row = flat[order], row[order]
+    bounds = np.flatnonzero(np.r_[True, row[1:] != row[:-1], True])
+    meshed = set(np.unique(meshes.triangle_instance).tolist())
+    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+        agent_id = int(agents.instance_id[row[a]])
+        box = flat[a:b]
+        if agent_id in meshed:
+            box = box[_filled(grid, box, surface[surface_id == agent_id])]
+        kept_flat.append(box)
+        kept_row.append(np.full(box.shape[0], row[a], np.int64))
+    return np.concatenate(kept_flat), np.concatenate(kept_row)
+
+
+def _filled(grid: VoxelGrid, box: npt.NDArray[np.int64], surface: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+    """Which of a box's voxels its body fills: those its surface meets, and those no path of
+    face-neighbouring voxels inside the box, free of the surface, joins to the box's outside."""
+    ijk = np.stack(np.unravel_index(box, grid.shape), axis=-1)
+    low = ijk.min(axis=0) - 1
+    local = ijk - low
+    shape = tuple((local.max(axis=0) + 2).tolist())
+    inside = np.zeros(shape, np.bool_)
+    inside[tuple(local.T)] = True
+    wall = np.zeros(shape, np.bool_)
+    s = np.stack(np.unravel_index(surface, grid.shape), axis=-1) - low
+    s = s[np.all((s >= 0) & (s < np.asarray(shape)), axis=1)]
+    wall[tuple(s.T)] = True
+    wall &= inside
+    open_ = ~inside  # the box's outside (the margin included)
+    passable = inside & ~wall
+    while True:
+        grown = open_.copy()
+        for axis in range(3):
+            lo = [slice(None)] * 3
+            hi = [slice(None)] * 3
+            lo[axis], hi[axis] = slice(1, None), slice(None, -1)
+            grown[tuple(lo)] |= open_[tuple(hi)]
+            grown[tuple(hi)] |= open_[tuple(lo)]
+        grown = open_ | (grown & passable)
+        if np.array_equal(grown, open_):
+            break
+        open_ = grown
+    filled = inside & ~open_
+    return np.asarray(filled[tuple(local.T)], np.bool_)
 
 
 SCAN_MARGIN_M = 60.0  # rows of voxel centres are scanned from this far outside the grid

@@ -32,7 +32,7 @@ def car(x, y, speed_mps=0.0):
                   a.parked)  # fmt: skip
 
 
-def frame(static, agents, lidar=True, camera=True):
+def frame(static, agents, lidar=True, camera=True, with_meshes=False):
     scene = FrameScene(static, agents)
     rng = np.random.default_rng(0)
     lidars = (Lidar(LidarSpec()).sense(scene, EGO, DAY, rng),) if lidar else ()
@@ -41,8 +41,9 @@ def frame(static, agents, lidar=True, camera=True):
         spec = CameraSpec(shading="flat")
         hits = scene.cast(camera_rays(SPEC, spec, EGO.map_SE3_ego()))
         cameras = ((spec, hits.range_m.astype(np.float64)),)
+    meshes = scene.agent_meshes if with_meshes else None
     occupancy = occupancy_frame(SPEC, static, Solids(static), agents, EGO.map_SE3_ego(), EGO.velocity_map_mps, lidars,
-                                cameras)  # fmt: skip
+                                cameras, meshes)  # fmt: skip
     return occupancy, lidars
 
 
@@ -201,3 +202,34 @@ def test_nuscenes_export_gets_occ3d_annotations_finding_each_keyframe_by_its_sam
     assert sorted(annotations["train_split"] + annotations["val_split"] + annotations["test_split"]) == sorted(
         annotations["scene_infos"]
     )
+
+
+def test_a_car_fills_the_voxels_of_its_body_within_its_box_and_the_lidar_crosses_only_free_or_surface_voxels():
+    from gtgen.voxels import segment_voxels, triangle_voxels
+
+    wall = prism(rect(20.0, -8.0, 20.4, 8.0), -0.05, 4.0, SemanticClass.BUILDING)
+    static = merge([GROUND, wall])
+    agents = car(9.1, 3.1)  # its faces off the voxels' faces
+    occupancy, lidars = frame(static, agents, camera=False, with_meshes=True)
+    grid = SPEC.grid
+    box, _ = box_voxels(grid, np.array([[9.1, 3.1, 0.75]]), box_rotations([0.0], [0.0]), np.array([[4.4, 1.8, 1.5]]))
+    cars = np.flatnonzero(occupancy.semantics_native.ravel() == SemanticClass.CAR)
+    assert set(cars.tolist()) < set(box.tolist())  # the body, not all its box (air over the bonnet, under the sills)
+    assert len(cars) > 0.5 * len(box)
+    scan = lidars[0].scan
+    xyz = LidarSpec().ego_SE3_sensor.transform_from(scan.xyz_lidar_m.astype(np.float64))
+    ijk = grid.ijk_of(xyz)
+    ok = grid.inside(ijk)
+    assert np.all(occupancy.semantics_native[tuple(ijk[ok & (scan.instance_id == 4)].T)] == SemanticClass.CAR)
+    # every voxel a ray crossed before the voxel of its return is free, or holds a surface the ray passed by
+    meshes = FrameScene(static, agents).agent_meshes
+    tris = np.concatenate([static.vertices_m[static.triangles], meshes.vertices_m[meshes.triangles]]).astype(float)
+    surface = np.zeros(grid.size, np.bool_)
+    surface[triangle_voxels(grid, tris)[0]] = True
+    origin = LidarSpec().ego_SE3_sensor.translation
+    end_voxel = grid.flat(np.clip(ijk, 0, np.asarray(grid.shape) - 1))
+    occupied = occupancy.semantics_native.ravel() != FREE_NATIVE
+    for i in range(0, len(xyz), 97):  # every 97th ray
+        crossed = np.unique(segment_voxels(grid, origin[None], xyz[i : i + 1]))
+        before = crossed[crossed != end_voxel[i]]
+        assert np.all(~occupied[before] | surface[before])
