@@ -316,7 +316,9 @@ def run(
         left_hand = is_left_hand(prepared.net_path)
         objects = street_objects(prepared.net, left_hand, street.traffic_lights, street.signs, prepared.xodr_path)
         signals = StreetObjects(objects)
-    occupancy = OccupancyStep(scenario.outputs.occupancy.grid) if scenario.outputs.occupancy.enabled else None
+    occupancy = None
+    if scenario.outputs.occupancy.enabled:
+        occupancy = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh)
     loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, counts, out_dir, progress, one_process, probe,
                      signals, hdmap, occupancy)  # fmt: skip
     stopped: BaseException | None = None

@@ -19,18 +19,15 @@ from sensors.solids import Solids
 
 class OccupancyStep:
     """Makes each frame's :class:`~gtgen.occupancy.OccupancyFrame` on ``grid`` (keeps the solids
-    of the current static crop)."""
+    of the whole static world ``world``)."""
 
-    def __init__(self, grid: OccupancyGrid) -> None:
+    def __init__(self, grid: OccupancyGrid, world: ClassedMesh) -> None:
         self.grid = grid
-        self._static: ClassedMesh | None = None
-        self._solids: Solids | None = None
+        self._solids = Solids(world)
 
     def frame(
         self, static: ClassedMesh, scene: Scene, state: WorldState, outputs: tuple[SensorOutput, ...]
     ) -> OccupancyFrame:
-        if self._solids is None or static is not self._static:
-            self._static, self._solids = static, Solids(static)
         map_SE3_ego = state.ego.map_SE3_ego()
         cameras = []
         for camera in (o for o in outputs if isinstance(o, CameraOutput)):

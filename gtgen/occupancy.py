@@ -9,10 +9,10 @@ z -1..5.4 m, 200 x 200 x 16). A voxel is occupied by every volume or surface tha
   box). Bodies are built of overlapping closed parts, not one watertight mesh, so ray parity
   (Open3D's ``compute_occupancy``) would count the overlaps as outside; the enclosure test
   does not. An agent whose mesh is not in the frame's scene fills its whole box;
-- the static world's solids (buildings, trees, poles, bridge piers: closed prisms): their
-  surfaces and every voxel whose centre lies inside them (:mod:`sensors.solids`, ray parity
-  along each row of voxel centres); a voxel meets a solid iff it meets its surface or its
-  centre is inside, so this is exact (their floors, not meshed, lie in the ground);
+- the static world's solids (buildings, trees, poles, bridge piers: prisms): their surfaces
+  and every voxel whose centre lies inside them (:mod:`sensors.solids`: ray parity along a
+  horizontal ray from each voxel centre under a solid's top, whatever the ego's pitch); a
+  voxel meets a solid iff it meets its surface or its centre is inside, so this is exact;
 - the static world's surfaces (roads, sidewalks, curbs, crossings, markings, terrain): the
   voxels their triangles meet (:func:`gtgen.voxels.triangle_voxels`, exact).
 
@@ -124,7 +124,7 @@ def occupancy_frame(
     cameras: tuple[tuple[CameraSpec, npt.NDArray[np.float64]], ...] = (), agent_meshes: AgentMeshes | None = None,
 ) -> OccupancyFrame:  # fmt: skip
     """The occupancy of one frame. ``static``: the world mesh near the ego (map frame);
-    ``solids``: its solids; ``agents`` in the map frame; ``cameras``: each camera's spec and the
+    ``solids``: the world's solids; ``agents`` in the map frame; ``cameras``: each camera's spec and the
     distance (m) its grid-resolution rays (:func:`camera_rays`) travelled, inf where they hit
     nothing; ``agent_meshes``: the posed meshes of (some of) the agents (their volumes; the
     others fill their boxes)."""
@@ -255,34 +255,14 @@ def _filled(grid: VoxelGrid, box: npt.NDArray[np.int64], surface: npt.NDArray[np
     return np.asarray(filled[tuple(local.T)], np.bool_)
 
 
-SCAN_MARGIN_M = 60.0  # rows of voxel centres are scanned from this far outside the grid
-
-
 def _solid_insides(
     grid: VoxelGrid, solids: Solids, map_SE3_ego: SE3
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint8]]:
-    """The voxels whose centre lies inside a solid, and the solid's class: one line along x per
-    row of voxel centres (y, z), from outside the grid to beyond it."""
-    nx, ny, nz = grid.shape
-    v = grid.voxel_m
-    j, k = np.meshgrid(np.arange(ny), np.arange(nz), indexing="ij")
-    y = grid.lower_m[1] + (j.ravel() + 0.5) * v
-    z = grid.lower_m[2] + (k.ravel() + 0.5) * v
-    x0, x1 = grid.lower_m[0] - SCAN_MARGIN_M, grid.upper_m[0] + SCAN_MARGIN_M
-    start = np.stack([np.full_like(y, x0), y, z], axis=1)
-    end = np.stack([np.full_like(y, x1), y, z], axis=1)
-    spans = solids.spans(map_SE3_ego.transform_from(start), map_SE3_ego.transform_from(end))
-    # voxel centres i with x0 + t0 L < lower + (i + 0.5) v < x0 + t1 L
-    length = x1 - x0
-    first = np.ceil((x0 + spans.t0 * length - grid.lower_m[0]) / v - 0.5).astype(np.int64)
-    last = np.floor((x0 + spans.t1 * length - grid.lower_m[0]) / v - 0.5).astype(np.int64)
-    first, last = np.maximum(first, 0), np.minimum(last, nx - 1)
-    count = np.maximum(last - first + 1, 0)
-    span = np.repeat(np.arange(count.shape[0]), count)
-    i = first[span] + (np.arange(span.shape[0]) - np.repeat(np.cumsum(count) - count, count))
-    row = spans.line[span]
-    flat = (i * ny + row // nz) * nz + row % nz
-    return flat, spans.semantic_class[span]
+    """The voxels whose centre lies inside a solid, and the solid's class."""
+    flat = np.arange(grid.size, dtype=np.int64)
+    cls = solids.inside(map_SE3_ego.transform_from(grid.centers_m(flat)))
+    inside = np.flatnonzero(cls)
+    return flat[inside], cls[inside]
 
 
 def _voxel_flow(

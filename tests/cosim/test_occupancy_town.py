@@ -1,0 +1,113 @@
+"""Occupancy on town05_crowded against the frame's own geometry and rays: every LiDAR point lies in
+an occupied voxel (of its class, or one within half a voxel), and every voxel a LiDAR ray crossed
+before the voxel of its return is free or holds a surface the ray passed by (never the inside of
+a volume). ``python tests/cosim/test_occupancy_town.py FRAMES`` prints the numbers of a longer run."""
+
+from __future__ import annotations
+
+import sys
+from collections import Counter
+from typing import Any
+
+import numpy as np
+import pytest
+
+from cosim.loop import AGENT_MARGIN_M, NO_PROBE, sense_and_label
+from cosim.occupancy_step import OccupancyStep
+from cosim.rig import build_rig
+from cosim.scenario import load_scenario
+from cosim.traffic import Traffic
+from cosim.world_setup import prepare_network
+from gtgen.occupancy import FREE_NATIVE, OCC3D_LUT
+from gtgen.voxels import segment_voxels, triangle_voxels
+from sensors.scene import StaticCrop
+
+pytestmark = pytest.mark.slow
+
+
+class _Scenes(type(NO_PROBE)):  # type: ignore[misc]
+    """Keeps the last frame's scene."""
+
+    last: Any = None
+
+    def scene(self, frame_index: int, scene: Any, map_SE3_ego: Any) -> None:
+        self.last = scene
+
+
+def check(frames: int, steps_between: int = 1, ray_step: int = 7) -> Counter[str]:
+    scenario = load_scenario("town05_crowded", ["outputs.occupancy.enabled=true", "sensors.radars=[]"])
+    prepared = prepare_network(scenario)
+    rig = build_rig(scenario)
+    crop = StaticCrop(prepared.world.mesh, rig.reach_m)
+    step = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh)
+    grid = step.grid.grid
+    traffic = Traffic(prepared.net_path, prepared.net, scenario)
+    rng = np.random.default_rng(0)
+    probe = _Scenes()
+    counts: Counter[str] = Counter()
+    try:
+        traffic.warm_up()
+        for frame in range(frames):
+            for _ in range(steps_between):
+                traffic.step()
+            state = traffic.world_state().near(rig.reach_m + AGENT_MARGIN_M)
+            record = sense_and_label(frame, state, crop, rig, rng, probe, occupancy=step)
+            _check_frame(record, probe.last, crop, grid, counts, ray_step)
+    finally:
+        traffic.close()
+    return counts
+
+
+def _check_frame(record: Any, scene: Any, crop: StaticCrop, grid: Any, counts: Counter[str], ray_step: int) -> None:
+    occupancy = record.occupancy
+    ego_SE3_map = record.map_SE3_ego.inverse()
+    static = crop.around(record.map_SE3_ego.translation)
+    meshes = scene.agent_meshes
+    tris = np.concatenate([static.vertices_m[static.triangles], meshes.vertices_m[meshes.triangles]]).astype(float)
+    surface = np.zeros(grid.size, np.bool_)
+    surface[triangle_voxels(grid, ego_SE3_map.transform_from(tris.reshape(-1, 3)).reshape(-1, 3, 3))[0]] = True
+    semantics = occupancy.semantics_native
+    occupied = semantics.ravel() != FREE_NATIVE
+    for lidar in record.lidars:
+        ego_SE3_lidar = lidar.spec.ego_SE3_sensor
+        xyz = ego_SE3_lidar.transform_from(lidar.scan.xyz_lidar_m.astype(np.float64))
+        ijk = grid.ijk_of(xyz)
+        inside = grid.inside(ijk)
+        xyz, ijk, cls = xyz[inside], ijk[inside], lidar.scan.semantic_class[inside]
+        own = semantics[tuple(ijk.T)]
+        near, near_occ3d = own == cls, OCC3D_LUT[own] == OCC3D_LUT[cls]
+        g = grid.to_grid(xyz)
+        for offset in np.ndindex(3, 3, 3):  # the voxels a cube of half a voxel around the point touches
+            q = np.clip(np.floor(g + (np.asarray(offset) - 1) * 0.5).astype(int), 0, np.asarray(grid.shape) - 1)
+            near |= semantics[tuple(q.T)] == cls
+            near_occ3d |= OCC3D_LUT[semantics[tuple(q.T)]] == OCC3D_LUT[cls]
+        counts.update(points=len(cls), occupied=int((own != FREE_NATIVE).sum()), own_class=int((own == cls).sum()),
+                      near=int(near.sum()), near_occ3d=int(near_occ3d.sum()))  # fmt: skip
+        origin = ego_SE3_lidar.translation[None]
+        for i in range(0, len(xyz), ray_step):
+            crossed = np.unique(segment_voxels(grid, origin, xyz[i : i + 1]))
+            before = crossed[crossed != grid.flat(ijk[i])]
+            counts.update(crossed=len(before), crossed_occupied=int(occupied[before].sum()),
+                          crossed_inside_volume=int((occupied[before] & ~surface[before]).sum()))  # fmt: skip
+    counts["frames"] += 1
+
+
+def test_lidar_points_lie_in_occupied_voxels_and_rays_cross_only_free_or_surface_voxels():
+    counts = check(frames=3, steps_between=10, ray_step=23)
+    assert counts["points"] > 50_000
+    assert counts["occupied"] == counts["points"]
+    assert counts["near_occ3d"] >= 0.97 * counts["points"]
+    assert counts["crossed"] > 100_000
+    assert counts["crossed_inside_volume"] == 0
+
+
+if __name__ == "__main__":
+    n = int(sys.argv[1]) if len(sys.argv) > 1 else 20
+    c = check(frames=n)
+    p = c["points"]
+    print(dict(c))
+    print(f"{c['frames']} frames, {p} LiDAR points in the grid: in an occupied voxel {c['occupied'] / p:.5f}, "
+          f"own class in its voxel {c['own_class'] / p:.4f}, within half a voxel {c['near'] / p:.4f} "
+          f"(Occ3D classes {c['near_occ3d'] / p:.4f}); {c['crossed']} voxels crossed before a return: free "
+          f"{1 - c['crossed_occupied'] / c['crossed']:.4f}, the rest hold a surface the ray passed by, "
+          f"inside a volume {c['crossed_inside_volume']}")  # fmt: skip
