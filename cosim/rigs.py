@@ -9,14 +9,18 @@ own ``sensors`` keys are laid over the preset, so any part of it can still be ch
   manual), 10 Hz; two colour cameras (KITTI's cam2 and cam3) 1.65 m high and 0.27 m ahead of
   the LiDAR, 0.06 m left and 0.47 m right of the grey reference camera above it, 1242x375
   pixels with a focal length of 721.5 px (81.4 deg across); no radar. The preset also sets
-  ``step_s: 0.1`` (KITTI's 10 Hz) unless the scenario sets it.
+  ``step_s: 0.1`` (KITTI's 10 Hz) unless the scenario sets it. The LiDAR sweeps in time
+  (``sweep: timed``, HDL-64E firing, :mod:`sensors.sweep`); the frame's time and its boxes are at
+  the sweep's middle, when the laser faces forward and KITTI's cameras fire.
 - ``nuscenes``: the nuScenes car (Caesar et al., "nuScenes: A multimodal dataset for
   autonomous driving", CVPR 2020, table 1 and figure 4), mounts and focal lengths from the
   published calibration (v1.0-mini ``calibrated_sensor.json``, log n015,
   singapore-hollandvillage): six 1600x900 cameras at 12 Hz (the focal length of each gives its
   field of view; the principal point is put at the image centre), a 32-beam LIDAR_TOP at the
   HDL-32E's elevations (-30.67 to +10.67 deg in 4/3 deg steps, HDL-32E manual), 20 Hz,
-  70 m, 1084 firings per turn, with nuScenes's LiDAR axes (x right, y forward), and five
+  70 m, 1084 firings per turn, with nuScenes's LiDAR axes (x right, y forward), sweeping in time
+  (HDL-32E firing; the frame's time and its boxes at the sweep's end, as nuScenes stamps a sweep
+  when its rotation is complete), and five
   Continental ARS 408 radars at 13 Hz (250 m, +-60 deg near field). nuScenes's ego origin is
   the rear axle, ours the footprint centre: every mount moves back by ``NUSCENES_REAR_AXLE_X_M``
   so RADAR_FRONT sits at the front bumper as on the nuScenes car. The preset also turns on
@@ -115,7 +119,8 @@ def _nuscenes() -> dict[str, Any]:
                for name, (t, q, focal) in NUSCENES_CAMERAS.items()]  # fmt: skip
     lidar = {"name": "LIDAR_TOP", "beams": 32, "elevations_deg": list(HDL32E_ELEVATIONS_DEG),
              "vertical_min_deg": HDL32E_ELEVATIONS_DEG[0], "vertical_max_deg": HDL32E_ELEVATIONS_DEG[-1],
-             "azimuth_steps": 1084, "range_m": 70.0, "rate_hz": 20.0, **_mount(*NUSCENES_LIDAR)}  # fmt: skip
+             "azimuth_steps": 1084, "range_m": 70.0, "rate_hz": 20.0, "sweep": "timed", "firing": "hdl32e",
+             "reference": "end", **_mount(*NUSCENES_LIDAR)}  # fmt: skip
     radars = []
     for name, (t, yaw_deg) in NUSCENES_RADARS.items():
         half = math.radians(yaw_deg) / 2.0
@@ -138,7 +143,8 @@ PRESETS: dict[str, dict[str, Any]] = {
     "kitti": {
         "lidars": [{"name": "lidar", "beams": 64, "elevations_deg": list(HDL64E_ELEVATIONS_DEG),
                     "vertical_min_deg": HDL64E_ELEVATIONS_DEG[0], "vertical_max_deg": HDL64E_ELEVATIONS_DEG[-1],
-                    "azimuth_steps": 2048, "range_m": 120.0, "rate_hz": 10.0, "mount_xyz_m": [0.0, 0.0, 1.73]}],
+                    "azimuth_steps": 2048, "range_m": 120.0, "rate_hz": 10.0, "mount_xyz_m": [0.0, 0.0, 1.73],
+                    "sweep": "timed", "firing": "hdl64e", "reference": "middle"}],
         "cameras": [
             {"name": "cam2", "width_px": KITTI_IMAGE[0], "height_px": KITTI_IMAGE[1], "hfov_deg": KITTI_HFOV_DEG,
              "mount_xyz_m": [0.27, 0.06, 1.65], "rate_hz": 10.0},

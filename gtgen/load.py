@@ -16,7 +16,7 @@ from mcap_protobuf.decoder import DecoderFactory
 
 from gtgen.mapgt import load_map_frame
 from gtgen.objects import ObjectBoxes
-from gtgen.sinks.foxglove import LIDAR_POINT_DTYPE, RADAR_POINT_DTYPE
+from gtgen.sinks.foxglove import LIDAR_POINT_DTYPE, LIDAR_POINT_DTYPE_NO_TIME, RADAR_POINT_DTYPE
 from gtgen.sinks.occupancy_messages import LIDAR_FLOW_DTYPE
 
 
@@ -44,9 +44,16 @@ def topics(path: Path) -> list[str]:
 
 def lidar_points(cloud: Any) -> npt.NDArray[np.void]:
     """A ``foxglove.PointCloud`` written by the MCAP sink as a structured array
-    with fields x, y, z, intensity, ring, class, instance."""
+    with fields x, y, z, intensity, ring, class, instance, t (seconds from the sweep's start;
+    0 in files written before points had times), and flow_x, flow_y, flow_z in a run with occupancy."""
     if cloud.point_stride == LIDAR_FLOW_DTYPE.itemsize:  # a run with occupancy: scene flow_x, flow_y, flow_z too
         return np.frombuffer(cloud.data, dtype=LIDAR_FLOW_DTYPE)
+    if cloud.point_stride == LIDAR_POINT_DTYPE_NO_TIME.itemsize:
+        old = np.frombuffer(cloud.data, dtype=LIDAR_POINT_DTYPE_NO_TIME)
+        out = np.zeros(old.shape[0], LIDAR_POINT_DTYPE)
+        for name in LIDAR_POINT_DTYPE_NO_TIME.names or ():
+            out[name] = old[name]
+        return out
     if cloud.point_stride != LIDAR_POINT_DTYPE.itemsize:
         raise ValueError(f"point stride {cloud.point_stride} is not the LiDAR layout ({LIDAR_POINT_DTYPE.itemsize})")
     return np.frombuffer(cloud.data, dtype=LIDAR_POINT_DTYPE)

@@ -20,7 +20,7 @@ from networks.errors import quoted
 from networks.mesh import ClassedMesh
 from sensors.agents import AgentMeshes, Agents
 from sensors.errors import SensorConfigError
-from sensors.hits import RayHits
+from sensors.hits import PairHits, RayHits
 
 ENGINES = ("auto", "open3d", "mitsuba")
 
@@ -45,6 +45,19 @@ class Scene(Protocol):
         """Rays from one origin along unit directions ``(N, 3) float32`` given in a sensor's
         frame turned by ``map_R_sensor`` (a sensor passes the same directions array every
         frame: an engine may keep it)."""
+        ...
+
+    def cast_static(self, rays: npt.NDArray[np.float32]) -> RayHits:
+        """Rays cast into the static world alone (instance 0, part 0 everywhere)."""
+        ...
+
+    def cast_agents_moving(
+        self, rays: npt.NDArray[np.float32], dt_s: npt.NDArray[np.float64], ray_index: npt.NDArray[np.intp],
+        agent_index: npt.NDArray[np.intp],
+    ) -> PairHits:  # fmt: skip
+        """Ray ``ray_index[k]`` at ``dt_s[ray_index[k]]`` seconds from the scene's time against agent
+        ``agent_index[k]`` (a row of :attr:`agents`) alone, moved by its velocity over that time;
+        glass lets the ray through (see :func:`sensors.scene.cast_agents_moving`)."""
         ...
 
     def cast_raw(self, rays: npt.NDArray[np.float32]) -> Any:

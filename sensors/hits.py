@@ -24,3 +24,14 @@ class RayHits:
     @property
     def hit(self) -> npt.NDArray[np.bool_]:
         return np.isfinite(self.range_m)
+
+
+@dataclass(frozen=True, slots=True)
+class PairHits:
+    """What the rays of ``(ray, agent)`` pairs hit on their agent alone (:func:`cast_agents_moving`):
+    per pair ``range_m: (M,) float32`` (inf: missed), ``normal: (M, 3) float32`` unit map-frame
+    normals and ``part: (M,) uint8``."""
+
+    range_m: npt.NDArray[np.float32]
+    normal: npt.NDArray[np.float32]
+    part: npt.NDArray[np.uint8]

@@ -1,6 +1,9 @@
-"""Spinning multi-beam LiDAR: ray pattern, cast, per-point class and instance.
+"""Spinning multi-beam LiDAR: ray pattern, cast, per-point time, class and instance.
 
-All rays of a sweep are cast at the frame's instant (no motion distortion).
+``sweep: instant`` casts every ray at the frame's instant (no motion distortion, every point's
+``t`` 0); ``sweep: timed`` fires each ray at its own time in the sweep and casts it with the ego
+and the agents where they are then (:mod:`sensors.sweep`), and ``deskew: true`` adds each
+point moved to the sweep's reference time by the ego's motion.
 Intensity = reflectivity(class) * |cos(incidence)| * exp(-range / 200 m), in 0..1; an
 optional :class:`~sensors.weather.Weather` (rain, fog) shortens the range, weakens and drops
 returns and adds near spurious ones; day and night change nothing.
@@ -10,7 +13,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, ClassVar, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -19,9 +22,11 @@ from networks.geometry import SE3
 from networks.records import check_arrays
 from sensors.agents import EgoState
 from sensors.errors import SensorConfigError
-from sensors.parts import lidar_reflectivity
+from sensors.hits import RayHits
+from sensors.parts import Part, lidar_reflectivity
 from sensors.rays import sensor_rays
-from sensors.view import spheres_in_view
+from sensors.sweep import deskewed, near_pairs, nearest, ray_times_s, reference_s
+from sensors.view import bounding_radius_m, spheres_in_view
 from sensors.weather import (
     Weather,
     add_spurious_returns,
@@ -49,6 +54,10 @@ class LidarSpec:
     range_noise_m: float = 0.0
     dropout: float = 0.0
     elevations_deg: tuple[float, ...] = ()  # each beam's elevation, lowest first (instead of an even spread)
+    sweep: Literal["instant", "timed"] = "instant"  # rays at the frame's instant, or each at its time
+    firing: Literal["even", "hdl64e", "hdl32e"] = "even"  # the beams' firing pattern in a column
+    reference: Literal["start", "middle", "end"] = "middle"  # the sweep's time of the frame's state and boxes
+    deskew: bool = False  # also give each point moved to the reference time by the ego's motion
 
     def __post_init__(self) -> None:
         if self.elevations_deg:
@@ -66,17 +75,29 @@ class LidarSpec:
             raise SensorConfigError(f"lidar {self.name}: range_m and rate_hz must be > 0")
         if self.range_noise_m < 0 or not 0.0 <= self.dropout < 1.0:
             raise SensorConfigError(f"lidar {self.name}: need range_noise_m >= 0 and 0 <= dropout < 1")
+        if (self.firing, self.beams) in {("hdl64e", 64), ("hdl32e", 32)} or self.firing == "even":
+            return
+        raise SensorConfigError(f"lidar {self.name}: firing {self.firing} needs "
+                                f"{64 if self.firing == 'hdl64e' else 32} beams, got {self.beams}")  # fmt: skip
 
     @property
     def ego_SE3_sensor(self) -> SE3:
         r, p, y = np.radians(self.mount_rpy_deg)
         return SE3.from_xyz_rpy(self.mount_xyz_m, r, p, y)
 
+    @property
+    def period_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+    def elevations_rad(self) -> npt.NDArray[np.float64]:
+        """``(beams,)`` each ring's elevation, lowest first."""
+        spread = np.linspace(self.vertical_min_deg, self.vertical_max_deg, self.beams)
+        return np.radians(np.asarray(self.elevations_deg, np.float64) if self.elevations_deg else spread)
+
     def directions(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint16]]:
         """Unit ray directions ``(beams * azimuth_steps, 3)`` in the lidar frame and the ring
         of each (ring 0 is the lowest beam); azimuth starts at +x and turns counter-clockwise."""
-        spread = np.linspace(self.vertical_min_deg, self.vertical_max_deg, self.beams)
-        elevation = np.radians(np.asarray(self.elevations_deg, np.float64) if self.elevations_deg else spread)
+        elevation = self.elevations_rad()
         azimuth = np.arange(self.azimuth_steps) * (2.0 * np.pi / self.azimuth_steps)
         el, az = np.meshgrid(elevation, azimuth, indexing="ij")
         dirs = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=-1).reshape(-1, 3)
@@ -86,21 +107,28 @@ class LidarSpec:
 
 @dataclass(frozen=True, slots=True)
 class LidarScan:
-    """Returns of one sweep, in the lidar frame: ``xyz_lidar_m: (N, 3) float32``,
-    ``intensity: (N,) float32`` in 0..1, ``ring: (N,) uint16``, ``semantic_class: (N,) uint8``,
-    ``instance_id: (N,) uint32`` (0 for the static world)."""
+    """Returns of one sweep: ``xyz_lidar_m: (N, 3) float32`` in the lidar frame at each point's
+    time, ``intensity: (N,) float32`` in 0..1, ``ring: (N,) uint16``, ``semantic_class: (N,)
+    uint8``, ``instance_id: (N,) uint32`` (0 for the static world), ``t_s: (N,) float32`` seconds
+    from the sweep's start (0 for an instant sweep), and ``xyz_deskewed_lidar_m: (N, 3) float32``
+    the points in the lidar frame at the sweep's reference time (``(0, 3)``: not asked for)."""
 
     xyz_lidar_m: npt.NDArray[np.float32]
     intensity: npt.NDArray[np.float32]
     ring: npt.NDArray[np.uint16]
     semantic_class: npt.NDArray[np.uint8]
     instance_id: npt.NDArray[np.uint32]
+    t_s: npt.NDArray[np.float32]
+    xyz_deskewed_lidar_m: npt.NDArray[np.float32]
 
     def __post_init__(self) -> None:
         check_arrays(
             self, xyz_lidar_m=(np.float32, ("N", 3)), intensity=(np.float32, ("N",)), ring=(np.uint16, ("N",)),
-            semantic_class=(np.uint8, ("N",)), instance_id=(np.uint32, ("N",)),
+            semantic_class=(np.uint8, ("N",)), instance_id=(np.uint32, ("N",)), t_s=(np.float32, ("N",)),
+            xyz_deskewed_lidar_m=(np.float32, ("D", 3)),
         )  # fmt: skip
+        if self.xyz_deskewed_lidar_m.shape[0] not in (0, len(self)):
+            raise ValueError("LidarScan.xyz_deskewed_lidar_m: expected N or 0 rows")
 
     def __len__(self) -> int:
         return int(self.xyz_lidar_m.shape[0])
@@ -119,6 +147,11 @@ class Lidar:
         self.spec = spec
         self._dirs_lidar, self._ring = spec.directions()
         self._dirs32 = self._dirs_lidar.astype(np.float32)
+        self._elevation_rad = spec.elevations_rad()
+        self._t_s = ray_times_s(self._dirs_lidar, self._ring, spec.ego_SE3_sensor, spec.period_s, spec.azimuth_steps,
+                                spec.firing, spec.beams)  # fmt: skip
+        self._t_ref_s = reference_s(spec.reference, spec.period_s)
+        self._t32 = self._t_s.astype(np.float32)
 
     @property
     def num_rays(self) -> int:
@@ -139,8 +172,7 @@ class Lidar:
         weakens returns and adds near spurious ones (class NONE, instance 0)."""
         w = weather
         map_SE3_lidar = ego.map_SE3_ego().compose(self.spec.ego_SE3_sensor)
-        rays = sensor_rays(map_SE3_lidar, self._dirs32)
-        cast = scene.cast_from(map_SE3_lidar.translation, map_SE3_lidar.rotation, self._dirs32)
+        rays, cast = self.cast(scene, ego)
         hits, spurious = add_spurious_returns(cast, rays, w, rng)
         keep = hits.range_m <= lidar_max_range_m(w, self.spec.range_m)
         dropout = lidar_dropout(w, self.spec.dropout) if w.lidar_dropout > 0 else self.spec.dropout
@@ -158,6 +190,62 @@ class Lidar:
         if w.lidar_spurious_rate > 0 or w.lidar_intensity_scale != 1.0 or w.lidar_extinction_per_m > 0:
             intensity = intensity * lidar_intensity_factor(w, rng_m)
             intensity = np.where(spurious[idx], w.lidar_spurious_intensity, intensity)
-        scan = LidarScan(xyz.astype(np.float32, copy=False), intensity.astype(np.float32, copy=False),
-                         self._ring[idx], cls, hits.instance_id[idx])  # fmt: skip
+        xyz = xyz.astype(np.float32, copy=False)
+        timed = self.spec.sweep == "timed"
+        t_s = self._t32[idx] if timed else np.zeros(idx.shape[0], np.float32)
+        still = np.zeros((0, 3), np.float32)
+        if self.spec.deskew:
+            velocity_lidar = map_SE3_lidar.rotation.T @ ego.velocity_map_mps
+            still = deskewed(xyz, t_s, self._t_ref_s, velocity_lidar) if timed else xyz.copy()
+        scan = LidarScan(xyz, intensity.astype(np.float32, copy=False), self._ring[idx], cls, hits.instance_id[idx],
+                         t_s, still)  # fmt: skip
         return LidarOutput(self.spec, scan)
+
+    def cast(self, scene: Scene, ego: EgoState) -> tuple[npt.NDArray[np.float32], RayHits]:
+        """Every ray of the sweep (map frame; each from where the sensor is at its time) and what
+        it hits first, looking through glass."""
+        map_SE3_lidar = ego.map_SE3_ego().compose(self.spec.ego_SE3_sensor)
+        rays = sensor_rays(map_SE3_lidar, self._dirs32)
+        if self.spec.sweep == "timed":
+            return rays, self._cast_timed(scene, ego, map_SE3_lidar, rays)
+        hits = scene.cast_from(map_SE3_lidar.translation, map_SE3_lidar.rotation, self._dirs32)
+        return rays, through_glass(scene, rays, hits)
+
+    def _cast_timed(self, scene: Scene, ego: EgoState, map_SE3_lidar: SE3, rays: npt.NDArray[np.float32]) -> RayHits:
+        """Each ray from where the sensor is at its time, against the static world and against
+        each agent near its line of sight where that agent is then (rays' origins move in place)."""
+        dt_s = self._t_s - self._t_ref_s
+        rays[:, :3] += (dt_s[:, None] * ego.velocity_map_mps[None, :]).astype(np.float32)
+        static = scene.cast_static(rays)
+        agents = scene.agents
+        speed = np.linalg.norm(agents.velocity_map_mps, axis=1) + float(np.linalg.norm(ego.velocity_map_mps))
+        reach = bounding_radius_m(agents.lwh_m) + speed * self.spec.period_s + 0.1
+        ray_i, agent_i = near_pairs(agents, map_SE3_lidar.inverse(), reach, self.spec.azimuth_steps,
+                                    self._elevation_rad)  # fmt: skip
+        return nearest(static, agents, ray_i, agent_i, scene.cast_agents_moving(rays, dt_s, ray_i, agent_i))
+
+
+GLASS_LAYERS = 4  # panes a ray passes through at most (a car's windscreen and rear window, and back)
+PAST_GLASS_M = 1e-4
+
+
+def through_glass(scene: Scene, rays: npt.NDArray[np.float32], hits: RayHits) -> RayHits:
+    """``hits`` with every ray that met glass continued to the first surface behind it (glass
+    returns nothing at the LiDAR's wavelength here: its own return is weak and mostly lost)."""
+    glass = np.flatnonzero(hits.part == Part.GLASS)
+    if glass.size == 0:
+        return hits
+    range_m, cls, inst = hits.range_m.copy(), hits.semantic_class.copy(), hits.instance_id.copy()
+    normal, part = hits.normal.copy(), hits.part.copy()
+    for _ in range(GLASS_LAYERS):
+        past = range_m[glass] + PAST_GLASS_M
+        again = rays[glass].copy()
+        again[:, :3] += again[:, 3:6] * past[:, None]
+        more = scene.cast(again)
+        range_m[glass] = past + more.range_m
+        cls[glass], inst[glass], part[glass] = more.semantic_class, more.instance_id, more.part
+        normal[glass] = more.normal
+        glass = glass[more.part == Part.GLASS]
+        if glass.size == 0:
+            break
+    return RayHits(range_m, cls, inst, normal, part)

@@ -32,8 +32,8 @@ mi.set_variant("llvm_ad_rgb")  # raises when Dr.Jit's LLVM backend finds no libL
 
 from networks.mesh import ClassedMesh  # noqa: E402
 from sensors.agents import AgentMeshes, Agents, agent_meshes  # noqa: E402
-from sensors.hits import RayHits  # noqa: E402
-from sensors.scene import _hits_alone  # noqa: E402
+from sensors.hits import PairHits, RayHits  # noqa: E402
+from sensors.scene import _hits_alone, cast_agents_moving  # noqa: E402
 
 _NORMAL = np.dtype((np.void, 12))  # one row of a float32 (N, 3) table, taken whole
 
@@ -174,6 +174,23 @@ class MitsubaScene:
         normals = np.take(self._normal_of_row, rows).view(np.float32).reshape(-1, 3)  # 12-byte rows, taken whole
         return RayHits(range_m, np.take(self._class_of_row, rows), np.take(self._instance_of_row, rows), normals,
                        np.take(self._part_of_row, rows))  # fmt: skip
+
+    def cast_static(self, rays: npt.NDArray[np.float32]) -> RayHits:
+        """The rays cast into the static world alone (no agents)."""
+        columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]
+        t, prim = self._static.cast(mi.Ray3f(mi.Point3f(*columns[:3]), mi.Vector3f(*columns[3:])))
+        row = dr.select(dr.isinf(t), dr.opaque(mi.UInt32, self._nothing_row), mi.UInt32(prim))
+        dr.eval(t, row)
+        rows = row.numpy()
+        normals = np.take(self._normal_of_row, rows).view(np.float32).reshape(-1, 3)
+        return RayHits(t.numpy().astype(np.float32, copy=False), np.take(self._class_of_row, rows),
+                       np.zeros(rows.shape[0], np.uint32), normals, np.zeros(rows.shape[0], np.uint8))  # fmt: skip
+
+    def cast_agents_moving(
+        self, rays: npt.NDArray[np.float32], dt_s: npt.NDArray[np.float64], ray_index: npt.NDArray[np.intp],
+        agent_index: npt.NDArray[np.intp],
+    ) -> PairHits:  # fmt: skip
+        return cast_agents_moving(self.agents, rays, dt_s, ray_index, agent_index)
 
     def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
         return _hits_alone(self.agent_meshes, rays, instance_id)

@@ -16,9 +16,10 @@ import numpy.typing as npt
 
 from networks.geometry import SE3
 from networks.mesh import ClassedMesh
-from sensors.agents import AgentMeshes, Agents, agent_meshes
-from sensors.hits import RayHits
+from sensors.agents import AGENT_LIFT_M, AgentMeshes, Agents, agent_meshes, body_keys, template_of
+from sensors.hits import PairHits, RayHits
 from sensors.o3d import INVALID_ID, RaycastingScene, o3c
+from sensors.parts import Part
 from sensors.rays import sensor_rays
 
 
@@ -27,8 +28,11 @@ class Open3DEngine:
 
     name = "open3d"
 
+    def __init__(self) -> None:
+        self._static = StaticScene()
+
     def scene(self, static: ClassedMesh, agents: Agents) -> FrameScene:
-        return FrameScene(static, agents)
+        return FrameScene(static, agents, static_scene=self._static)
 
 
 class StaticCrop:
@@ -85,13 +89,45 @@ class StaticCrop:
         self._crop = ClassedMesh(self._mesh.vertices_m, self._mesh.triangles[keep], self._mesh.triangle_class[keep])
 
 
+class StaticScene:
+    """The static world alone as a raycasting scene, made when first cast into and again only
+    when the static mesh changes (the crop moves every few tens of metres): what the rays of a
+    timed LiDAR sweep meet besides the agents."""
+
+    def __init__(self) -> None:
+        self._mesh: ClassedMesh | None = None
+        self._scene: Any = None
+
+    def cast(self, static: ClassedMesh, rays: npt.NDArray[np.float32]) -> RayHits:
+        if self._mesh is not static:
+            self._mesh, self._scene = static, RaycastingScene()
+            if static.triangles.shape[0]:
+                self._scene.add_triangles(
+                    o3c.Tensor.from_numpy(np.ascontiguousarray(static.vertices_m, np.float32)),
+                    o3c.Tensor.from_numpy(np.ascontiguousarray(static.triangles, np.uint32)),
+                )
+        result = self._scene.cast_rays(o3c.Tensor.from_numpy(np.ascontiguousarray(rays, np.float32)))
+        geometry = result["geometry_ids"].numpy()
+        miss = geometry == np.uint32(INVALID_ID)
+        t_hit = result["t_hit"].numpy()
+        t_hit[miss] = np.inf
+        n = rays.shape[0]
+        cls = np.zeros(n, np.uint8)
+        cls[~miss] = static.triangle_class[result["primitive_ids"].numpy()[~miss]]
+        return RayHits(t_hit, cls, np.zeros(n, np.uint32), result["primitive_normals"].numpy(), np.zeros(n, np.uint8))
+
+
 class FrameScene:
     """One frame's raycasting scene of the ``static`` world and the ``agents`` (their meshes
     are built here). Rays are ``(N, 6) float32``: origin, unit direction. The scene's BVH is
     built here, not by the first cast."""
 
-    def __init__(self, static: ClassedMesh, agents: Agents, nthreads: int = 0) -> None:
+    def __init__(
+        self, static: ClassedMesh, agents: Agents, nthreads: int = 0, static_scene: StaticScene | None = None
+    ) -> None:
         self.agents = agents
+        self._static = static
+        self._static_scene = StaticScene() if static_scene is None else static_scene
         self.agent_meshes = meshes = agent_meshes(agents)
         self._scene = RaycastingScene()
         self._nthreads = nthreads
@@ -139,6 +175,16 @@ class FrameScene:
         normal = result["primitive_normals"].numpy()
         return RayHits(t_hit, self._class_of_row[row], self._instance_of_row[row], normal, self._part_of_row[row])
 
+    def cast_static(self, rays: npt.NDArray[np.float32]) -> RayHits:
+        """The rays cast into the static world alone (no agents)."""
+        return self._static_scene.cast(self._static, rays)
+
+    def cast_agents_moving(
+        self, rays: npt.NDArray[np.float32], dt_s: npt.NDArray[np.float64], ray_index: npt.NDArray[np.intp],
+        agent_index: npt.NDArray[np.intp],
+    ) -> PairHits:  # fmt: skip
+        return cast_agents_moving(self.agents, rays, dt_s, ray_index, agent_index)
+
     def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
         """Whether ray ``i`` hits agent ``instance_id[i]`` with every other agent (and the
         static world) taken away: the object's silhouette as if it were alone. One small scene
@@ -179,3 +225,83 @@ def _cast_one(vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32
                         o3c.Tensor.from_numpy((triangles - first).astype(np.uint32)))  # fmt: skip
     result = scene.cast_rays(o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32)), nthreads=1)
     return np.asarray(result["geometry_ids"].numpy() != np.uint32(INVALID_ID))
+
+
+_UNIT_SCENES: dict[tuple[int, int, int], tuple[Any, npt.NDArray[np.uint8]]] = {}
+_GLASS_LAYERS = 4  # panes a ray may pass through on one agent (a car's windscreen and rear window, and back)
+_PAST_M = 1e-4  # a ray continues this far past the glass it passed through
+
+
+def _unit_scene(key: tuple[int, int, int]) -> tuple[Any, npt.NDArray[np.uint8]]:
+    """The Open3D scene of a body type's unit mesh in one pose (made once a process) and each
+    triangle's part."""
+    if key not in _UNIT_SCENES:
+        template = template_of(*key)
+        scene = RaycastingScene()
+        scene.add_triangles(o3c.Tensor.from_numpy(template.unit_vertices.astype(np.float32)),
+                            o3c.Tensor.from_numpy(template.triangles.astype(np.uint32)))  # fmt: skip
+        _UNIT_SCENES[key] = (scene, np.append(template.triangle_part, np.uint8(0)).astype(np.uint8))
+    return _UNIT_SCENES[key]
+
+
+def cast_agents_moving(
+    agents: Agents, rays: npt.NDArray[np.float32], dt_s: npt.NDArray[np.float64],
+    ray_index: npt.NDArray[np.intp], agent_index: npt.NDArray[np.intp],
+) -> PairHits:  # fmt: skip
+    """Ray ``ray_index[k]`` cast at ``dt_s`` from the frame's time against agent ``agent_index[k]``
+    alone, the agent moved by its velocity over ``dt_s`` (its heading kept). Each agent's body is
+    cast in its type's unit mesh (scaled and posed as :func:`sensors.agents.agent_meshes` does),
+    the ray taken into that mesh's frame: no mesh is built per frame. A ray passes through glass
+    (:attr:`Part.GLASS`): its hit is the next surface of the agent behind the glass, or none."""
+    m = ray_index.shape[0]
+    out = PairHits(np.full(m, np.inf, np.float32), np.zeros((m, 3), np.float32), np.zeros(m, np.uint8))
+    if m == 0:
+        return out
+    rotations = agents.rotations()
+    centre = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
+    lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
+    keys = body_keys(agents)
+    dt = dt_s[ray_index][:, None]
+    moved = rays[ray_index, :3] - centre[agent_index] - agents.velocity_map_mps[agent_index] * dt
+    box_R_map = np.transpose(rotations[agent_index], (0, 2, 1))
+    origin_unit = np.einsum("kij,kj->ki", box_R_map, moved) / lwh[agent_index]
+    dir_unit = np.einsum("kij,kj->ki", box_R_map, rays[ray_index, 3:6].astype(np.float64)) / lwh[agent_index]
+    groups, group_of = np.unique(keys[agent_index], axis=0, return_inverse=True)
+    for g, key in enumerate(groups.tolist()):
+        mine = np.flatnonzero(group_of.ravel() == g)
+        scene, part_of = _unit_scene((key[0], key[1], key[2]))
+        t, normal, part = _cast_through_glass(scene, part_of, origin_unit[mine], dir_unit[mine])
+        out.range_m[mine], out.part[mine] = t, part
+        world = np.einsum("kij,kj->ki", rotations[agent_index[mine]], normal / lwh[agent_index[mine]])
+        length = np.linalg.norm(world, axis=1, keepdims=True)
+        out.normal[mine] = world / np.where(length > 0, length, 1.0)
+    return out
+
+
+def _cast_through_glass(
+    scene: Any, part_of: npt.NDArray[np.uint8], origin: npt.NDArray[np.float64], direction: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float64], npt.NDArray[np.uint8]]:
+    """Distance along ``direction`` (metres when its length is the map-frame metre's in this
+    frame), unit-frame normal and part of the first surface that is not glass (inf: none)."""
+    n = origin.shape[0]
+    total = np.zeros(n, np.float64)
+    t_out, normal_out, part_out = np.full(n, np.inf, np.float32), np.zeros((n, 3)), np.zeros(n, np.uint8)
+    todo = np.arange(n)
+    for _ in range(_GLASS_LAYERS + 1):
+        rays = np.concatenate([origin[todo], direction[todo]], axis=1).astype(np.float32)
+        result = scene.cast_rays(o3c.Tensor.from_numpy(rays), nthreads=1)
+        t = result["t_hit"].numpy().astype(np.float64)
+        prim = result["primitive_ids"].numpy()
+        hit = result["geometry_ids"].numpy() != np.uint32(INVALID_ID)
+        part = part_of[np.where(hit, prim, part_of.shape[0] - 1)]
+        done = hit & (part != Part.GLASS)
+        at = todo[done]
+        t_out[at], part_out[at] = (total[at] + t[done]).astype(np.float32), part[done]
+        normal_out[at] = result["primitive_normals"].numpy()[done]
+        through = hit & (part == Part.GLASS)
+        todo, step = todo[through], t[through] + _PAST_M
+        if todo.size == 0:
+            break
+        origin[todo] += direction[todo] * step[:, None]
+        total[todo] += step
+    return t_out, normal_out, part_out

@@ -41,12 +41,18 @@ from sensors.radar import RadarOutput
 _F = PackedElementField
 LIDAR_POINT_DTYPE = np.dtype(
     [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("intensity", "<f4"), ("ring", "<u2"), ("class", "u1"),
-     ("_pad", "u1"), ("instance", "<u4")]
+     ("_pad", "u1"), ("instance", "<u4"), ("t", "<f4")]
 )  # fmt: skip
 LIDAR_FIELDS = (
     ("x", 0, _F.FLOAT32), ("y", 4, _F.FLOAT32), ("z", 8, _F.FLOAT32), ("intensity", 12, _F.FLOAT32),
-    ("ring", 16, _F.UINT16), ("class", 18, _F.UINT8), ("instance", 20, _F.UINT32),
+    ("ring", 16, _F.UINT16), ("class", 18, _F.UINT8), ("instance", 20, _F.UINT32), ("t", 24, _F.FLOAT32),
 )  # fmt: skip
+"""A LiDAR point: ``t`` is seconds from the sweep's start (0 for an instant sweep)."""
+LIDAR_POINT_DTYPE_NO_TIME = np.dtype(
+    [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("intensity", "<f4"), ("ring", "<u2"), ("class", "u1"),
+     ("_pad", "u1"), ("instance", "<u4")]
+)  # fmt: skip
+"""The layout of files written before points had times."""
 RADAR_POINT_DTYPE = np.dtype(
     [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("range", "<f4"), ("radial_velocity", "<f4"), ("azimuth", "<f4"),
      ("elevation", "<f4"), ("strength", "<f4"), ("instance", "<u4"), ("class", "u1"), ("_pad", "V3")]
@@ -87,12 +93,14 @@ def _cloud(
     )  # fmt: skip
 
 
-def lidar_cloud(ns: int, lidar: LidarOutput) -> PointCloud:
+def lidar_cloud(ns: int, lidar: LidarOutput, deskewed: bool = False) -> PointCloud:
+    """The sweep's points in the LiDAR frame at each point's time (``deskewed``: the copy moved to
+    the sweep's reference time, the frame's time)."""
     scan = lidar.scan
     packed = np.zeros(len(scan), LIDAR_POINT_DTYPE)
-    packed["x"], packed["y"], packed["z"] = scan.xyz_lidar_m.T
+    packed["x"], packed["y"], packed["z"] = (scan.xyz_deskewed_lidar_m if deskewed else scan.xyz_lidar_m).T
     packed["intensity"], packed["ring"] = scan.intensity, scan.ring
-    packed["class"], packed["instance"] = scan.semantic_class, scan.instance_id
+    packed["class"], packed["instance"], packed["t"] = scan.semantic_class, scan.instance_id, scan.t_s
     return _cloud(ns, lidar.spec.name, packed, LIDAR_FIELDS)
 
 

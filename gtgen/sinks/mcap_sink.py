@@ -1,9 +1,10 @@
 """``run.mcap``: every sensor, transform and label, with Foxglove schemas.
 
 Topics (sensor names from the rig; defaults shown):
-``/tf`` FrameTransforms map -> ego -> each sensor; ``/lidar`` PointCloud (lidar frame:
-x, y, z, intensity, ring, class, instance); ``/radar`` PointCloud (radar frame: x, y, z,
-range, radial_velocity, azimuth, elevation, strength, instance, class);
+``/tf`` FrameTransforms map -> ego -> each sensor; ``/lidar`` PointCloud (lidar frame at each
+point's time: x, y, z, intensity, ring, class, instance, t: seconds from the sweep's start), and
+with ``deskew`` ``/lidar/deskewed`` (the same points in the lidar frame at the frame's time);
+``/radar`` PointCloud (radar frame: x, y, z, range, radial_velocity, azimuth, elevation, strength, instance, class);
 ``/camera/image`` JPEG, ``/camera/depth`` 16-bit PNG in 1/256 m (0: nothing within range), ``/camera/instance``
 16-bit PNG of instance ids, ``/camera/class`` 8-bit PNG of class ids,
 ``/camera/calibration``, ``/camera/annotations`` tight 2D boxes; ``/gt/boxes`` SceneUpdate
@@ -155,6 +156,8 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
     if record.occupancy is not None:  # each point's scene flow as three more fields
         clouds = [with_flow(c, f) for c, f in zip(clouds, record.occupancy.point_flow_m, strict=True)]
     out += [(f"/{lidar.spec.name}", cloud) for lidar, cloud in zip(record.lidars, clouds, strict=True)]
+    out += [(f"/{lidar.spec.name}/deskewed", fx.lidar_cloud(ns, lidar, deskewed=True)) for lidar in record.lidars
+            if lidar.spec.deskew]  # fmt: skip
     out += [(f"/{radar.spec.name}", fx.radar_cloud(ns, radar)) for radar in record.radars]
     for index, (camera, cam_labels) in enumerate(zip(record.cameras, record.labels.cameras, strict=True)):
         base = f"/{camera.spec.name}"

@@ -187,6 +187,7 @@ def test_the_kitti_preset_writes_kitti_sized_images_and_a_64_ring_cloud(tmp_path
     training = out / "kitti" / "training"
     image = cv2.imread(str(training / "image_2" / "000000.png"))
     assert image.shape == (375, 1242, 3) and len(list((training / "velodyne").iterdir())) == 3
+    assert_timed_object_points_lie_in_their_boxes(out)
     assert cv2.imread(str(training / "image_3" / "000002.png")).shape == (375, 1242, 3)  # cam3
     calib = dict(line.split(": ", 1) for line in (training / "calib" / "000000.txt").read_text().splitlines())
     P2, P3 = (np.array(calib[k].split(), float).reshape(3, 4) for k in ("P2", "P3"))
@@ -195,3 +196,33 @@ def test_the_kitti_preset_writes_kitti_sized_images_and_a_64_ring_cloud(tmp_path
     cloud = next(message for _, _, message in iter_messages(out / "run.mcap", ["/lidar"]))
     rings = np.unique(lidar_points(cloud)["ring"])
     assert rings.max() == 63 and len(rings) >= 60
+
+
+def assert_timed_object_points_lie_in_their_boxes(out: Path) -> None:
+    """The kitti preset's timed sweep: point times span the 10 Hz period, rising clockwise from
+    behind, and every object point moved back by its object's motion relative to the ego over
+    ``t - t_ref`` (t_ref: the sweep's middle, the frame's time) lies in its box within 2 cm."""
+    from gtgen.load import iter_messages, lidar_points, objects_from_table
+    from gtgen.objects import points_in_boxes
+
+    labels = load_labels(out / "labels.csv")
+    tagged_total, moved = 0, 0.0
+    for frame, (_, _, cloud) in enumerate(iter_messages(out / "run.mcap", ["/lidar"])):
+        pts = lidar_points(cloud)
+        assert 0.0 <= pts["t"].min() < 0.002 and 0.098 < pts["t"].max() < 0.1
+        turned = np.mod(np.pi - np.arctan2(pts["y"], pts["x"]), 2 * np.pi)
+        column = np.round(turned / (2 * np.pi) * 2048) % 2048  # 2048 columns over 0.1 s, clockwise
+        offset = pts["t"] - column * (0.1 / 2048)
+        assert np.all((offset > -1e-6) & (offset < 0.1 / 2048))
+        boxes, _ = objects_from_table(labels[labels["frame"] == frame])
+        tagged = pts[pts["instance"] > 0]
+        index = np.argsort(boxes.track_id)[
+            np.searchsorted(boxes.track_id, tagged["instance"], sorter=np.argsort(boxes.track_id))
+        ]
+        dt = tagged["t"].astype(np.float64) - 0.05
+        xyz = np.column_stack([tagged["x"], tagged["y"], tagged["z"] + 1.73])  # mount 1.73 m above the ego origin
+        back = xyz - boxes.velocity_ego_mps[index] * dt[:, None]
+        assert np.all(points_in_boxes(back, boxes, index, tolerance_m=0.02))
+        tagged_total += len(tagged)
+        moved = max(moved, float(np.abs(boxes.velocity_ego_mps[index] * dt[:, None]).max(initial=0.0)))
+    assert tagged_total > 200 and moved > 0.1  # objects moved relative to the ego during sweeps

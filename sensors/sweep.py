@@ -1,0 +1,149 @@
+"""A spinning LiDAR's sweep in time: when each ray fires, and its rays cast at their own times.
+
+The head turns clockwise seen from above (as Velodyne's do: nuScenes's data-collection notes,
+"the LIDAR rotates clockwise", and their forum thread "lidar pointcloud details: cut angle and
+motion distortion") and a sweep starts and ends behind the ego, so the laser faces forward in
+its middle. Each column of the ray grid fires at its azimuth's share of the period
+``1 / rate_hz``; within a column the beams fire in their sensor's pattern
+(:func:`firing_offsets_s`). A point's ``t`` is seconds from the sweep's start.
+
+The frame's state (the traffic's step) stands at the sweep's reference time ``t_ref`` (start,
+middle or end of the sweep, as the imitated dataset stamps it: KITTI's camera fires when the
+laser faces forward, its boxes are at the middle; nuScenes stamps a sweep when its rotation
+ends). A ray fired at ``t`` is cast with the ego and every agent moved by their velocities over
+``t - t_ref`` (headings kept): the static world from the moved sensor origin, each agent near
+the ray's line of sight alone with its own motion (:meth:`sensors.engine.Scene.cast_agents_moving`),
+and the nearest hit wins. Points stay in the sensor's frame at their own time, as a real
+sensor reports them (a car passing the other way is squeezed, one overtaking stretched);
+:func:`deskewed` moves them to the sensor's frame at ``t_ref`` by the ego's motion.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from networks.geometry import SE3
+from sensors.agents import Agents
+from sensors.errors import SensorConfigError
+from sensors.hits import PairHits, RayHits
+
+FIRINGS = ("even", "hdl64e", "hdl32e")
+REFERENCES = ("start", "middle", "end")
+
+# HDL-32E: the 32 lasers fire one after another, 1.152 us apart, in a firing cycle of 46.08 us
+# (32 firings and 8 slots of recharge); laser ids alternate between the lower and the upper bank
+# of elevations (id 0 at -30.67 deg, id 1 at -9.33 deg, id 2 at -29.33 deg, ...). Velodyne,
+# "HDL-32E User's Manual", vertical angle table, and application note "HDL-32E Packet Structure
+# and Timing Definition". The cycle is scaled to the grid's column period (the nuScenes preset's
+# 1,084 columns at 20 Hz: 46.13 us).
+HDL32E_SLOT_OF_CYCLE = 1.152 / 46.08
+# HDL-64E S2: the upper block (the 32 upper beams, +2.0 to -8.33 deg) and the lower block fire at
+# the same time, each block one laser after another over the firing cycle (Velodyne, "HDL-64E S2
+# and S2.1 User's Manual", firing sequence; about 48 us a cycle at 10 Hz and 1.33 M points/s). The
+# order within a block is taken top to bottom here (the laser numbers' own order by elevation is
+# not modelled: it moves a point's time by under one cycle).
+
+
+def firing_offsets_s(firing: str, beams: int, cycle_s: float) -> npt.NDArray[np.float64]:
+    """``(beams,)`` time of each ring's shot (ring 0 the lowest beam) after its column's firing
+    cycle starts, for a cycle of ``cycle_s`` seconds."""
+    ring = np.arange(beams)
+    if firing == "hdl32e":
+        if beams != 32:
+            raise SensorConfigError(f"firing hdl32e needs 32 beams, got {beams}")
+        laser = np.where(ring < 16, 2 * ring, 2 * (ring - 16) + 1)
+        return laser * HDL32E_SLOT_OF_CYCLE * cycle_s
+    if firing == "hdl64e":
+        if beams != 64:
+            raise SensorConfigError(f"firing hdl64e needs 64 beams, got {beams}")
+        from_top = np.where(ring >= 32, 63 - ring, 31 - ring)
+        return np.asarray(from_top * (cycle_s / 32.0), np.float64)
+    if firing == "even":
+        return np.asarray(ring * (cycle_s / beams), np.float64)
+    raise SensorConfigError(f"firing: expected one of {', '.join(FIRINGS)}, got {firing!r}")
+
+
+def ray_times_s(
+    dirs_lidar: npt.NDArray[np.float64], ring: npt.NDArray[np.uint16], ego_SE3_lidar: SE3, period_s: float,
+    azimuth_steps: int, firing: str, beams: int,
+) -> npt.NDArray[np.float64]:  # fmt: skip
+    """``(N,)`` seconds from the sweep's start at which each ray fires: its azimuth in the ego
+    frame, clockwise from straight behind, as a share of the period, plus its beam's offset."""
+    dirs_ego = dirs_lidar @ ego_SE3_lidar.rotation.T
+    azimuth = np.arctan2(dirs_ego[:, 1], dirs_ego[:, 0])
+    turned = np.mod(np.pi - azimuth, 2.0 * np.pi) / (2.0 * np.pi)
+    cycle_s = period_s / azimuth_steps
+    column = np.floor(turned * azimuth_steps + 1e-6) % azimuth_steps
+    return np.asarray(column * cycle_s + firing_offsets_s(firing, beams, cycle_s)[ring])
+
+
+def reference_s(reference: str, period_s: float) -> float:
+    """The sweep's reference time (the frame's state and its boxes) in seconds from its start."""
+    return {"start": 0.0, "middle": 0.5 * period_s, "end": period_s}[reference]
+
+
+def near_pairs(
+    agents: Agents, lidar_SE3_map: SE3, reach_m: npt.NDArray[np.float64], azimuth_steps: int,
+    elevation_rad: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:  # fmt: skip
+    """``(ray, agent)`` pairs whose ray may meet the agent's sphere of radius ``reach_m`` (its
+    bounding sphere grown by its motion and the ego's over the sweep) on the grid of a LiDAR
+    whose ray ``ring * azimuth_steps + column`` points at azimuth ``column * 2 pi / steps`` and
+    elevation ``elevation_rad[ring]`` in the LiDAR frame."""
+    if len(agents) == 0:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    centre = lidar_SE3_map.transform_from(agents.center_map_m)
+    distance = np.linalg.norm(centre, axis=1)
+    inside = distance <= reach_m + 0.05
+    half = np.where(inside, np.pi, np.arcsin(np.clip(reach_m / np.maximum(distance, 1e-9), 0.0, 1.0)) + 0.01)
+    azimuth = np.arctan2(centre[:, 1], centre[:, 0])
+    elevation = np.arcsin(np.clip(centre[:, 2] / np.maximum(distance, 1e-9), -1.0, 1.0))
+    step = 2.0 * np.pi / azimuth_steps
+    rays, owners = [], []
+    for k in range(len(agents)):
+        rings = np.flatnonzero(np.abs(elevation_rad - elevation[k]) <= half[k])
+        if rings.size == 0:
+            continue
+        if inside[k] or half[k] >= np.pi:
+            columns = np.arange(azimuth_steps)
+        else:
+            first = int(np.floor((azimuth[k] - half[k]) / step))
+            columns = np.arange(first, int(np.ceil((azimuth[k] + half[k]) / step)) + 1) % azimuth_steps
+            columns = np.unique(columns)
+        mine = (rings[:, None] * azimuth_steps + columns[None, :]).ravel()
+        rays.append(mine)
+        owners.append(np.full(mine.shape[0], k, np.intp))
+    if not rays:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    return np.concatenate(rays).astype(np.intp), np.concatenate(owners)
+
+
+def nearest(static: RayHits, agents: Agents, ray_index: npt.NDArray[np.intp], agent_index: npt.NDArray[np.intp],
+            pairs: PairHits) -> RayHits:  # fmt: skip
+    """Per ray, the nearer of its static hit and its agents' hits."""
+    range_m = static.range_m.copy()
+    hit = np.isfinite(pairs.range_m)
+    ray_index, agent_index = ray_index[hit], agent_index[hit]
+    pair_range = pairs.range_m[hit]
+    if ray_index.size == 0:
+        return static
+    np.minimum.at(range_m, ray_index, pair_range)
+    wins = pair_range <= range_m[ray_index]
+    # ties between agents (touching bodies): the last pair in the order wins, deterministically
+    at, who = ray_index[wins], agent_index[wins]
+    cls, inst = static.semantic_class.copy(), static.instance_id.copy()
+    normal, part = static.normal.copy(), static.part.copy()
+    cls[at], inst[at] = agents.semantic_class[who], agents.instance_id[who]
+    normal[at], part[at] = pairs.normal[hit][wins], pairs.part[hit][wins]
+    return RayHits(range_m, cls, inst, normal, part)
+
+
+def deskewed(
+    xyz_lidar_m: npt.NDArray[np.float32], t_s: npt.NDArray[np.float32], t_ref_s: float,
+    velocity_lidar_mps: npt.NDArray[np.float64],
+) -> npt.NDArray[np.float32]:  # fmt: skip
+    """Points taken from the sensor's frame at their own time to its frame at ``t_ref_s``, by the
+    ego's velocity (in the LiDAR frame; heading kept over the sweep), as motion compensation does."""
+    shift = (t_s.astype(np.float64) - t_ref_s)[:, None] * velocity_lidar_mps[None, :]
+    return (xyz_lidar_m + shift).astype(np.float32)

@@ -1,0 +1,182 @@
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from cosim.rigs import HDL32E_ELEVATIONS_DEG, HDL64E_ELEVATIONS_DEG
+from networks.classes import SemanticClass
+from networks.geometry import box_rotations
+from networks.mesh import merge
+from sensors.errors import SensorConfigError
+from sensors.lidar import Lidar, LidarScan, LidarSpec
+from sensors.o3d import RaycastingScene, o3c
+from sensors.parts import Part
+from sensors.weather import DAY
+
+KITTI_LIKE = {"beams": 64, "elevations_deg": HDL64E_ELEVATIONS_DEG, "vertical_min_deg": HDL64E_ELEVATIONS_DEG[0],
+              "vertical_max_deg": HDL64E_ELEVATIONS_DEG[-1], "azimuth_steps": 2048, "rate_hz": 10.0,
+              "firing": "hdl64e", "sweep": "timed"}  # fmt: skip
+
+
+def kitti_lidar(**kw: object) -> Lidar:
+    return Lidar(LidarSpec(**{**KITTI_LIKE, **kw}))  # type: ignore[arg-type]
+
+
+def room(synth: SimpleNamespace) -> list:
+    """Ground and four walls around the origin: a static world seen all around."""
+    q = synth.quad
+    walls = [q([(x, -25, -1), (x, 25, -1), (x, 25, 9), (x, -25, 9)], SemanticClass.BUILDING) for x in (-30.0, 35.0)]
+    walls += [q([(-30, y, -1), (35, y, -1), (35, y, 9), (-30, y, 9)], SemanticClass.BUILDING) for y in (-25.0, 20.0)]
+    return [synth.ground(40.0), *walls]
+
+
+def surface_distance_m(static: list, xyz_map: np.ndarray) -> np.ndarray:
+    mesh = merge(static)
+    scene = RaycastingScene()
+    scene.add_triangles(o3c.Tensor.from_numpy(mesh.vertices_m.astype(np.float32)),
+                        o3c.Tensor.from_numpy(mesh.triangles.astype(np.uint32)))  # fmt: skip
+    return np.asarray(scene.compute_distance(o3c.Tensor.from_numpy(xyz_map.astype(np.float32))).numpy())
+
+
+def lidar_to_map(lidar: Lidar, ego: object, xyz: np.ndarray) -> np.ndarray:
+    map_SE3_lidar = ego.map_SE3_ego().compose(lidar.spec.ego_SE3_sensor)  # type: ignore[attr-defined]
+    return np.asarray(map_SE3_lidar.transform_from(xyz.astype(np.float64)))
+
+
+def test_deskewed_scan_of_a_static_world_from_a_moving_ego_lies_where_the_instant_scan_does(
+    synth: SimpleNamespace,
+) -> None:  # fmt: skip
+    static = room(synth)
+    ego = synth.ego((15.0, 3.0, 0.0))
+    world = synth.scene(static)
+    timed = kitti_lidar(deskew=True).sense(world, ego, DAY, np.random.default_rng(1)).scan
+    instant = kitti_lidar(sweep="instant").sense(world, ego, DAY, np.random.default_rng(1)).scan
+    lidar = kitti_lidar()
+    raw = surface_distance_m(static, lidar_to_map(lidar, ego, timed.xyz_lidar_m))
+    fixed = surface_distance_m(static, lidar_to_map(lidar, ego, timed.xyz_deskewed_lidar_m))
+    still = surface_distance_m(static, lidar_to_map(lidar, ego, instant.xyz_lidar_m))
+    assert raw.max() > 0.5  # the sweep really is skewed: up to 0.76 m at 15.3 m/s over 50 ms
+    assert fixed.max() <= 0.02 and still.max() <= 0.02
+    assert abs(len(timed) - len(instant)) < 0.01 * len(instant)
+
+
+@pytest.mark.parametrize("speed_mps", [-20.0, 12.0])
+def test_a_passing_car_is_distorted_by_its_speed_times_each_points_time(
+    synth: SimpleNamespace, speed_mps: float
+) -> None:  # fmt: skip
+    car = synth.agents([(5, SemanticClass.CAR, 2.0, 7.0, 0.75, 4.5, 1.8, 1.5, 0.0)], [[speed_mps, 0.0, 0.0]])
+    world = synth.scene([synth.ground()], car)
+    lidar = kitti_lidar()
+    scan = lidar.sense(world, synth.ego(), DAY, np.random.default_rng(1)).scan
+    instant = kitti_lidar(sweep="instant").sense(world, synth.ego(), DAY, np.random.default_rng(1)).scan
+    on = scan.instance_id == 5
+    assert on.sum() > 500
+    dt = scan.t_s[on].astype(np.float64) - 0.05  # the middle of the 10 Hz sweep
+    assert np.ptp(dt) > 0.005
+    xyz = lidar_to_map(lidar, synth.ego(), scan.xyz_lidar_m[on])
+    back = xyz[:, 0] - speed_mps * dt  # each point moved back by the car's motion since the reference time
+    assert np.all(np.abs(back - 2.0) <= 2.25 + 0.02)
+    assert np.any(np.abs(xyz[:, 0] - 2.0) > 2.25 + 0.1)  # without moving back they leave the box
+    # the car's apparent length changes by v * (time between its two ends)
+    was = lidar_to_map(lidar, synth.ego(), instant.xyz_lidar_m[instant.instance_id == 5])
+    span_t = dt[np.argmax(xyz[:, 0])] - dt[np.argmin(xyz[:, 0])]
+    np.testing.assert_allclose(np.ptp(xyz[:, 0]), np.ptp(was[:, 0]) + speed_mps * span_t, atol=0.05)
+
+
+PATTERNS = [("hdl64e", HDL64E_ELEVATIONS_DEG), ("hdl32e", HDL32E_ELEVATIONS_DEG), ("even", HDL32E_ELEVATIONS_DEG)]
+
+
+@pytest.mark.parametrize(("firing", "elevations"), PATTERNS)
+def test_point_times_rise_clockwise_from_behind_as_the_firing_pattern_says(
+    synth: SimpleNamespace, firing: str, elevations: tuple[float, ...]
+) -> None:  # fmt: skip
+    beams, steps, rate = len(elevations), 1084, 20.0
+    lidar = Lidar(LidarSpec(beams=beams, elevations_deg=elevations, vertical_min_deg=elevations[0],
+                            vertical_max_deg=elevations[-1], azimuth_steps=steps, rate_hz=rate, firing=firing,
+                            sweep="timed"))  # type: ignore[arg-type]  # fmt: skip
+    scan = lidar.sense(synth.scene(room(synth)), synth.EGO, DAY, np.random.default_rng(1)).scan
+    assert len(scan) > 0.9 * beams * steps
+    cycle = 1.0 / rate / steps
+    azimuth = np.arctan2(scan.xyz_lidar_m[:, 1], scan.xyz_lidar_m[:, 0])
+    turned = np.mod(np.pi - azimuth, 2 * np.pi)  # clockwise from straight behind
+    column = np.round(turned / (2 * np.pi) * steps) % steps
+    offset = scan.t_s - column * cycle
+    assert np.all((offset >= -1e-6) & (offset < cycle))  # every shot inside its column's firing cycle
+    order = np.argsort(turned, kind="stable")
+    assert np.all(np.diff(column[order] * cycle) >= 0)
+    assert scan.t_s.max() < 1.0 / rate
+    per_ring = np.array([np.median(offset[scan.ring == r]) for r in range(beams)]) / cycle
+    if firing == "hdl64e":  # both blocks at once, each from its top beam down
+        np.testing.assert_allclose(per_ring[63], 0.0, atol=1e-3)
+        np.testing.assert_allclose(per_ring[31], 0.0, atol=1e-3)
+        np.testing.assert_allclose(per_ring[0], 31 / 32, atol=1e-3)
+    elif firing == "hdl32e":  # 1.152 us of a 46.08 us cycle apart, lower and upper bank interleaved
+        np.testing.assert_allclose(per_ring[[0, 16, 1, 17, 31]], np.array([0, 1, 2, 3, 31]) * 1.152 / 46.08, atol=1e-3)
+    else:
+        np.testing.assert_allclose(per_ring, np.arange(beams) / beams, atol=1e-3)
+
+
+def test_firing_pattern_needs_its_sensors_beam_count() -> None:
+    with pytest.raises(SensorConfigError, match="hdl64e needs 64 beams"):
+        LidarSpec(beams=32, firing="hdl64e")
+
+
+def points_back_in_boxes(lidar: Lidar, ego: object, agents: object, scan: LidarScan, t_ref_s: float) -> np.ndarray:
+    """Each object point in its box's frame at the reference time, moved back by its object's motion."""
+    out = np.zeros((len(scan), 3))
+    on = np.flatnonzero(scan.instance_id > 0)
+    xyz = lidar_to_map(lidar, ego, scan.xyz_lidar_m[on])
+    xyz += (scan.t_s[on, None] - t_ref_s) * ego.velocity_map_mps  # type: ignore[attr-defined]  # the sensor moved
+    row = np.searchsorted(agents.instance_id, scan.instance_id[on])  # type: ignore[attr-defined]
+    back = xyz - agents.velocity_map_mps[row] * (scan.t_s[on, None] - t_ref_s)  # type: ignore[attr-defined]
+    rot = box_rotations(agents.yaw_map_rad, agents.pitch_rad)[row]  # type: ignore[attr-defined]
+    local = np.einsum("kji,kj->ki", rot, back - agents.center_map_m[row])  # type: ignore[attr-defined]
+    out[on] = np.abs(local) - agents.lwh_m[row] / 2.0  # type: ignore[attr-defined]
+    return out[on]
+
+
+@pytest.mark.parametrize("reference", ["start", "middle", "end"])
+def test_object_points_moved_back_to_the_reference_time_lie_in_their_boxes(
+    synth: SimpleNamespace, reference: str
+) -> None:  # fmt: skip
+    rows = [(3, SemanticClass.CAR, 12.0, 4.0, 0.75, 4.5, 1.8, 1.5, 0.3), (4, SemanticClass.TRUCK, -15.0, -5.0, 1.6,
+            9.0, 2.5, 3.2, 3.0), (7, SemanticClass.PEDESTRIAN, 4.0, -6.0, 0.9, 0.5, 0.6, 1.8, 1.5),
+            (9, SemanticClass.BICYCLE, -6.0, 8.0, 0.85, 1.8, 0.6, 1.7, -0.4)]  # fmt: skip
+    velocity = [[14.0 * np.cos(0.3), 14.0 * np.sin(0.3), 0], [-20.0, -2.0, 0], [0, 1.4, 0], [4.0, -1.6, 0]]
+    agents = synth.agents(rows, velocity)
+    ego = synth.ego((11.0, 0.0, 0.0))
+    lidar = kitti_lidar(reference=reference)
+    scan = lidar.sense(synth.scene([synth.ground()], agents), ego, DAY, np.random.default_rng(3)).scan
+    assert set(np.unique(scan.instance_id)) == {0, 3, 4, 7, 9}
+    t_ref = {"start": 0.0, "middle": 0.05, "end": 0.1}[reference]
+    outside = points_back_in_boxes(lidar, ego, agents, scan, t_ref)
+    assert outside.max() <= 0.02
+    assert points_back_in_boxes(lidar, ego, agents, scan, t_ref + 0.05).max() > 0.1  # a wrong time fails
+
+
+def test_glass_gives_no_return_from_its_surface(synth: SimpleNamespace) -> None:
+    car = synth.agents([(5, SemanticClass.CAR, 8.0, 0.0, 0.75, 4.5, 1.8, 1.5, np.pi / 2)])
+    world = synth.scene([synth.ground(), synth.wall_at_x(20.0)], car)
+    for sweep in ("instant", "timed"):
+        lidar = kitti_lidar(sweep=sweep)
+        rays, hits = lidar.cast(world, synth.ego())
+        plain = world.cast(rays)
+        glass = plain.part == Part.GLASS
+        assert glass.sum() > 30
+        assert not np.any(hits.part == Part.GLASS)
+        assert np.all(hits.range_m[glass] > plain.range_m[glass])  # what lies behind the pane
+        assert np.median(hits.range_m[glass] - plain.range_m[glass]) > 0.3
+        assert np.any(hits.semantic_class[glass] == SemanticClass.BUILDING)  # some see the wall through the car
+        same = ~glass & np.isfinite(plain.range_m)
+        np.testing.assert_allclose(hits.range_m[same], plain.range_m[same], atol=2e-3)
+
+
+def test_same_seed_same_timed_scan(synth: SimpleNamespace) -> None:
+    car = synth.agents([(5, SemanticClass.CAR, 8.0, 3.0, 0.75, 4.5, 1.8, 1.5, 0.2)], [[5.0, 1.0, 0.0]])
+    world = synth.scene([synth.ground()], car)
+    a = kitti_lidar(deskew=True, dropout=0.1).sense(world, synth.ego((8.0, 0, 0)), DAY, np.random.default_rng(5))
+    b = kitti_lidar(deskew=True, dropout=0.1).sense(world, synth.ego((8.0, 0, 0)), DAY, np.random.default_rng(5))
+    for f in LidarScan.__slots__:
+        assert getattr(a.scan, f).tobytes() == getattr(b.scan, f).tobytes()
