@@ -20,7 +20,8 @@ own ``sensors`` keys are laid over the preset, so any part of it can still be ch
   HDL-32E's elevations (-30.67 to +10.67 deg in 4/3 deg steps, HDL-32E manual), 20 Hz,
   70 m, 1084 firings per turn, with nuScenes's LiDAR axes (x right, y forward), sweeping in time
   (HDL-32E firing; the frame's time and its boxes at the sweep's end, as nuScenes stamps a sweep
-  when its rotation is complete), and five
+  when its rotation is complete; its LIDAR_TOP files hold the deskewed points, as nuScenes's are
+  ego-motion compensated), and five
   Continental ARS 408 radars at 13 Hz (250 m, +-60 deg near field). nuScenes's ego origin is
   the rear axle, ours the footprint centre: every mount moves back by ``NUSCENES_REAR_AXLE_X_M``
   so RADAR_FRONT sits at the front bumper as on the nuScenes car. The preset also turns on
@@ -41,6 +42,12 @@ from sensors.pinhole import EGO_AXES_R_OPTICAL
 _UPPER = [2.0 - k / 3.0 for k in range(32)]  # +2.0 .. -8.33
 _LOWER = [-8.83 - k / 2.0 for k in range(32)]  # -8.83 .. -24.33
 HDL64E_ELEVATIONS_DEG = tuple(round(e, 3) for e in sorted(_UPPER + _LOWER))
+# Returns by received power (sensors.lidar.Lidar.detection_probability): HDL-64E S2, "50 m for
+# pavement (about 10 % reflectivity), 120 m for cars and foliage (about 80 %)" (Velodyne HDL-64E S2
+# data sheet): the two agree with the inverse-square law. HDL-32E: "80 m to 100 m" with no
+# reflectivity given (HDL-32E data sheet); taken as 100 m for 80 %, so 35 m for 10 %.
+HDL64E_RANGE_10PCT_M = 50.0
+HDL32E_RANGE_10PCT_M = 35.0
 KITTI_FOCAL_PX = 721.5377
 KITTI_IMAGE = (1242, 375)
 KITTI_HFOV_DEG = round(math.degrees(2.0 * math.atan(KITTI_IMAGE[0] / 2.0 / KITTI_FOCAL_PX)), 3)
@@ -120,7 +127,8 @@ def _nuscenes() -> dict[str, Any]:
     lidar = {"name": "LIDAR_TOP", "beams": 32, "elevations_deg": list(HDL32E_ELEVATIONS_DEG),
              "vertical_min_deg": HDL32E_ELEVATIONS_DEG[0], "vertical_max_deg": HDL32E_ELEVATIONS_DEG[-1],
              "azimuth_steps": 1084, "range_m": 70.0, "rate_hz": 20.0, "sweep": "timed", "firing": "hdl32e",
-             "reference": "end", **_mount(*NUSCENES_LIDAR)}  # fmt: skip
+             "reference": "end", "deskew": True, "range_10pct_m": HDL32E_RANGE_10PCT_M,
+             **_mount(*NUSCENES_LIDAR)}  # fmt: skip
     radars = []
     for name, (t, yaw_deg) in NUSCENES_RADARS.items():
         half = math.radians(yaw_deg) / 2.0
@@ -144,7 +152,8 @@ PRESETS: dict[str, dict[str, Any]] = {
         "lidars": [{"name": "lidar", "beams": 64, "elevations_deg": list(HDL64E_ELEVATIONS_DEG),
                     "vertical_min_deg": HDL64E_ELEVATIONS_DEG[0], "vertical_max_deg": HDL64E_ELEVATIONS_DEG[-1],
                     "azimuth_steps": 2048, "range_m": 120.0, "rate_hz": 10.0, "mount_xyz_m": [0.0, 0.0, 1.73],
-                    "sweep": "timed", "firing": "hdl64e", "reference": "middle"}],
+                    "sweep": "timed", "firing": "hdl64e", "reference": "middle",
+                    "range_10pct_m": HDL64E_RANGE_10PCT_M}],
         "cameras": [
             {"name": "cam2", "width_px": KITTI_IMAGE[0], "height_px": KITTI_IMAGE[1], "hfov_deg": KITTI_HFOV_DEG,
              "mount_xyz_m": [0.27, 0.06, 1.65], "rate_hz": 10.0},

@@ -4,7 +4,10 @@
 ``t`` 0); ``sweep: timed`` fires each ray at its own time in the sweep and casts it with the ego
 and the agents where they are then (:mod:`sensors.sweep`), and ``deskew: true`` adds each
 point moved to the sweep's reference time by the ego's motion.
-Intensity = reflectivity(class) * |cos(incidence)| * exp(-range / 200 m), in 0..1; an
+Intensity = reflectivity(part or class) * |cos(incidence)| * exp(-range / 200 m), in 0..1 (painted
+parts by their colour; retro-reflective plates, signs and road paint without the cosine; glass
+returns nothing, the ray goes on); with ``range_10pct_m`` a return is kept with a chance from its
+received power (:meth:`Lidar.detection_probability`); an
 optional :class:`~sensors.weather.Weather` (rain, fog) shortens the range, weakens and drops
 returns and adds near spurious ones; day and night change nothing.
 """
@@ -23,10 +26,10 @@ from networks.records import check_arrays
 from sensors.agents import EgoState
 from sensors.errors import SensorConfigError
 from sensors.hits import RayHits
-from sensors.parts import Part, lidar_reflectivity
+from sensors.parts import Part, lidar_reflectance
 from sensors.rays import sensor_rays
 from sensors.sweep import deskewed, near_pairs, nearest, ray_times_s, reference_s
-from sensors.view import bounding_radius_m, spheres_in_view
+from sensors.view import spheres_in_view
 from sensors.weather import (
     Weather,
     add_spurious_returns,
@@ -58,6 +61,9 @@ class LidarSpec:
     firing: Literal["even", "hdl64e", "hdl32e"] = "even"  # the beams' firing pattern in a column
     reference: Literal["start", "middle", "end"] = "middle"  # the sweep's time of the frame's state and boxes
     deskew: bool = False  # also give each point moved to the reference time by the ego's motion
+    # Returns lost by received power (Lidar.detection_probability): the range at which a 10 %
+    # target facing the sensor returns half the time (0: every hit within range returns).
+    range_10pct_m: float = 0.0
 
     def __post_init__(self) -> None:
         if self.elevations_deg:
@@ -75,6 +81,8 @@ class LidarSpec:
             raise SensorConfigError(f"lidar {self.name}: range_m and rate_hz must be > 0")
         if self.range_noise_m < 0 or not 0.0 <= self.dropout < 1.0:
             raise SensorConfigError(f"lidar {self.name}: need range_noise_m >= 0 and 0 <= dropout < 1")
+        if not 0.0 <= self.range_10pct_m <= self.range_m:
+            raise SensorConfigError(f"lidar {self.name}: range_10pct_m must be in 0..range_m, got {self.range_10pct_m}")
         if (self.firing, self.beams) in {("hdl64e", 64), ("hdl32e", 32)} or self.firing == "even":
             return
         raise SensorConfigError(f"lidar {self.name}: firing {self.firing} needs "
@@ -178,6 +186,8 @@ class Lidar:
         dropout = lidar_dropout(w, self.spec.dropout) if w.lidar_dropout > 0 else self.spec.dropout
         if dropout > 0:
             keep &= rng.random(keep.shape[0]) >= dropout
+        if self.spec.range_10pct_m > 0:
+            keep = self._detected(hits, rays, keep & ~spurious, rng) | (keep & spurious)
         idx = np.flatnonzero(keep)
         rng_m = hits.range_m[idx]
         noise_m = lidar_range_noise_m(w, self.spec.range_noise_m)
@@ -186,7 +196,9 @@ class Lidar:
         xyz = self._dirs32[idx] * rng_m[:, None]
         cos_inc = np.abs(np.einsum("ij,ij->i", rays[idx, 3:6], hits.normal[idx]))
         cls = hits.semantic_class[idx]
-        intensity = lidar_reflectivity(cls, hits.part[idx]) * cos_inc * np.exp(rng_m * np.float32(-1.0 / 200.0))
+        reflectance, retro = lidar_reflectance(cls, hits.part[idx], hits.instance_id[idx])
+        intensity = reflectance * np.where(retro, np.float32(1.0), cos_inc) * np.exp(rng_m * np.float32(-1.0 / 200.0))
+        intensity = np.minimum(intensity, np.float32(1.0))
         if w.lidar_spurious_rate > 0 or w.lidar_intensity_scale != 1.0 or w.lidar_extinction_per_m > 0:
             intensity = intensity * lidar_intensity_factor(w, rng_m)
             intensity = np.where(spurious[idx], w.lidar_spurious_intensity, intensity)
@@ -200,6 +212,32 @@ class Lidar:
         scan = LidarScan(xyz, intensity.astype(np.float32, copy=False), self._ring[idx], cls, hits.instance_id[idx],
                          t_s, still)  # fmt: skip
         return LidarOutput(self.spec, scan)
+
+    def detection_probability(self, hits: RayHits, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.float64]:
+        """``(N,)`` chance that each hit's echo rises above the sensor's noise floor: received
+        power ``reflectance * incidence / range^2`` against that of a 10 % target facing the sensor
+        at ``range_10pct_m``, which returns half the time; a logistic in log power (it falls from
+        0.9 to 0.1 as the power drops 3 times). Incidence is ``sqrt(|cos|)``: rough surfaces such
+        as asphalt scatter back more than Lambert's law at grazing angles; retro-reflective ones
+        (plates, signs, road paint) return as if faced and RETRO_GAIN times brighter."""
+        range_m = np.maximum(hits.range_m.astype(np.float64), 0.1)
+        reflectance, retro = lidar_reflectance(hits.semantic_class, hits.part, hits.instance_id)
+        cos_inc = np.abs(np.einsum("ij,ij->i", rays[:, 3:6], hits.normal)).astype(np.float64)
+        power = reflectance * np.where(retro, RETRO_GAIN, np.sqrt(cos_inc)) / range_m**2
+        floor = 0.1 / self.spec.range_10pct_m**2
+        with np.errstate(divide="ignore"):
+            log_ratio = np.log(np.maximum(power, 1e-30) / floor)
+        return np.asarray(1.0 / (1.0 + np.exp(-log_ratio / DETECTION_WIDTH)))
+
+    def _detected(
+        self, hits: RayHits, rays: npt.NDArray[np.float32], candidates: npt.NDArray[np.bool_], rng: np.random.Generator
+    ) -> npt.NDArray[np.bool_]:  # fmt: skip
+        """Which ``candidates`` return: each with its :meth:`detection_probability` (one draw each)."""
+        at = np.flatnonzero(candidates)
+        chance = self.detection_probability(_rows(hits, at), rays[at])
+        out = np.zeros_like(candidates)
+        out[at] = rng.random(at.shape[0]) < chance
+        return out
 
     def cast(self, scene: Scene, ego: EgoState) -> tuple[npt.NDArray[np.float32], RayHits]:
         """Every ray of the sweep (map frame; each from where the sensor is at its time) and what
@@ -218,13 +256,15 @@ class Lidar:
         rays[:, :3] += (dt_s[:, None] * ego.velocity_map_mps[None, :]).astype(np.float32)
         static = scene.cast_static(rays)
         agents = scene.agents
-        speed = np.linalg.norm(agents.velocity_map_mps, axis=1) + float(np.linalg.norm(ego.velocity_map_mps))
-        reach = bounding_radius_m(agents.lwh_m) + speed * self.spec.period_s + 0.1
-        ray_i, agent_i = near_pairs(agents, map_SE3_lidar.inverse(), reach, self.spec.azimuth_steps,
+        relative = agents.velocity_map_mps - ego.velocity_map_mps
+        dt_range = (-self._t_ref_s, self.spec.period_s - self._t_ref_s)
+        ray_i, agent_i = near_pairs(agents, map_SE3_lidar.inverse(), relative, dt_range, self.spec.azimuth_steps,
                                     self._elevation_rad)  # fmt: skip
         return nearest(static, agents, ray_i, agent_i, scene.cast_agents_moving(rays, dt_s, ray_i, agent_i))
 
 
+RETRO_GAIN = 10.0  # a retro-reflector's echo against a white diffuse surface of the same reflectivity
+DETECTION_WIDTH = 0.25  # the logistic's scale in log received power (0.9 -> 0.1 over a factor of 3)
 GLASS_LAYERS = 4  # panes a ray passes through at most (a car's windscreen and rear window, and back)
 PAST_GLASS_M = 1e-4
 
@@ -249,3 +289,7 @@ def through_glass(scene: Scene, rays: npt.NDArray[np.float32], hits: RayHits) ->
         if glass.size == 0:
             break
     return RayHits(range_m, cls, inst, normal, part)
+
+
+def _rows(hits: RayHits, at: npt.NDArray[np.intp]) -> RayHits:
+    return RayHits(hits.range_m[at], hits.semantic_class[at], hits.instance_id[at], hits.normal[at], hits.part[at])

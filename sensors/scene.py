@@ -249,10 +249,11 @@ def cast_agents_moving(
     ray_index: npt.NDArray[np.intp], agent_index: npt.NDArray[np.intp],
 ) -> PairHits:  # fmt: skip
     """Ray ``ray_index[k]`` cast at ``dt_s`` from the frame's time against agent ``agent_index[k]``
-    alone, the agent moved by its velocity over ``dt_s`` (its heading kept). Each agent's body is
-    cast in its type's unit mesh (scaled and posed as :func:`sensors.agents.agent_meshes` does),
-    the ray taken into that mesh's frame: no mesh is built per frame. A ray passes through glass
-    (:attr:`Part.GLASS`): its hit is the next surface of the agent behind the glass, or none."""
+    alone (pairs grouped by agent, ``agent_index`` ascending), the agent moved by its velocity
+    over ``dt_s`` (its heading kept). Each agent's body is cast in its type's unit mesh (scaled and
+    posed as :func:`sensors.agents.agent_meshes` does), the ray taken into that mesh's frame: no
+    mesh is built per frame. A ray passes through glass (:attr:`Part.GLASS`): its hit is the next
+    surface of the agent behind the glass, or none."""
     m = ray_index.shape[0]
     out = PairHits(np.full(m, np.inf, np.float32), np.zeros((m, 3), np.float32), np.zeros(m, np.uint8))
     if m == 0:
@@ -260,48 +261,54 @@ def cast_agents_moving(
     rotations = agents.rotations()
     centre = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
     lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
-    keys = body_keys(agents)
-    dt = dt_s[ray_index][:, None]
-    moved = rays[ray_index, :3] - centre[agent_index] - agents.velocity_map_mps[agent_index] * dt
-    box_R_map = np.transpose(rotations[agent_index], (0, 2, 1))
-    origin_unit = np.einsum("kij,kj->ki", box_R_map, moved) / lwh[agent_index]
-    dir_unit = np.einsum("kij,kj->ki", box_R_map, rays[ray_index, 3:6].astype(np.float64)) / lwh[agent_index]
-    groups, group_of = np.unique(keys[agent_index], axis=0, return_inverse=True)
+    starts = np.searchsorted(agent_index, np.arange(len(agents) + 1))
+    present = np.flatnonzero(np.diff(starts))
+    unit = np.empty((m, 6), np.float32)  # each pair's ray in its agent's unit mesh frame
+    for k in present.tolist():
+        a, b = int(starts[k]), int(starts[k + 1])
+        mine = ray_index[a:b]
+        moved = rays[mine, :3] - (centre[k] + dt_s[mine, None] * agents.velocity_map_mps[k])
+        unit[a:b, :3] = (moved @ rotations[k]) / lwh[k]  # x @ R is R^T x
+        unit[a:b, 3:] = (rays[mine, 3:6].astype(np.float64) @ rotations[k]) / lwh[k]
+    keys = body_keys(agents.select(present))
+    groups, group_of = np.unique(keys, axis=0, return_inverse=True)
+    normal_unit = np.zeros((m, 3), np.float32)
     for g, key in enumerate(groups.tolist()):
-        mine = np.flatnonzero(group_of.ravel() == g)
+        blocks = [np.arange(starts[k], starts[k + 1]) for k in present[group_of.ravel() == g].tolist()]
+        pairs = np.concatenate(blocks)
         scene, part_of = _unit_scene((key[0], key[1], key[2]))
-        t, normal, part = _cast_through_glass(scene, part_of, origin_unit[mine], dir_unit[mine])
-        out.range_m[mine], out.part[mine] = t, part
-        world = np.einsum("kij,kj->ki", rotations[agent_index[mine]], normal / lwh[agent_index[mine]])
+        out.range_m[pairs], normal_unit[pairs], out.part[pairs] = _cast_through_glass(scene, part_of, unit[pairs])
+    for k in present.tolist():
+        a, b = int(starts[k]), int(starts[k + 1])
+        world = (normal_unit[a:b] / lwh[k]) @ rotations[k].T
         length = np.linalg.norm(world, axis=1, keepdims=True)
-        out.normal[mine] = world / np.where(length > 0, length, 1.0)
+        out.normal[a:b] = world / np.where(length > 0, length, 1.0)
     return out
 
 
 def _cast_through_glass(
-    scene: Any, part_of: npt.NDArray[np.uint8], origin: npt.NDArray[np.float64], direction: npt.NDArray[np.float64]
-) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float64], npt.NDArray[np.uint8]]:
-    """Distance along ``direction`` (metres when its length is the map-frame metre's in this
-    frame), unit-frame normal and part of the first surface that is not glass (inf: none)."""
-    n = origin.shape[0]
-    total = np.zeros(n, np.float64)
-    t_out, normal_out, part_out = np.full(n, np.inf, np.float32), np.zeros((n, 3)), np.zeros(n, np.uint8)
-    todo = np.arange(n)
-    for _ in range(_GLASS_LAYERS + 1):
-        rays = np.concatenate([origin[todo], direction[todo]], axis=1).astype(np.float32)
-        result = scene.cast_rays(o3c.Tensor.from_numpy(rays), nthreads=1)
-        t = result["t_hit"].numpy().astype(np.float64)
-        prim = result["primitive_ids"].numpy()
-        hit = result["geometry_ids"].numpy() != np.uint32(INVALID_ID)
-        part = part_of[np.where(hit, prim, part_of.shape[0] - 1)]
-        done = hit & (part != Part.GLASS)
-        at = todo[done]
-        t_out[at], part_out[at] = (total[at] + t[done]).astype(np.float32), part[done]
-        normal_out[at] = result["primitive_normals"].numpy()[done]
-        through = hit & (part == Part.GLASS)
-        todo, step = todo[through], t[through] + _PAST_M
-        if todo.size == 0:
+    scene: Any, part_of: npt.NDArray[np.uint8], rays: npt.NDArray[np.float32]
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.uint8]]:
+    """Distance along each ray's direction (metres when its length is the map-frame metre's in
+    this frame), unit-frame normal and part of the first surface that is not glass (inf: none)."""
+    result = scene.cast_rays(o3c.Tensor.from_numpy(np.ascontiguousarray(rays)), nthreads=1)
+    t = result["t_hit"].numpy()
+    normal = result["primitive_normals"].numpy()
+    hit = result["geometry_ids"].numpy() != np.uint32(INVALID_ID)
+    part = part_of[np.where(hit, result["primitive_ids"].numpy(), part_of.shape[0] - 1)]
+    t[~hit] = np.inf
+    glass = np.flatnonzero(part == Part.GLASS)
+    for _ in range(_GLASS_LAYERS):
+        if glass.size == 0:
             break
-        origin[todo] += direction[todo] * step[:, None]
-        total[todo] += step
-    return t_out, normal_out, part_out
+        step = t[glass] + np.float32(_PAST_M)
+        again = rays[glass].copy()
+        again[:, :3] += again[:, 3:] * step[:, None]
+        more = scene.cast_rays(o3c.Tensor.from_numpy(again), nthreads=1)
+        hit2 = more["geometry_ids"].numpy() != np.uint32(INVALID_ID)
+        t[glass] = np.where(hit2, step + more["t_hit"].numpy(), np.inf)
+        part[glass] = part_of[np.where(hit2, more["primitive_ids"].numpy(), part_of.shape[0] - 1)]
+        normal[glass] = more["primitive_normals"].numpy()
+        glass = glass[part[glass] == Part.GLASS]
+    t[part == Part.GLASS] = np.inf  # more panes than followed: nothing returns
+    return t, normal, part

@@ -84,39 +84,58 @@ def reference_s(reference: str, period_s: float) -> float:
 
 
 def near_pairs(
-    agents: Agents, lidar_SE3_map: SE3, reach_m: npt.NDArray[np.float64], azimuth_steps: int,
-    elevation_rad: npt.NDArray[np.float64],
+    agents: Agents, lidar_SE3_map: SE3, relative_velocity_map_mps: npt.NDArray[np.float64],
+    dt_range_s: tuple[float, float], azimuth_steps: int, elevation_rad: npt.NDArray[np.float64],
 ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:  # fmt: skip
-    """``(ray, agent)`` pairs whose ray may meet the agent's sphere of radius ``reach_m`` (its
-    bounding sphere grown by its motion and the ego's over the sweep) on the grid of a LiDAR
-    whose ray ``ring * azimuth_steps + column`` points at azimuth ``column * 2 pi / steps`` and
-    elevation ``elevation_rad[ring]`` in the LiDAR frame."""
+    """``(ray, agent)`` pairs, grouped by agent in ascending order, whose ray may meet the agent's
+    box swept by its motion relative to the ego over ``dt_range_s``, on the grid of a LiDAR whose
+    ray ``ring * azimuth_steps + column`` points at azimuth ``column * 2 pi / steps`` and elevation
+    ``elevation_rad[ring]`` in the LiDAR frame: the columns between the swept box's corners'
+    azimuths and the rings between its lowest and highest elevation (taken at its nearest
+    horizontal distance), each widened by half a column."""
     if len(agents) == 0:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
-    centre = lidar_SE3_map.transform_from(agents.center_map_m)
-    distance = np.linalg.norm(centre, axis=1)
-    inside = distance <= reach_m + 0.05
-    half = np.where(inside, np.pi, np.arcsin(np.clip(reach_m / np.maximum(distance, 1e-9), 0.0, 1.0)) + 0.01)
-    azimuth = np.arctan2(centre[:, 1], centre[:, 0])
-    elevation = np.arcsin(np.clip(centre[:, 2] / np.maximum(distance, 1e-9), -1.0, 1.0))
+    corners_box = np.stack(np.meshgrid([-0.5, 0.5], [-0.5, 0.5], [-0.5, 0.5], indexing="ij"), -1).reshape(-1, 3)
+    corners = np.einsum("kij,kcj->kci", agents.rotations(), corners_box[None] * agents.lwh_m[:, None, :])
+    corners = corners + agents.center_map_m[:, None, :]
+    swept = np.concatenate([corners + relative_velocity_map_mps[:, None, :] * dt for dt in dt_range_s], axis=1)
+    local = lidar_SE3_map.transform_from(swept.reshape(-1, 3)).reshape(swept.shape)
     step = 2.0 * np.pi / azimuth_steps
+    pad = 0.5 * step + 1e-3
     rays, owners = [], []
     for k in range(len(agents)):
-        rings = np.flatnonzero(np.abs(elevation_rad - elevation[k]) <= half[k])
-        if rings.size == 0:
-            continue
-        if inside[k] or half[k] >= np.pi:
-            columns = np.arange(azimuth_steps)
-        else:
-            first = int(np.floor((azimuth[k] - half[k]) / step))
-            columns = np.arange(first, int(np.ceil((azimuth[k] + half[k]) / step)) + 1) % azimuth_steps
-            columns = np.unique(columns)
-        mine = (rings[:, None] * azimuth_steps + columns[None, :]).ravel()
-        rays.append(mine)
-        owners.append(np.full(mine.shape[0], k, np.intp))
+        mine = _pairs_of(local[k], step, pad, azimuth_steps, elevation_rad)
+        if mine.size:
+            rays.append(mine)
+            owners.append(np.full(mine.shape[0], k, np.intp))
     if not rays:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
     return np.concatenate(rays).astype(np.intp), np.concatenate(owners)
+
+
+def _pairs_of(
+    corners: npt.NDArray[np.float64], step: float, pad: float, azimuth_steps: int,
+    elevation_rad: npt.NDArray[np.float64],
+) -> npt.NDArray[np.intp]:  # fmt: skip
+    """The rays of a grid that may meet the convex hull of ``corners`` (LiDAR frame)."""
+    xy = corners[:, :2]
+    centre = xy.mean(axis=0)
+    spread = float(np.linalg.norm(xy - centre, axis=1).max())
+    nearest = float(np.linalg.norm(centre)) - spread  # a lower bound of the hull's horizontal distance
+    z_lo, z_hi = float(corners[:, 2].min()), float(corners[:, 2].max())
+    if nearest <= 0.05:
+        el_lo, el_hi, columns = -np.pi / 2, np.pi / 2, np.arange(azimuth_steps)
+    else:
+        farthest = float(np.linalg.norm(xy, axis=1).max())
+        el_hi = np.arctan2(z_hi, nearest if z_hi > 0 else farthest)
+        el_lo = np.arctan2(z_lo, nearest if z_lo < 0 else farthest)
+        mid = np.arctan2(centre[1], centre[0])
+        off = np.angle(np.exp(1j * (np.arctan2(xy[:, 1], xy[:, 0]) - mid)))  # each corner's azimuth from mid
+        first = int(np.floor((mid + off.min() - pad) / step))
+        last = int(np.ceil((mid + off.max() + pad) / step))
+        columns = np.arange(first, last + 1) % azimuth_steps
+    rings = np.flatnonzero((elevation_rad >= el_lo - pad) & (elevation_rad <= el_hi + pad))
+    return (rings[:, None] * azimuth_steps + columns[None, :]).ravel()
 
 
 def nearest(static: RayHits, agents: Agents, ray_index: npt.NDArray[np.intp], agent_index: npt.NDArray[np.intp],

@@ -122,7 +122,10 @@ class NuscenesSink:
                 files[entry["filename"]] = images.jpeg(camera_index[name], JPEG_QUALITY)
             elif isinstance(output, LidarOutput):
                 scan = output.scan
-                points = np.column_stack([scan.xyz_lidar_m, scan.intensity * 255.0, scan.ring]).astype("<f4")
+                # nuScenes's sweeps are ego-motion compensated to the sweep's timestamp: the deskewed
+                # copy where the LiDAR makes one (the nuscenes preset does)
+                xyz = scan.xyz_deskewed_lidar_m if len(scan.xyz_deskewed_lidar_m) else scan.xyz_lidar_m
+                points = np.column_stack([xyz, scan.intensity * 255.0, scan.ring]).astype("<f4")
                 entry.update(filename=f"{stem}.pcd.bin", fileformat="pcd")
                 files[entry["filename"]] = points.tobytes()
                 if key is not None and channel == self._lidar_channel:

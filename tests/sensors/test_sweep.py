@@ -10,9 +10,10 @@ from networks.classes import SemanticClass
 from networks.geometry import box_rotations
 from networks.mesh import merge
 from sensors.errors import SensorConfigError
+from sensors.hits import RayHits
 from sensors.lidar import Lidar, LidarScan, LidarSpec
 from sensors.o3d import RaycastingScene, o3c
-from sensors.parts import Part
+from sensors.parts import Part, lidar_reflectance, part_albedo
 from sensors.weather import DAY
 
 KITTI_LIKE = {"beams": 64, "elevations_deg": HDL64E_ELEVATIONS_DEG, "vertical_min_deg": HDL64E_ELEVATIONS_DEG[0],
@@ -180,3 +181,68 @@ def test_same_seed_same_timed_scan(synth: SimpleNamespace) -> None:
     b = kitti_lidar(deskew=True, dropout=0.1).sense(world, synth.ego((8.0, 0, 0)), DAY, np.random.default_rng(5))
     for f in LidarScan.__slots__:
         assert getattr(a.scan, f).tobytes() == getattr(b.scan, f).tobytes()
+
+
+def test_paint_returns_by_its_colour_plates_and_road_paint_retro_reflect() -> None:
+    ids = np.arange(1, 400, dtype=np.uint32)
+    paint = np.full(ids.shape[0], int(Part.PAINT), np.uint8)
+    car = np.full(ids.shape[0], int(SemanticClass.CAR), np.uint8)
+    reflectance, retro = lidar_reflectance(car, paint, ids)
+    albedo = part_albedo(paint, ids).mean(axis=1)
+    assert reflectance[albedo < 0.1].max() < 0.15 and reflectance[albedo > 0.8].min() > 0.6  # black weak, white strong
+    assert not retro.any()
+    parts = np.array([Part.TYRE, Part.PLATE, Part.SURFACE, Part.SURFACE, Part.SURFACE], np.uint8)
+    classes = np.array([SemanticClass.CAR, SemanticClass.CAR, SemanticClass.ROAD, SemanticClass.LANE_MARKING,
+                        SemanticClass.TRAFFIC_SIGN], np.uint8)  # fmt: skip
+    reflectance, retro = lidar_reflectance(classes, parts, np.array([5, 5, 0, 0, 0], np.uint32))
+    assert reflectance[0] <= 0.05 and retro.tolist() == [False, True, False, True, True]
+
+
+def test_road_paint_outshines_asphalt_at_grazing_incidence(synth: SimpleNamespace) -> None:
+    stripe = synth.quad(
+        [(5, 1, 0.001), (60, 1, 0.001), (60, 1.15, 0.001), (5, 1.15, 0.001)], SemanticClass.LANE_MARKING
+    )
+    scan = (
+        kitti_lidar(sweep="instant")
+        .sense(synth.scene([synth.ground(), stripe]), synth.EGO, DAY, np.random.default_rng(1))
+        .scan
+    )
+    far = scan.xyz_lidar_m[:, 0] > 15
+    paint = scan.intensity[far & (scan.semantic_class == SemanticClass.LANE_MARKING)]
+    road = scan.intensity[far & (scan.semantic_class == SemanticClass.ROAD) & (np.abs(scan.xyz_lidar_m[:, 1]) < 3)]
+    assert paint.size > 10 and road.size > 10
+    assert np.median(paint) > 20 * np.median(road)
+
+
+def test_returns_drop_with_received_power_none_from_the_sky_or_beyond_range(synth: SimpleNamespace) -> None:
+    lidar = kitti_lidar(sweep="instant", range_10pct_m=50.0)
+    world = synth.scene([synth.ground(), synth.wall_at_x(110.0, half_m=300.0), synth.wall_at_x(-130.0, half_m=300.0)])
+    rays, hits = lidar.cast(world, synth.EGO)
+    chance = lidar.detection_probability(hits, rays)
+    road = (hits.semantic_class == SemanticClass.ROAD) & np.isfinite(hits.range_m)
+    near, far = road & (hits.range_m < 12), road & (hits.range_m > 40) & (hits.range_m < 100)
+    assert chance[near].min() > 0.95 and chance[far].max() < 0.5
+    scan = lidar.sense(world, synth.EGO, DAY, np.random.default_rng(2)).scan
+    r = np.linalg.norm(scan.xyz_lidar_m, axis=1)
+    ground_points = scan.semantic_class == SemanticClass.ROAD
+    assert np.sum(ground_points & (r < 12)) > 0.95 * np.sum(near)
+    assert np.sum(ground_points & (r > 40)) < 0.5 * np.sum(far)
+    assert r.max() <= 120.0 and not np.any(scan.xyz_lidar_m[:, 0] < -125)  # the wall behind is beyond range
+    # a 10 % target facing the sensor at range_10pct_m returns half the time; the road's 12 % a little more
+    facing = RayHits(np.array([50.0], np.float32), np.array([SemanticClass.ROAD], np.uint8), np.zeros(1, np.uint32),
+                     np.array([[-1.0, 0, 0]], np.float32), np.zeros(1, np.uint8))  # fmt: skip
+    ray = np.array([[0, 0, 0, 1, 0, 0]], np.float32)
+    np.testing.assert_allclose(lidar.detection_probability(facing, ray), 1 / (1 + (0.1 / 0.12) ** 4), rtol=1e-6)
+
+
+def test_a_timed_sweep_of_a_still_world_hits_what_the_instant_one_does(synth: SimpleNamespace) -> None:
+    rows = [(k + 1, SemanticClass.CAR, 12.0 * np.cos(k), 12.0 * np.sin(k) + 0.3 * k, 0.75, 4.5, 1.8, 1.5, 0.7 * k)
+            for k in range(8)]  # fmt: skip
+    rows += [(20, SemanticClass.PEDESTRIAN, 1.5, 2.0, 0.9, 0.5, 0.6, 1.8, 0.0), (21, SemanticClass.BUS, -4.0, -3.5,
+             1.6, 12.0, 2.5, 3.2, 0.2)]  # fmt: skip
+    world = synth.scene([synth.ground()], synth.agents(rows))
+    _, timed = kitti_lidar().cast(world, synth.ego())
+    _, instant = kitti_lidar(sweep="instant").cast(world, synth.ego())
+    assert (instant.instance_id > 0).sum() > 5000
+    assert np.array_equal(timed.instance_id, instant.instance_id)
+    np.testing.assert_allclose(timed.range_m, instant.range_m, atol=2e-3)
