@@ -57,6 +57,21 @@ def test_both_engines_give_the_same_hits(town):
         assert np.abs(np.abs(np.einsum("ij,ij->i", a.normal[same], b.normal[same])) - 1.0).max() < 1e-3
 
 
+def test_both_engines_give_the_same_timed_sweep(town):
+    static, agents, ego = town
+    moving = Agents(agents.instance_id, agents.semantic_class, agents.center_map_m, agents.lwh_m, agents.yaw_map_rad,
+                    agents.pitch_rad, np.random.default_rng(5).uniform(-15, 15, (len(agents), 3)) * [1, 1, 0],
+                    agents.parked)  # fmt: skip
+    driving = EgoState(ego.center_map_m, ego.lwh_m, ego.yaw_map_rad, 0.0, np.array([12.0, 4.0, 0.0]))
+    lidar = Lidar(LidarSpec(sweep="timed"))
+    (_, a), (_, b) = (lidar.cast(s, driving) for s in (open_engine("open3d")[0].scene(static, moving),
+                                                        MitsubaEngine().scene(static, moving)))  # fmt: skip
+    np.testing.assert_array_equal(a.hit, b.hit)
+    both = a.hit & b.hit
+    assert np.abs(a.range_m[both] - b.range_m[both]).max() < 1e-4
+    assert (a.instance_id == b.instance_id).mean() >= 0.999 and (a.instance_id > 0).sum() > 100
+
+
 def test_auto_falls_back_to_open3d_with_one_line_when_the_fast_engine_cannot_start(monkeypatch):
     monkeypatch.setitem(sys.modules, "sensors.mitsuba_engine", None)  # its import fails, as without LLVM
     engine, notice = open_engine("auto")
