@@ -42,3 +42,32 @@ def front_bumper_to_center(
     length = np.asarray(length_m, dtype=np.float64).reshape(-1, 1)
     height = np.asarray(height_m, dtype=np.float64).reshape(-1, 1)
     return front - heading_vectors(yaw_rad, pitch_rad) * length / 2.0 + up_vectors(yaw_rad, pitch_rad) * height / 2.0
+
+
+SUMO_BLINKER_RIGHT, SUMO_BLINKER_LEFT, SUMO_BLINKER_EMERGENCY, SUMO_BRAKELIGHT = 1, 2, 4, 8
+"""Bits of SUMO's vehicle signals (``libsumo.vehicle.getSignals``) read here."""
+FLASH_HZ = 1.5
+"""Indicators flash 90 times a minute (UN ECE R48 allows 60-120), lit half of each period."""
+
+
+def lamps_of(
+    sumo_signals: npt.ArrayLike, has_lamps: npt.ArrayLike, parked: npt.ArrayLike, time_s: float,
+    track_id: npt.ArrayLike,
+) -> npt.NDArray[np.uint8]:  # fmt: skip
+    """``(N,)`` :class:`sensors.agents.Lamp` bits from SUMO's signals: lights on for vehicles
+    with lamps that are not parked, brake lamps and indicators as SUMO sets them (hazard lights
+    flash both sides), the indicators lit half of each 1/1.5 s period, each vehicle's period
+    starting at its own phase (from its track id)."""
+    from sensors.agents import Lamp
+
+    sig = np.asarray(sumo_signals, np.int64)
+    on = np.asarray(has_lamps, np.bool_) & ~np.asarray(parked, np.bool_)
+    out = np.where(on, int(Lamp.LIGHTS), 0)
+    out |= np.where(on & (sig & SUMO_BRAKELIGHT > 0), int(Lamp.BRAKE), 0)
+    hazard = sig & SUMO_BLINKER_EMERGENCY > 0
+    out |= np.where(on & ((sig & SUMO_BLINKER_LEFT > 0) | hazard), int(Lamp.LEFT), 0)
+    out |= np.where(on & ((sig & SUMO_BLINKER_RIGHT > 0) | hazard), int(Lamp.RIGHT), 0)
+    phase = (np.asarray(track_id, np.float64) * 0.618034) % 1.0
+    lit = (time_s * FLASH_HZ + phase) % 1.0 < 0.5
+    out |= np.where(on & lit & (out & (Lamp.LEFT | Lamp.RIGHT) > 0), int(Lamp.FLASH), 0)
+    return np.asarray(out, np.uint8)

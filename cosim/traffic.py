@@ -24,12 +24,20 @@ from cosim.demand import (
     target_vehicle_count,
 )
 from cosim.errors import TrafficError
-from cosim.kinematics import front_bumper_to_center, heading_vectors, sumo_angle_to_yaw
+from cosim.kinematics import (
+    SUMO_BLINKER_LEFT,
+    SUMO_BLINKER_RIGHT,
+    front_bumper_to_center,
+    heading_vectors,
+    lamps_of,
+    sumo_angle_to_yaw,
+)
 from cosim.net_index import index_net
 from cosim.parking import ParkingArea, additional_xml, find_parking_areas, lane_types
 from cosim.scenario import Scenario
 from cosim.state import WorldState
 from networks.cache import cache_dir, digest, intact, seal, take_notices
+from networks.classes import SemanticClass
 from networks.errors import clipped, quoted
 from networks.sumo_tools import sumo_binary, sumo_home, sumo_refusal
 from sensors.agents import Agents, EgoState
@@ -66,6 +74,14 @@ STATE_VARIABLES = (
     libsumo.constants.VAR_SLOPE,
     libsumo.constants.VAR_SPEED,
 )
+TURN_SIGNAL_M = 40.0
+"""Indicators flash from this far before a junction (about 3 s at 50 km/h)."""
+LAMPED_CLASSES = [int(c) for c in (SemanticClass.CAR, SemanticClass.TRUCK, SemanticClass.BUS, SemanticClass.MOTORCYCLE)]
+"""Classes with head, tail and brake lamps and indicators."""
+VEHICLE_VARIABLES = (
+    *STATE_VARIABLES, libsumo.constants.VAR_SIGNALS, libsumo.constants.VAR_LANE_ID, libsumo.constants.VAR_LANEPOSITION
+)  # fmt: skip
+"""Read for vehicles: the state of every agent, and the lamps SUMO sets (brakes, indicators)."""
 CONTEXT_MARGIN_M = 25.0
 PERSON_ANCHOR = "ego_person_context"
 
@@ -98,6 +114,7 @@ class Traffic:
         self._track_ids: dict[str, int] = {}
         self._serial = 0
         self._statics: dict[str, tuple[int, float, float, float]] = {}
+        self._lane_lengths: dict[str, float] = {}
         self._parking = find_parking_areas(net, lane_types(net_path)) if scenario.traffic.parked > 0 else []
         self._parked: set[str] = set()
         cmd = [
@@ -490,21 +507,23 @@ class Traffic:
 
     def _subscribe_near_ego(self, radius_m: float) -> None:
         vehicles = libsumo.constants.CMD_GET_VEHICLE_VARIABLE
-        libsumo.vehicle.subscribeContext(self._ego, vehicles, radius_m + CONTEXT_MARGIN_M, STATE_VARIABLES)
+        libsumo.vehicle.subscribeContext(self._ego, vehicles, radius_m + CONTEXT_MARGIN_M, VEHICLE_VARIABLES)
 
     def _agent_variables(self, everyone: bool) -> tuple[list[str], list[str], list[tuple[Any, ...]]]:
-        """Vehicle ids, person ids and, per id, (front position, angle, slope, speed)."""
+        """Vehicle ids, person ids and, per id, (front position, angle, slope, speed, SUMO's
+        signals, lane, position on it: 0, "", 0 for persons)."""
         if self._watch_radius_m is not None and not everyone:
             near_vehicles = libsumo.vehicle.getContextSubscriptionResults(self._ego)
             near_persons = libsumo.poi.getContextSubscriptionResults(PERSON_ANCHOR)
-            rows = [tuple(v[k] for k in STATE_VARIABLES) for v in (*near_vehicles.values(), *near_persons.values())]
+            rows = [tuple(v[k] for k in VEHICLE_VARIABLES) for v in near_vehicles.values()]
+            rows += [(*(v[k] for k in STATE_VARIABLES), 0, "", 0.0) for v in near_persons.values()]
             return list(near_vehicles), list(near_persons), rows
         vehicles, persons = list(libsumo.vehicle.getIDList()), list(libsumo.person.getIDList())
-        rows = [
-            (d.getPosition3D(sid), d.getAngle(sid), d.getSlope(sid), d.getSpeed(sid))
-            for d, ids in ((libsumo.vehicle, vehicles), (libsumo.person, persons))
-            for sid in ids
-        ]
+        d = libsumo.vehicle
+        rows = [(d.getPosition3D(v), d.getAngle(v), d.getSlope(v), d.getSpeed(v), d.getSignals(v), d.getLaneID(v),
+                 d.getLanePosition(v)) for v in vehicles]  # fmt: skip
+        d = libsumo.person
+        rows += [(d.getPosition3D(p), d.getAngle(p), d.getSlope(p), d.getSpeed(p), 0, "", 0.0) for p in persons]
         return vehicles, persons, rows
 
     def world_state(self, everyone: bool = False) -> WorldState:
@@ -529,7 +548,10 @@ class Traffic:
         track = np.array([self._track_id(s) for s in ids], dtype=np.uint32)
         parked = np.array([s in self._parked for s in ids], dtype=bool)
         is_ego = np.array([s == self._ego for s in ids], dtype=bool)
-        agents = Agents(track, cls, center, lwh, yaw, pitch, velocity, parked)
+        sumo_signals = np.array([r[4] for r in rows], dtype=np.int64)
+        sumo_signals[~self._turn_signal_shown(rows)] &= ~(SUMO_BLINKER_LEFT | SUMO_BLINKER_RIGHT)
+        lamps = lamps_of(sumo_signals, np.isin(cls, LAMPED_CLASSES), parked, self._time(), track)
+        agents = Agents(track, cls, center, lwh, yaw, pitch, velocity, parked, lamps)
         if not is_ego.any():
             raise TrafficError(f"the ego vehicle {self._ego!r} is not among the agents read at t={self._time():.2f} s")
         e = int(np.flatnonzero(is_ego)[0])
@@ -541,6 +563,22 @@ class Traffic:
         hazards = () if self._hazards is None else self._hazards.active(self._track_id, self._ego)
         return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut, signals, lane, ahead, hazards,
                           self._ego_collided)  # fmt: skip
+
+    def _turn_signal_shown(self, rows: list[tuple[Any, ...]]) -> npt.NDArray[np.bool_]:
+        """Whether each vehicle's indicators may flash: in a junction, or within
+        ``TURN_SIGNAL_M`` of its lane's end (SUMO sets them for the next turn however far away it
+        is, and for lane changes it wishes; drivers signal a few seconds ahead)."""
+        out = np.zeros(len(rows), np.bool_)
+        for i, row in enumerate(rows):
+            lane = row[5]
+            if lane.startswith(":"):
+                out[i] = True
+            elif lane:
+                length = self._lane_lengths.get(lane)
+                if length is None:
+                    length = self._lane_lengths[lane] = float(libsumo.lane.getLength(lane))
+                out[i] = length - float(row[6]) <= TURN_SIGNAL_M
+        return out
 
     @staticmethod
     def _time() -> float:

@@ -67,8 +67,8 @@ def radar_points(cloud: Any) -> npt.NDArray[np.void]:
 
 
 def load_labels(path: Path) -> pd.DataFrame:
-    """``labels.csv`` as a table (``hazard_event`` as text, empty: NaN)."""
-    return pd.read_csv(path, dtype={"hazard_event": str})
+    """``labels.csv`` as a table (``hazard_event`` and ``indicator`` as text, empty: NaN)."""
+    return pd.read_csv(path, dtype={"hazard_event": str, "indicator": str})
 
 
 def objects_from_table(rows: pd.DataFrame) -> tuple[ObjectBoxes, npt.NDArray[np.bool_]]:

@@ -3,14 +3,14 @@ one row per object (struct of arrays)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 
 from networks.geometry import rotations_from_rpy, rpy_from_rotations
 from networks.records import check_arrays
-from sensors.agents import Agents, EgoState
+from sensors.agents import NO_LAMPS, Agents, EgoState
 
 
 @dataclass(frozen=True, slots=True)
@@ -24,7 +24,8 @@ class ObjectBoxes:
     the ego frame, ``ego_R_box = Rz(yaw) @ Ry(pitch) @ Rx(roll)`` (a vehicle on a slope the ego
     is not on is pitched; seen from a pitched ego, a vehicle heading across it is rolled);
     ``velocity_ego_mps: (N, 3) float64`` the object's velocity minus the ego's, expressed in the
-    ego frame; ``parked: (N,) bool``.
+    ego frame; ``parked: (N,) bool``; ``lamps: (N,) uint8`` the lamps lit
+    (:class:`sensors.agents.Lamp` bits; all off where not given).
     """
 
     track_id: npt.NDArray[np.uint32]
@@ -36,12 +37,16 @@ class ObjectBoxes:
     roll_ego_rad: npt.NDArray[np.float64]
     velocity_ego_mps: npt.NDArray[np.float64]
     parked: npt.NDArray[np.bool_]
+    lamps: npt.NDArray[np.uint8] = field(default_factory=lambda: NO_LAMPS)
 
     def __post_init__(self) -> None:
+        if self.lamps is NO_LAMPS:
+            object.__setattr__(self, "lamps", np.zeros(np.shape(self.track_id)[0], np.uint8))
         check_arrays(
             self, track_id=(np.uint32, ("N",)), semantic_class=(np.uint8, ("N",)), center_ego_m=(np.float64, ("N", 3)),
             lwh_m=(np.float64, ("N", 3)), yaw_ego_rad=(np.float64, ("N",)), pitch_ego_rad=(np.float64, ("N",)),
             roll_ego_rad=(np.float64, ("N",)), velocity_ego_mps=(np.float64, ("N", 3)), parked=(np.bool_, ("N",)),
+            lamps=(np.uint8, ("N",)),
         )  # fmt: skip
 
     def footprints_xy(self) -> npt.NDArray[np.float64]:
@@ -65,6 +70,7 @@ class ObjectBoxes:
         return cls(
             agents.instance_id, agents.semantic_class, ego_SE3_map.transform_from(agents.center_map_m), agents.lwh_m,
             yaw, pitch, roll, ego_SE3_map.rotate(agents.velocity_map_mps - ego.velocity_map_mps), agents.parked,
+            agents.lamps,
         )  # fmt: skip
 
     def rotations(self) -> npt.NDArray[np.float64]:
@@ -92,6 +98,7 @@ class ObjectBoxes:
             self.roll_ego_rad[mask],
             self.velocity_ego_mps[mask],
             self.parked[mask],
+            self.lamps[mask],
         )
 
 

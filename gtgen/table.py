@@ -13,6 +13,7 @@ import numpy.typing as npt
 
 from gtgen.labels import FrameLabels
 from networks.classes import SemanticClass
+from sensors.agents import Lamp
 
 REFERENCE_COLUMNS = [
     "frame", "timestamp", "id", "type", "alpha", "left", "top", "right", "bottom", "l", "w", "h", "x", "y", "z",
@@ -23,7 +24,7 @@ CAMERA_EXTRA_COLUMNS = [
 ]  # fmt: skip
 EXTRA_COLUMNS = ["pitch", "roll", "class_id", "parked", "distance", "lidar_points", "radar_points",
                  *CAMERA_EXTRA_COLUMNS, "seen", "ttc", "ego_length", "ego_width", "path_distance",
-                 "hazard_event"]  # fmt: skip
+                 "hazard_event", "brake_lamps", "indicator"]  # fmt: skip
 COLUMNS = REFERENCE_COLUMNS + EXTRA_COLUMNS
 
 # Columns of every camera after the first: "<camera name>_<column>".
@@ -32,6 +33,8 @@ PER_CAMERA_COLUMNS = [
     "visibility_bin", "modal_left", "modal_top", "modal_right", "modal_bottom",
 ]  # fmt: skip
 
+INDICATOR_NAMES = np.array(["", "left", "right", "both"])
+"""The ``indicator`` column by the Lamp.LEFT and Lamp.RIGHT bits (both: hazard lights)."""
 CLASS_NAMES = np.array([SemanticClass(c).label if c in SemanticClass._value2member_map_ else "" for c in range(256)])
 
 
@@ -58,6 +61,8 @@ def label_table(labels: FrameLabels) -> dict[str, npt.NDArray[np.generic]]:
         "ego_length": np.full(n, labels.ego_lw_m[0]), "ego_width": np.full(n, labels.ego_lw_m[1]),
         "path_distance": nan if labels.path_distance_m is None else labels.path_distance_m,
         "hazard_event": np.asarray(labels.hazard_event or ("",) * n, dtype=str),
+        "brake_lamps": ((o.lamps & Lamp.BRAKE) > 0).astype(np.int8),
+        "indicator": INDICATOR_NAMES[(o.lamps >> 2) & 3],
     }  # fmt: skip
     cam = labels.first_camera
     if cam is not None:

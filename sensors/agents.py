@@ -9,7 +9,8 @@ get the plain box.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from enum import IntFlag
 
 import numpy as np
 import numpy.typing as npt
@@ -23,6 +24,20 @@ from sensors.parts import Part
 from sensors.pinhole import UNIT_CORNERS
 
 
+class Lamp(IntFlag):
+    """A vehicle's lamps, as bits of :attr:`Agents.lamps` (set by the traffic)."""
+
+    LIGHTS = 1  # head and tail lamps on: traffic on the move or waiting (parked vehicles are dark)
+    BRAKE = 2  # brake lamps
+    LEFT = 4  # left indicators flashing (a turn, a lane change, hazard lights)
+    RIGHT = 8
+    FLASH = 16  # flashing indicators are lit at this instant
+
+
+NO_LAMPS = np.zeros(0, np.uint8)
+"""The default of :attr:`Agents.lamps`: every lamp off."""
+
+
 @dataclass(frozen=True, slots=True)
 class Agents:
     """Every agent of a frame but the ego, in the map frame: one row per agent.
@@ -31,7 +46,8 @@ class Agents:
     world), ``semantic_class: (N,) uint8`` (from the simulator), ``center_map_m: (N, 3)
     float64`` box centres, ``lwh_m: (N, 3) float64``, ``yaw_map_rad: (N,) float64`` about +z,
     ``pitch_rad: (N,) float64`` nose-up positive, ``velocity_map_mps: (N, 3) float64``,
-    ``parked: (N,) bool`` (standing in a parking space for the whole scene).
+    ``parked: (N,) bool`` (standing in a parking space for the whole scene), ``lamps: (N,)
+    uint8`` :class:`Lamp` bits (all off where not given).
     """
 
     instance_id: npt.NDArray[np.uint32]
@@ -42,12 +58,16 @@ class Agents:
     pitch_rad: npt.NDArray[np.float64]
     velocity_map_mps: npt.NDArray[np.float64]
     parked: npt.NDArray[np.bool_]
+    lamps: npt.NDArray[np.uint8] = field(default_factory=lambda: NO_LAMPS)
 
     def __post_init__(self) -> None:
+        if self.lamps is NO_LAMPS:
+            object.__setattr__(self, "lamps", np.zeros(self.instance_id.shape[0], np.uint8))
         check_arrays(
             self, instance_id=(np.uint32, ("N",)), semantic_class=(np.uint8, ("N",)),
             center_map_m=(np.float64, ("N", 3)), lwh_m=(np.float64, ("N", 3)), yaw_map_rad=(np.float64, ("N",)),
             pitch_rad=(np.float64, ("N",)), velocity_map_mps=(np.float64, ("N", 3)), parked=(np.bool_, ("N",)),
+            lamps=(np.uint8, ("N",)),
         )  # fmt: skip
         if len(self) and int(self.instance_id.min()) == 0:
             raise ValueError("Agents.instance_id: 0 is reserved for the static world")
@@ -76,6 +96,7 @@ class Agents:
         return Agents(
             self.instance_id[mask], self.semantic_class[mask], self.center_map_m[mask], self.lwh_m[mask],
             self.yaw_map_rad[mask], self.pitch_rad[mask], self.velocity_map_mps[mask], self.parked[mask],
+            self.lamps[mask],
         )  # fmt: skip
 
     def rotations(self) -> npt.NDArray[np.float64]:

@@ -326,11 +326,15 @@ def car(s: CarShape) -> Piece:
     nose = s.nose_z - 0.06
     pieces.append(box(bl - 0.06, hl - 0.01, -0.42 * hw, 0.42 * hw, fz + 0.1, nose - 0.06, Part.TRIM))
     for side in (-1.0, 1.0):
-        y0, y1 = sorted((side * 0.52 * hw, side * 0.9 * hw))
+        y0, y1 = sorted((side * 0.52 * hw, side * 0.8 * hw))
         pieces.append(box(bl - 0.12, hl - 0.015, y0, y1, nose - 0.15, nose - 0.04, Part.HEADLAMP))
-        ty0, ty1 = sorted((side * 0.62 * hw, side * 0.95 * hw))
+        y0, y1 = sorted((side * (0.8 * hw + 0.01), side * 0.9 * hw))
+        pieces.append(box(bl - 0.12, hl - 0.015, y0, y1, nose - 0.15, nose - 0.04, Part.INDICATOR))
+        ty0, ty1 = sorted((side * 0.62 * hw, side * 0.84 * hw))
         tz = min(s.deck_z - 0.2, s.belt_z) if not s.bed else s.belt_z - 0.2
         pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.16, tz, Part.TAIL_LAMP))
+        ty0, ty1 = sorted((side * (0.84 * hw + 0.01), side * 0.95 * hw))
+        pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.16, tz, Part.INDICATOR))
         my0, my1 = sorted((side * (hw - 0.12), side * hw))
         pieces.append(
             box(s.windscreen_x - 0.2, s.windscreen_x - 0.05, my0, my1, s.belt_z + 0.02, s.belt_z + 0.14, Part.TRIM)
@@ -375,8 +379,10 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
     pieces.append(box(cab_x0 + 0.9, cab_x1 - 0.35, -hw + 0.005, hw - 0.005, 1.6, 2.35, Part.GLASS))
     pieces.append(box(cab_x1 - 0.05, cab_x1 - 0.01, -0.7 * hw, 0.7 * hw, 0.75, 1.35, Part.TRIM))  # grille
     for side in (-1.0, 1.0):
-        y0, y1 = sorted((side * 0.72 * hw, side * 0.95 * hw))
+        y0, y1 = sorted((side * 0.72 * hw, side * 0.86 * hw))
         pieces.append(box(cab_x1 - 0.05, cab_x1, y0, y1, 0.72, 0.9, Part.HEADLAMP))
+        y0, y1 = sorted((side * (0.86 * hw + 0.01), side * 0.95 * hw))
+        pieces.append(box(cab_x1 - 0.05, cab_x1, y0, y1, 0.72, 0.9, Part.INDICATOR))
         m0, m1 = sorted((side * (hw - 0.06), side * hw))
         pieces.append(box(cab_x1 - 0.4, cab_x1 - 0.3, m0, m1, 1.63, 2.2, Part.TRIM))  # mirror arms
     pieces.append(box(cab_x1 - 0.04, cab_x1, -0.26, 0.26, 0.58, 0.69, Part.PLATE))
@@ -391,8 +397,10 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
         y0, y1 = sorted((side * (hw - 0.09), side * (hw - 0.05)))
         guard_x0 = (-hl + 4.5) if trailer else rear_axle + 0.6
         pieces.append(box(guard_x0, hl - 1.8, y0, y1, 0.5, box_z0 - 0.02, Part.TRIM))
-        t0, t1 = sorted((side * 0.7 * hw, side * 0.95 * hw))
+        t0, t1 = sorted((side * 0.7 * hw, side * 0.84 * hw))
         pieces.append(box(-hl, -hl + 0.05, t0, t1, box_z0 - 0.3, box_z0 - 0.12, Part.TAIL_LAMP))
+        t0, t1 = sorted((side * (0.84 * hw + 0.01), side * 0.95 * hw))
+        pieces.append(box(-hl, -hl + 0.05, t0, t1, box_z0 - 0.3, box_z0 - 0.12, Part.INDICATOR))
     pieces.append(box(-hl + 0.01, -hl + 0.06, -hw + 0.05, hw - 0.05, box_z0 - 0.35, box_z0 - 0.05, Part.TRIM))
     pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, box_z0 - 0.48, box_z0 - 0.36, Part.PLATE))
     r = 0.5
@@ -442,8 +450,10 @@ def bus(length: float = 12.0, width: float = 2.55, h: float = 3.2, coach: bool =
             )
         t0, t1 = sorted((side * 0.75 * hw, side * 0.95 * hw))
         pieces.append(box(hl - 0.03, hl, t0, t1, floor + 0.27, floor + 0.45, Part.HEADLAMP))
+        pieces.append(box(hl - 0.03, hl, t0, t1, floor + 0.47, floor + 0.57, Part.INDICATOR))
         r0, r1 = sorted((side * 0.8 * hw, side * 0.97 * hw))  # tall lamp clusters at the rear corners
-        pieces.append(box(-hl, -hl + 0.03, r0, r1, floor + 0.3, floor + 1.15, Part.TAIL_LAMP))
+        pieces.append(box(-hl, -hl + 0.03, r0, r1, floor + 0.3, floor + 0.9, Part.TAIL_LAMP))
+        pieces.append(box(-hl, -hl + 0.03, r0, r1, floor + 0.92, floor + 1.15, Part.INDICATOR))
     pieces.append(box(bl + 0.002, hl, -hw + 0.1, hw - 0.1, 1.0 if not coach else 1.3, top - 0.75, Part.GLASS))
     pieces.append(box(bl + 0.002, hl, -0.8, 0.8, top - 0.68, top - 0.45, Part.TRIM))  # destination display
     pieces.append(box(-hl, -bl - 0.002, -hw + 0.22, hw - 0.22, top - 1.25, top - 0.55, Part.GLASS))

@@ -240,7 +240,7 @@ def boxes_in_view(agents: Agents, instance_id: npt.NDArray[np.uint32]) -> AgentB
     """The boxes of the agents seen in the frame (their contact shadows and lower parts)."""
     seen = np.isin(agents.instance_id, np.unique(instance_id))
     a = agents.select(seen)
-    return AgentBoxes(a.instance_id, a.center_map_m, a.lwh_m, a.yaw_map_rad)
+    return AgentBoxes(a.instance_id, a.center_map_m, a.lwh_m, a.yaw_map_rad, a.lamps)
 
 
 DEPTH_PNG_MAX_UNITS = 65535

@@ -39,6 +39,7 @@ class Part(IntEnum):
     FRAME = 15  # bicycle and motorcycle frames, dark metal
     CARGO = 16  # box bodies of trucks, light colours per instance
     UNDERBODY = 17  # the dark underside and arch linings
+    INDICATOR = 18  # amber direction indicators, front and rear corners
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,7 +69,8 @@ MATERIALS: dict[Part, PartMaterial] = {
     Part.TYRE: PartMaterial((0.05, 0.05, 0.05), 0.05, 8.0, 0.0, 0.0, 0.05, 0.2),
     Part.RIM: PartMaterial((0.38, 0.38, 0.4), 0.5, 40.0, 0.1, 0.0, 0.6, 1.0),
     Part.HEADLAMP: PartMaterial((0.8, 0.8, 0.78), 0.9, 150.0, 0.3, 1.0, 0.7, 0.5),
-    Part.TAIL_LAMP: PartMaterial((0.08, 0.06, 0.55), 0.8, 120.0, 0.15, 1.0, 0.6, 0.5),
+    Part.TAIL_LAMP: PartMaterial((0.05, 0.04, 0.38), 0.8, 120.0, 0.15, 1.0, 0.6, 0.5),
+    Part.INDICATOR: PartMaterial((0.1, 0.35, 0.6), 0.8, 120.0, 0.15, 1.0, 0.6, 0.5),
     Part.PLATE: PartMaterial((0.85, 0.85, 0.85), 0.2, 20.0, 0.0, 0.0, 0.95, 0.8),
     Part.TRIM: PartMaterial((0.07, 0.07, 0.075), 0.15, 15.0, 0.0, 0.0, 0.1, 0.6),
     Part.CHROME: PartMaterial((0.6, 0.6, 0.62), 0.9, 120.0, 0.5, 0.0, 0.7, 1.0),

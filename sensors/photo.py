@@ -66,12 +66,14 @@ STREET_LIGHT_BGR = np.array([0.55, 0.8, 1.0], np.float32)
 class AgentBoxes:
     """Boxes of the agents in view (map frame): ``instance_id (K,) uint32``, ``centre_m
     (K, 3) float64``, ``lwh_m (K, 3) float64``, ``yaw_rad (K,) float64``: their contact shadows
-    on the ground and the darker lower parts."""
+    on the ground and the darker lower parts; ``lamps (K,) uint8``: which lamps are lit
+    (:class:`sensors.agents.Lamp` bits)."""
 
     instance_id: npt.NDArray[np.uint32]
     centre_m: npt.NDArray[np.float64]
     lwh_m: npt.NDArray[np.float64]
     yaw_rad: npt.NDArray[np.float64]
+    lamps: npt.NDArray[np.uint8]
 
     def __post_init__(self) -> None:
         check_arrays(
@@ -80,7 +82,16 @@ class AgentBoxes:
             centre_m=(np.float64, ("K", 3)),
             lwh_m=(np.float64, ("K", 3)),
             yaw_rad=(np.float64, ("K",)),
+            lamps=(np.uint8, ("K",)),
         )
+
+    def rows_of(self, instance: npt.NDArray[np.uint32]) -> npt.NDArray[np.intp]:
+        """Each given instance's row here (-1 where it has none)."""
+        if len(self.instance_id) == 0:
+            return np.full(len(instance), -1, np.intp)
+        order = np.argsort(self.instance_id, kind="stable")
+        pos = np.minimum(np.searchsorted(self.instance_id[order], instance), len(order) - 1)
+        return np.where(self.instance_id[order[pos]] == instance, order[pos], -1)
 
 
 @dataclass(frozen=True, slots=True)
@@ -222,6 +233,69 @@ def sky_light(
     return out
 
 
+LAMP_BGR = np.zeros((256, 3), np.float32)
+LAMP_BGR[Part.HEADLAMP] = (0.85, 0.93, 1.0)  # linear colours of the light lamps send out
+LAMP_BGR[Part.TAIL_LAMP] = (0.02, 0.02, 1.0)
+LAMP_BGR[Part.INDICATOR] = (0.0, 0.32, 1.0)
+HEADLAMP_DAY, HEADLAMP_NIGHT = np.float32(0.5), np.float32(5.0)  # daytime running lamps; dipped beams
+TAIL_NIGHT, BRAKE_DAY, BRAKE_NIGHT = np.float32(0.6), np.float32(1.8), np.float32(2.5)
+INDICATOR_DAY, INDICATOR_NIGHT = np.float32(1.8), np.float32(2.5)
+
+
+def lamp_light(
+    points: F32, instance: npt.NDArray[np.uint32], part: npt.NDArray[np.uint8], boxes: AgentBoxes | None,
+    night: float,
+) -> F32:  # fmt: skip
+    """``(N,)`` light each hit on a vehicle's lamp sends out (times its colour,
+    :data:`LAMP_BGR`), from its vehicle's :class:`sensors.agents.Lamp` bits: head and tail lamps when its lights are on
+    (headlamps dimly by day), brake lamps by day and night, an indicator when its side flashes
+    and is lit (left and right from the hit's side of its box). Zero elsewhere."""
+    from sensors.agents import Lamp
+
+    gain = np.zeros(len(part), np.float32)
+    at = np.flatnonzero(EMISSIVE_BY_PART[part] > 0)
+    if len(at) == 0:
+        return gain
+    if boxes is None:
+        return gain
+    rows = boxes.rows_of(instance[at])
+    known = rows >= 0
+    at, rows = at[known], rows[known]
+    lamps, pt, nt = boxes.lamps[rows], part[at], np.float32(night)
+    on = (lamps & Lamp.LIGHTS) > 0
+    head = (pt == Part.HEADLAMP) & on
+    gain[at[head]] += HEADLAMP_DAY + nt * HEADLAMP_NIGHT
+    tail = pt == Part.TAIL_LAMP
+    gain[at[tail & on]] += nt * TAIL_NIGHT
+    gain[at[tail & ((lamps & Lamp.BRAKE) > 0)]] += BRAKE_DAY + nt * BRAKE_NIGHT
+    ind = np.flatnonzero((pt == Part.INDICATOR) & ((lamps & Lamp.FLASH) > 0))
+    if len(ind):
+        yaw = boxes.yaw_rad[rows[ind]]
+        rel = points[at[ind], :2].astype(np.float64) - boxes.centre_m[rows[ind], :2]
+        left = rel[:, 0] * -np.sin(yaw) + rel[:, 1] * np.cos(yaw) > 0
+        side = np.where(left, int(Lamp.LEFT), int(Lamp.RIGHT))
+        lit = ind[(lamps[ind] & side) > 0]
+        gain[at[lit]] += INDICATOR_DAY + nt * INDICATOR_NIGHT
+    return gain
+
+
+def lamp_rays(
+    dirs_map: F32, range_m: F32, instance: npt.NDArray[np.uint32], part: npt.NDArray[np.uint8],
+    origin_map_m: npt.NDArray[np.float64], boxes: AgentBoxes | None, weather: Weather,
+) -> F32:  # fmt: skip
+    """``(N,)`` :func:`lamp_light` at each ray's hit (0 for misses) over a whole frame."""
+    out = np.zeros(len(part), np.float32)
+    at = np.flatnonzero(np.isfinite(range_m) & (EMISSIVE_BY_PART[part] > 0))
+    points = (origin_map_m.astype(np.float32) + dirs_map[at] * range_m[at, None]).astype(np.float32)
+    out[at] = lamp_light(points, instance[at], part[at], boxes, night_of(weather))
+    return out
+
+
+def night_of(weather: Weather) -> float:
+    """0 by day, 1 by night: how much lamps and street lights count."""
+    return float(1.0 - np.clip(weather.sun_gain / 0.3, 0.0, 1.0))
+
+
 def radiance(
     dirs_map: F32,
     range_m: F32,
@@ -235,9 +309,11 @@ def radiance(
     weather: Weather,
     max_range_m: float,
     sky_open: F32,
+    lamp: F32,
 ) -> F32:
     """``(N, 3)`` linear BGR radiance reaching the camera along each ray; ``sky_open`` is the
-    share of sky light reaching each hit (:func:`contact_light`)."""
+    share of sky light reaching each hit (:func:`contact_light`), ``lamp`` the light its lamp
+    sends out (:func:`lamp_light`)."""
     n = len(cls)
     out = np.empty((n, 3), np.float32)
     hit = np.isfinite(range_m) & (range_m <= np.float32(max_range_m))
@@ -285,7 +361,7 @@ def radiance(
             * forward[at] ** 6
         )
     colour = albedo * light[:, None]
-    night = np.float32(1.0) - np.clip(np.float32(weather.sun_gain) / np.float32(0.3), 0.0, 1.0)
+    night = np.float32(night_of(weather))
     if night > 0:  # street lighting from above: warm, strongest on what faces up, fading far out
         side = np.where(inst > 0, np.float32(0.35), np.float32(0.12))  # walls get little, road users more
         lamps = night * STREET_LIGHT * (side + (np.float32(1.0) - side) * np.maximum(nrm[:, 2], 0.0))
@@ -311,11 +387,9 @@ def radiance(
         env[down] = np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain))
         colour[shiny] = colour[shiny] * (np.float32(1.0) - fres[:, None]) + env * fres[:, None]
     # lamps and lit windows
-    emissive = EMISSIVE_BY_PART[pt]
-    lamp = np.flatnonzero(emissive > 0)
-    if len(lamp):
-        base = albedo[lamp]
-        colour[lamp] += base * (np.float32(0.15) + night * np.float32(6.0))
+    lit = np.flatnonzero(lamp[at] > 0)
+    if len(lit):
+        colour[lit] += LAMP_BGR[pt[lit]] * lamp[at][lit, None]
     win = np.flatnonzero(glow > 0)
     if len(win) and night > 0:
         colour[win] += night * np.float32(0.25) * np.array([0.25, 0.55, 0.9], np.float32)
@@ -407,6 +481,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
     normal = rounded_normals(sh.normal, dirs_map, frame.instance_id, frame.depth_m, sh.pinhole.focal_px)
     sky_open = sky_light(dirs_map, range_m, classes, instances, sh.origin_map_m, sh.boxes)
+    lamp = lamp_rays(dirs_map, range_m, instances, sh.part, sh.origin_map_m, sh.boxes, sh.weather)
     linear = np.empty((h * w, 3), np.float32)
     for start in range(0, h * w, STRIPE_PX):
         s = slice(start, start + STRIPE_PX)
@@ -423,6 +498,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
             sh.weather,
             sh.range_m,
             sky_open[s],
+            lamp[s],
         )
     extra = sh.extra
     if extra is not None and len(extra.pixel):
@@ -444,6 +520,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
             sh.weather,
             sh.range_m,
             sub_open,
+            lamp_rays(sub_dirs, extra.range_m, extra.instance_id, extra.part, sh.origin_map_m, sh.boxes, sh.weather),
         )
         linear[extra.pixel] = (linear[extra.pixel] + sub_lin.reshape(-1, sub, 3).sum(axis=1)) / np.float32(sub + 1)
     linear = bloom(linear.reshape(h, w, 3)).reshape(-1, 3)

@@ -45,3 +45,24 @@ def test_heading_and_up_are_orthonormal(angle, pitch):
 def test_flat_car_facing_east_has_centre_behind_and_above_the_bumper():
     center = front_bumper_to_center([10.0, 5.0, 0.0], sumo_angle_to_yaw(90.0), 0.0, 4.0, 1.5)[0]
     assert np.allclose(center, [8.0, 5.0, 0.75])
+
+
+def test_lamps_follow_sumo_signals_and_flash_half_the_time():
+    from cosim.kinematics import lamps_of
+    from sensors.agents import Lamp
+
+    # SUMO bits: 1 right blinker, 2 left, 4 emergency, 8 brake
+    signals = np.array([0, 8, 2, 1, 4, 8, 8])
+    has_lamps = np.array([True, True, True, True, True, True, False])  # the last one a bicycle
+    parked = np.array([False, False, False, False, False, True, False])
+    lamps = lamps_of(signals, has_lamps, parked, 0.0, np.arange(7)) & ~np.uint8(Lamp.FLASH)
+    assert lamps.tolist() == [
+        Lamp.LIGHTS, Lamp.LIGHTS | Lamp.BRAKE, Lamp.LIGHTS | Lamp.LEFT, Lamp.LIGHTS | Lamp.RIGHT,
+        Lamp.LIGHTS | Lamp.LEFT | Lamp.RIGHT, 0, 0,
+    ]  # fmt: skip
+    times = np.arange(0.0, 20.0, 0.01)
+    lit = [lamps_of([2], [True], [False], float(t), [11])[0] & Lamp.FLASH > 0 for t in times]
+    assert abs(np.mean(lit) - 0.5) < 0.01
+    changes = np.count_nonzero(np.diff(np.asarray(lit, int)))
+    assert abs(changes - 2 * 1.5 * 20.0) <= 1  # on and off 1.5 times a second
+    assert not any(lamps_of([0], [True], [False], float(t), [11])[0] & Lamp.FLASH for t in times[:200])

@@ -29,8 +29,10 @@ def written(records, tmp_path_factory) -> Path:
 
 
 def test_labels_csv_reads_back_as_the_label_table_of_every_frame(records, written):
-    csv = pd.read_csv(written / "labels.csv", dtype={"hazard_event": str}, keep_default_na=False, na_values=[""])
-    csv["hazard_event"] = csv["hazard_event"].fillna("")
+    text = {"hazard_event": str, "indicator": str}
+    csv = pd.read_csv(written / "labels.csv", dtype=text, keep_default_na=False, na_values=[""])
+    for name in text:
+        csv[name] = csv[name].fillna("")
     assert list(csv.columns) == table_columns(records[0].labels)
     expected = pd.concat([pd.DataFrame(label_table(r.labels)) for r in records], ignore_index=True)
     assert len(csv) == len(expected) == sum(len(r.labels) for r in records)

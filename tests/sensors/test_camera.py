@@ -202,3 +202,36 @@ def test_sun_shadow_rays_match_a_brute_force_check(synth: SimpleNamespace) -> No
     assert shadowed.sum() > 50  # the test means something: a shadow is in view
     rim = np.abs(far - np.maximum(near, 0.0)) < 1e-3  # grazing rays at the shadow's edge may go either way
     np.testing.assert_array_equal(~lit[ground & ~rim], shadowed[ground & ~rim])
+
+
+@pytest.mark.parametrize("weather", ["day", "night"])
+def test_lamps_light_as_the_traffic_sets_them(synth: SimpleNamespace, weather: str) -> None:
+    # a car seen from behind: its brake lamps, and one indicator flashing on its own side
+    from sensors.agents import Agents, Lamp
+    from sensors.parts import Part
+
+    def render(lamps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        car = synth.agents([(7, SemanticClass.CAR, 9.0, 0.0, 0.75, 4.5, 1.8, 1.5, 0.0)])
+        car = Agents(*(getattr(car, f) for f in Agents.__dataclass_fields__ if f != "lamps"), np.array([lamps]))
+        scene = synth.scene([synth.ground()], car)
+        frame = (
+            Camera(CameraSpec(width_px=320, height_px=180))
+            .sense(scene, synth.EGO, weather_preset(weather), np.random.default_rng(0))
+            .frame
+        )
+        assert frame.shading.part is not None
+        return shade_frame(frame).reshape(-1, 3).astype(np.float64), frame.shading.part, frame.instance_id.ravel()
+
+    off, part, _ = render(int(Lamp.LIGHTS))
+    tail = part == Part.TAIL_LAMP
+    indicator = part == Part.INDICATOR
+    u = np.tile(np.arange(320), 180)
+    assert tail.sum() > 20 and indicator.sum() > 4  # the test means something: the lamps are in view
+    braking, _, _ = render(int(Lamp.LIGHTS | Lamp.BRAKE))
+    assert braking[tail].mean() > off[tail].mean() + 15
+    left, _, _ = render(int(Lamp.LIGHTS | Lamp.LEFT | Lamp.FLASH))
+    dimmed, _, _ = render(int(Lamp.LIGHTS | Lamp.LEFT))  # flashing, but dark at this instant
+    on_left, on_right = indicator & (u < 160), indicator & (u >= 160)  # facing away: its left is the image's left
+    assert left[on_left].mean() > off[on_left].mean() + 15
+    np.testing.assert_allclose(left[on_right].mean(), off[on_right].mean(), atol=2.0)
+    np.testing.assert_allclose(dimmed[indicator].mean(), off[indicator].mean(), atol=2.0)
