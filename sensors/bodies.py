@@ -353,6 +353,16 @@ def car(s: CarShape) -> Piece:
     return merge(pieces)
 
 
+def _rear_doors(x: float, hw: float, z0: float, z1: float) -> list[Piece]:
+    """The two doors of a box body's rear face at ``x`` (facing -x): frame, seam, lock rods."""
+    frame = [(-hw + 0.02, -hw + 0.09, z0, z1), (hw - 0.09, hw - 0.02, z0, z1), (-hw + 0.09, hw - 0.09, z1 - 0.1, z1),
+             (-hw + 0.09, hw - 0.09, z0, z0 + 0.12), (-0.02, 0.02, z0 + 0.12, z1 - 0.1)]  # fmt: skip
+    pieces = [box(x - 0.012, x - 0.002, y0, y1, za, zb, Part.TRIM) for y0, y1, za, zb in frame]
+    for y in (-hw + 0.4, -0.3, 0.3, hw - 0.4):  # lock rods, standing out of the doors
+        pieces.append(box(x - 0.03, x - 0.016, y - 0.02, y + 0.02, z0 + 0.16, z1 - 0.14, Part.CHROME))
+    return pieces
+
+
 def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: bool = False) -> Piece:
     """A rigid box truck, or a tractor with a box semi-trailer."""
     hl, hw = length / 2, width / 2 - 0.01
@@ -403,6 +413,8 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
         pieces.append(box(-hl, -hl + 0.05, t0, t1, box_z0 - 0.3, box_z0 - 0.12, Part.INDICATOR))
     pieces.append(box(-hl + 0.01, -hl + 0.06, -hw + 0.05, hw - 0.05, box_z0 - 0.35, box_z0 - 0.05, Part.TRIM))
     pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, box_z0 - 0.48, box_z0 - 0.36, Part.PLATE))
+    pieces += _rear_doors(-hl + 0.02, hw, box_z0, h)
+    pieces.append(box(-hl + 0.12, -hl + 0.24, -hw + 0.2, hw - 0.2, 0.42, 0.56, Part.TRIM))  # underrun guard
     r = 0.5
     axles = [hl - 1.2]
     axles += [-hl + 1.3, -hl + 2.6, -hl + 3.9] if trailer else [-hl + 1.8]
