@@ -84,6 +84,8 @@ VEHICLE_VARIABLES = (
 """Read for vehicles: the state of every agent, and the lamps SUMO sets (brakes, indicators)."""
 CONTEXT_MARGIN_M = 25.0
 PERSON_ANCHOR = "ego_person_context"
+EGO_MOVING_MPS = 2.0
+"""The ego is picked among the cars moving faster than this, where any are."""
 
 
 @dataclass(slots=True)
@@ -421,6 +423,8 @@ class Traffic:
             flowing = [v for v in cars if _flowing(v)]
             cars = [v for v in flowing if _staying(v, HAZARD_EGO_ROAD_M)] or flowing or cars
         cars = [cars[i] for i in busiest(_positions(cars), _positions(), EGO_BUSY_RADIUS_M, EGO_BUSY_SHARE)]
+        moving = [v for v in cars if libsumo.vehicle.getSpeed(v) > EGO_MOVING_MPS]
+        cars = moving or cars  # a scene starts on the move: frames of a car waiting repeat one view
         self._ego = cars[int(self._rng.integers(0, len(cars)))]
 
     def _keep_ego_going(self) -> None:
