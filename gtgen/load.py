@@ -67,8 +67,9 @@ def radar_points(cloud: Any) -> npt.NDArray[np.void]:
 
 
 def load_labels(path: Path) -> pd.DataFrame:
-    """``labels.csv`` as a table (``hazard_event`` and ``indicator`` as text, empty: NaN)."""
-    return pd.read_csv(path, dtype={"hazard_event": str, "indicator": str})
+    """``labels.csv`` as a table (``hazard_event``, ``indicator`` and ``subtype`` as text,
+    empty: NaN)."""
+    return pd.read_csv(path, dtype={"hazard_event": str, "indicator": str, "subtype": str})
 
 
 def objects_from_table(rows: pd.DataFrame) -> tuple[ObjectBoxes, npt.NDArray[np.bool_]]:

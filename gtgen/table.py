@@ -14,6 +14,7 @@ import numpy.typing as npt
 from gtgen.labels import FrameLabels
 from networks.classes import SemanticClass
 from sensors.agents import Lamp
+from sensors.bodies import BODIES, body_of
 
 REFERENCE_COLUMNS = [
     "frame", "timestamp", "id", "type", "alpha", "left", "top", "right", "bottom", "l", "w", "h", "x", "y", "z",
@@ -24,7 +25,7 @@ CAMERA_EXTRA_COLUMNS = [
 ]  # fmt: skip
 EXTRA_COLUMNS = ["pitch", "roll", "class_id", "parked", "distance", "lidar_points", "radar_points",
                  *CAMERA_EXTRA_COLUMNS, "seen", "ttc", "ego_length", "ego_width", "path_distance",
-                 "hazard_event", "brake_lamps", "indicator"]  # fmt: skip
+                 "hazard_event", "brake_lamps", "indicator", "subtype"]  # fmt: skip
 COLUMNS = REFERENCE_COLUMNS + EXTRA_COLUMNS
 
 # Columns of every camera after the first: "<camera name>_<column>".
@@ -36,6 +37,22 @@ PER_CAMERA_COLUMNS = [
 INDICATOR_NAMES = np.array(["", "left", "right", "both"])
 """The ``indicator`` column by the Lamp.LEFT and Lamp.RIGHT bits (both: hazard lights)."""
 CLASS_NAMES = np.array([SemanticClass(c).label if c in SemanticClass._value2member_map_ else "" for c in range(256)])
+
+
+SUBTYPED = [int(SemanticClass.CAR), int(SemanticClass.TRUCK), int(SemanticClass.BUS)]
+
+
+def subtypes(
+    semantic_class: npt.NDArray[np.uint8], lwh_m: npt.NDArray[np.float64], track_id: npt.NDArray[np.uint32]
+) -> npt.NDArray[np.str_]:
+    """Each object's body type, the one the camera draws (:func:`sensors.bodies.body_of`): cars
+    as sedan, hatchback, estate, suv, van or pickup, trucks as box_truck or semi_trailer, buses
+    as city_bus or coach; empty for other classes."""
+    out = np.full(len(track_id), "", dtype=object)
+    for i in np.flatnonzero(np.isin(semantic_class, SUBTYPED)):
+        c = int(semantic_class[i])
+        out[i] = BODIES[c][body_of(c, lwh_m[i], int(track_id[i]))].name
+    return np.asarray(out, dtype=str)
 
 
 def label_table(labels: FrameLabels) -> dict[str, npt.NDArray[np.generic]]:
@@ -63,6 +80,7 @@ def label_table(labels: FrameLabels) -> dict[str, npt.NDArray[np.generic]]:
         "hazard_event": np.asarray(labels.hazard_event or ("",) * n, dtype=str),
         "brake_lamps": ((o.lamps & Lamp.BRAKE) > 0).astype(np.int8),
         "indicator": INDICATOR_NAMES[(o.lamps >> 2) & 3],
+        "subtype": subtypes(o.semantic_class, o.lwh_m, o.track_id),
     }  # fmt: skip
     cam = labels.first_camera
     if cam is not None:

@@ -313,3 +313,19 @@ def test_kitti_boxes_hold_exactly_each_objects_lidar_points_under_a_strict_test(
             assert int(inside.sum()) == row["lidar_points"], (frame, row["id"], row["type"])
             compared += 1
     assert compared > 50
+
+
+def test_vehicles_carry_the_subtype_and_lamps_the_camera_draws(dataset):
+    from sensors.bodies import BODIES, body_of
+
+    labels = load_labels(dataset / "labels.csv")
+    vehicles = labels[labels["type"].isin(["car", "truck", "bus"])]
+    assert len(vehicles) and vehicles["subtype"].notna().all()
+    for row in vehicles.drop_duplicates("id").itertuples():
+        body = BODIES[row.class_id][body_of(row.class_id, np.array([row.l, row.w, row.h]), row.id)]
+        assert row.subtype == body.name
+    others = labels[~labels["type"].isin(["car", "truck", "bus"])]
+    assert others["subtype"].isna().all()
+    assert set(labels["brake_lamps"]) <= {0, 1} and set(labels["indicator"].dropna()) <= {"left", "right", "both"}
+    assert (labels.loc[labels["parked"] == 1, "brake_lamps"] == 0).all()
+    assert labels.loc[labels["type"] == "pedestrian", "indicator"].isna().all()

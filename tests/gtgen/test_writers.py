@@ -29,7 +29,7 @@ def written(records, tmp_path_factory) -> Path:
 
 
 def test_labels_csv_reads_back_as_the_label_table_of_every_frame(records, written):
-    text = {"hazard_event": str, "indicator": str}
+    text = {"hazard_event": str, "indicator": str, "subtype": str}
     csv = pd.read_csv(written / "labels.csv", dtype=text, keep_default_na=False, na_values=[""])
     for name in text:
         csv[name] = csv[name].fillna("")
