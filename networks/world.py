@@ -25,10 +25,20 @@ from networks.cache import cache_dir, digest, intact, seal
 from networks.classes import SemanticClass
 from networks.errors import NetworkError
 from networks.markings import MARKINGS_VERSION, is_left_hand, marking_mesh, read_road_marks
-from networks.mesh import ClassedMesh, box_mesh, draped_polygon, flat_polygon, merge, prism, raised_polygon, ribbon
+from networks.mesh import (
+    ClassedMesh,
+    box_mesh,
+    draped_polygon,
+    ellipsoid_mesh,
+    flat_polygon,
+    merge,
+    prism,
+    raised_polygon,
+    ribbon,
+)
 from networks.street import STREET_VERSION, pole_mesh, read_signs, street_objects
 
-WORLD_VERSION = "11"
+WORLD_VERSION = "12"  # 12: round, lumpy tree crowns
 CURB_HEIGHT_M = 0.15
 CURB_WALL_M = CURB_HEIGHT_M + 0.15  # curbs reach below the road and the terrain: no ray slips under a sidewalk
 ROAD_SKIRT_M = 0.15  # below a road's outer edges, deeper than the terrain lies under it
@@ -423,11 +433,20 @@ def _beside(line: LineString, s_m: float, offset_m: float, keep_out: object) -> 
 
 
 def _tree(spot: Point, z0_m: float, rng: np.random.Generator) -> ClassedMesh:
+    """A trunk under a lumpy, roughly round crown (as wide as 2.5-5 m, 0.9-1.3 times as tall),
+    resting on the trunk's top."""
     trunk_m = float(rng.uniform(1.8, 3.0))
     crown_m = float(rng.uniform(2.5, 5.0))
+    tall_m = crown_m * float(rng.uniform(0.9, 1.3))
     trunk = prism(spot.buffer(0.18, quad_segs=1), z0_m, trunk_m, SemanticClass.VEGETATION)
-    crown = prism(spot.buffer(crown_m / 2.0, quad_segs=2), z0_m + trunk_m, crown_m, SemanticClass.VEGETATION)
+    bumps = rng.uniform(0.82, 1.12, (TREE_RINGS - 1, TREE_SEGMENTS))
+    centre = (spot.x, spot.y, z0_m + trunk_m + tall_m / 2.0)
+    crown = ellipsoid_mesh(centre, (crown_m / 2.0, crown_m / 2.0, tall_m / 2.0), SemanticClass.VEGETATION, bumps,
+                           TREE_RINGS, TREE_SEGMENTS)  # fmt: skip
     return merge([trunk, crown])
+
+
+TREE_RINGS, TREE_SEGMENTS = 7, 12
 
 
 def _pole(spot: Point, z0_m: float) -> ClassedMesh:

@@ -64,7 +64,7 @@ _ALBEDO_BGR = {
     SemanticClass.SIDEWALK: (0.55, 0.57, 0.6),
     SemanticClass.CURB: (0.65, 0.66, 0.68),
     SemanticClass.BUILDING: (0.45, 0.55, 0.7),
-    SemanticClass.VEGETATION: (0.15, 0.45, 0.2),
+    SemanticClass.VEGETATION: (0.09, 0.3, 0.14),  # foliage: darker than grass
     SemanticClass.POLE: (0.35, 0.35, 0.38),
     SemanticClass.TERRAIN: (0.25, 0.5, 0.45),
     SemanticClass.CROSSING: (0.27, 0.26, 0.25),  # asphalt under the stripes
