@@ -42,7 +42,7 @@ import numpy as np
 import numpy.typing as npt
 
 from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, LIDARSEG_LUT
-from gtgen.voxels import OccupancyGrid, VoxelGrid, box_voxels, segment_voxels, triangle_voxels
+from gtgen.voxels import OccupancyGrid, VoxelGrid, box_voxels, mark_segments, triangle_voxels
 from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
 from networks.mesh import ClassedMesh
@@ -136,11 +136,11 @@ def occupancy_frame(
         ego_SE3_lidar = lidar.spec.ego_SE3_sensor
         ends = ego_SE3_lidar.transform_from(lidar.scan.xyz_lidar_m.astype(np.float64))
         starts = np.broadcast_to(ego_SE3_lidar.translation, ends.shape)
-        mask_lidar[segment_voxels(grid, starts, ends)] = True
+        mark_segments(grid, starts, ends, mask_lidar)
     mask_camera = np.zeros(grid.size, np.bool_)
     for camera, distance_m in cameras:
         starts, ends = camera_segments(spec, camera, distance_m)
-        mask_camera[segment_voxels(grid, starts, ends)] = True
+        mark_segments(grid, starts, ends, mask_camera)
     flow, relative = _voxel_flow(grid, instance, agents, ego_SE3_map, ego_velocity_map_mps)
     point_flow = tuple(point_flow_m(lidar, agents, map_SE3_ego) for lidar in lidars)
     s = grid.shape
@@ -259,10 +259,13 @@ def _solid_insides(
     grid: VoxelGrid, solids: Solids, map_SE3_ego: SE3
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint8]]:
     """The voxels whose centre lies inside a solid, and the solid's class."""
-    flat = np.arange(grid.size, dtype=np.int64)
-    cls = solids.inside(map_SE3_ego.transform_from(grid.centers_m(flat)))
+    R, v = map_SE3_ego.rotation, grid.voxel_m
+    axes = [np.asarray(grid.lower_m[a]) + (np.arange(n) + 0.5) * v for a, n in enumerate(grid.shape)]
+    centers = (map_SE3_ego.translation + axes[0][:, None, None, None] * R[:, 0]
+               + axes[1][None, :, None, None] * R[:, 1] + axes[2][None, None, :, None] * R[:, 2])  # fmt: skip
+    cls = solids.inside(centers.reshape(-1, 3))
     inside = np.flatnonzero(cls)
-    return flat[inside], cls[inside]
+    return inside.astype(np.int64), cls[inside]
 
 
 def _voxel_flow(

@@ -15,6 +15,7 @@ indices into the ``(nx, ny, nz)`` C-ordered array.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -217,26 +218,41 @@ def _box_overlaps_cubes(center: F64, R: F64, half: F64, cube_centers: F64) -> np
 # --- segments -----------------------------------------------------------------------------------
 def segment_voxels(grid: VoxelGrid, start_m: F64, end_m: F64) -> I64:
     """Flat indices (with repeats) of every voxel that segments ``start -> end`` (``(N, 3)``
-    each) pass through within the grid, the voxels of their ends included: the voxel where each
-    segment enters the grid, and the voxel entered at each crossing of a voxel face after it."""
+    each) pass through within the grid, the voxels of their ends included: the voxels of the
+    segment's ends within the grid, and the voxel entered at each crossing of a voxel face."""
+    return np.concatenate(list(_segment_chunks(grid, start_m, end_m)))
+
+
+def mark_segments(grid: VoxelGrid, start_m: F64, end_m: F64, out: npt.NDArray[np.bool_]) -> None:
+    """Set ``out`` (flat, ``grid.size``) at every voxel of :func:`segment_voxels`."""
+    for flat in _segment_chunks(grid, start_m, end_m):
+        out[flat] = True
+
+
+def _segment_chunks(grid: VoxelGrid, start_m: F64, end_m: F64) -> Iterator[I64]:
     s, e = grid.to_grid(start_m), grid.to_grid(end_m)
-    t0, t1 = _clip_to_box(s, e - s, np.asarray(grid.shape, np.float64))
+    shape = np.asarray(grid.shape)
+    t0, t1 = _clip_to_box(s, e - s, shape.astype(np.float64))
     keep = t0 < t1
     s, d, t0, t1 = s[keep], (e - s)[keep], t0[keep], t1[keep]
     a, b = s + d * t0[:, None], s + d * t1[:, None]
     step = 1e-6 / np.maximum(np.abs(d).max(axis=1), 1e-12)  # a millionth of a voxel along the segment
-    points = [a, b, s + d * np.minimum(t0 + step, t1)[:, None]]  # ends on a face: the voxels on both sides
+    for end in (a, b):  # ends on a face: the voxels on both sides (the crossings give the other)
+        yield grid.flat(np.clip(np.floor(end).astype(np.int64), 0, shape - 1))
     for axis in range(3):
+        other = [x for x in range(3) if x != axis]
         lo = np.ceil(np.minimum(a[:, axis], b[:, axis]))
         hi = np.floor(np.maximum(a[:, axis], b[:, axis]))
         count = np.where(d[:, axis] != 0, np.maximum(hi - lo + 1, 0), 0).astype(np.int64)
         ray, index = _ragged(count)
-        t = (lo[ray] + index - s[ray, axis]) / d[ray, axis]
-        t = np.clip(t + step[ray], t0[ray], t1[ray])
-        points.append(s[ray] + d[ray] * t[:, None])
-    ijk = np.floor(np.concatenate(points)).astype(np.int64)
-    ijk = np.clip(ijk, 0, np.asarray(grid.shape) - 1)  # ends on the grid's far faces
-    return grid.flat(ijk)
+        plane = lo[ray] + index
+        forward = d[ray, axis] > 0
+        t = (plane - s[ray, axis]) / d[ray, axis] + step[ray]  # just past the crossing (edges, corners)
+        ijk = np.empty((ray.shape[0], 3), np.int64)
+        ijk[:, axis] = np.where(forward, plane, plane - 1)  # the voxel entered at the crossing
+        for o in other:
+            ijk[:, o] = np.floor(s[ray, o] + d[ray, o] * np.minimum(t, t1[ray]))
+        yield grid.flat(np.clip(ijk, 0, shape - 1))
 
 
 def _clip_to_box(s: F64, d: F64, upper: F64) -> tuple[F64, F64]:
