@@ -22,7 +22,8 @@ classes (:data:`OCC3D_CLASSES`, 17 = free), mapped from ours through nuScenes-li
 categories (:data:`OCC3D_OF_CLASS`); ``semantics_native`` our own classes, 255 = free.
 
 ``mask_lidar``: the voxels each LiDAR ray crossed from the sensor to its return, the return's
-voxel included (rays without a return are not counted). ``mask_camera``: the same for camera
+voxel included (rays without a return are not counted; a timed sweep's rays from where the
+sensor was when each fired, moved with the ego's velocity to the frame's time). ``mask_camera``: the same for camera
 rays cast at the grid's resolution (one ray per voxel width at the grid's far corner) up to
 what they hit, or out of the grid. A voxel in neither mask was not observed.
 
@@ -51,6 +52,7 @@ from sensors.agents import AgentMeshes, Agents
 from sensors.camera import CameraSpec
 from sensors.lidar import LidarOutput
 from sensors.rays import sensor_rays
+from sensors.sweep import reference_s
 
 if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
     from sensors.solids import Solids
@@ -133,9 +135,7 @@ def occupancy_frame(
     native, instance = _classes(grid, static, solids, agents, map_SE3_ego, agent_meshes)
     mask_lidar = np.zeros(grid.size, np.bool_)
     for lidar in lidars:
-        ego_SE3_lidar = lidar.spec.ego_SE3_sensor
-        ends = ego_SE3_lidar.transform_from(lidar.scan.xyz_lidar_m.astype(np.float64))
-        starts = np.broadcast_to(ego_SE3_lidar.translation, ends.shape)
+        starts, ends = lidar_segments(lidar, ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64))
         mark_segments(grid, starts, ends, mask_lidar)
     mask_camera = np.zeros(grid.size, np.bool_)
     for camera, distance_m in cameras:
@@ -146,6 +146,23 @@ def occupancy_frame(
     s = grid.shape
     return OccupancyFrame(grid, native.reshape(s), instance.reshape(s), mask_lidar.reshape(s), mask_camera.reshape(s),
                           flow.reshape(*s, 3), relative.reshape(*s, 3), point_flow)  # fmt: skip
+
+
+def lidar_segments(
+    lidar: LidarOutput, ego_velocity_ego_mps: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Each return's ray in the ego frame of the frame's time: from where the sensor was when the
+    ray fired to the return (a timed sweep's rays fire ``t - t_ref`` from the frame's time and the
+    ego moves on meanwhile; an instant sweep's all start at the mount)."""
+    scan, spec = lidar.scan, lidar.spec
+    ego_SE3_lidar = spec.ego_SE3_sensor
+    ends = ego_SE3_lidar.transform_from(scan.xyz_lidar_m.astype(np.float64))
+    starts = np.broadcast_to(ego_SE3_lidar.translation, ends.shape)
+    if len(scan) and np.any(scan.t_s != 0):
+        dt = scan.t_s.astype(np.float64) - reference_s(spec.reference, spec.period_s)
+        shift = dt[:, None] * ego_velocity_ego_mps[None, :]  # the ego's travel, its heading kept
+        starts, ends = starts + shift, ends + shift
+    return np.asarray(starts, np.float64), ends
 
 
 def _classes(

@@ -233,3 +233,26 @@ def test_a_car_fills_the_voxels_of_its_body_within_its_box_and_the_lidar_crosses
         crossed = np.unique(segment_voxels(grid, origin[None], xyz[i : i + 1]))
         before = crossed[crossed != end_voxel[i]]
         assert np.all(~occupied[before] | surface[before])
+
+
+def test_a_timed_sweep_from_a_moving_ego_puts_every_static_return_in_an_occupied_observed_voxel():
+    wall = prism(rect(15.1, -6.1, 15.5, 6.1), -0.05, 4.0, SemanticClass.BUILDING)
+    static = merge([GROUND, wall])
+    ego = EgoState(EGO.center_map_m, EGO.lwh_m, 0.0, 0.0, np.array([15.0, 0.0, 0.0]))
+    scene = FrameScene(static, Agents.empty())
+    spec = LidarSpec(sweep="timed")
+    lidar = Lidar(spec).sense(scene, ego, DAY, np.random.default_rng(0))
+    assert np.ptp(lidar.scan.t_s) > 0.04
+    occupancy = occupancy_frame(SPEC, static, Solids(static), Agents.empty(), ego.map_SE3_ego(), ego.velocity_map_mps,
+                                (lidar,))  # fmt: skip
+    from gtgen.occupancy import lidar_segments
+
+    _, ends = lidar_segments(lidar, ego.velocity_map_mps)
+    ijk = SPEC.grid.ijk_of(ends)
+    on_wall = SPEC.grid.inside(ijk) & (lidar.scan.semantic_class == SemanticClass.BUILDING)
+    assert on_wall.sum() > 500
+    assert np.all(occupancy.semantics_native[tuple(ijk[on_wall].T)] == SemanticClass.BUILDING)
+    assert np.all(occupancy.mask_lidar[tuple(ijk[on_wall].T)])
+    # the correction matters: the sensor moved up to 15 m/s x 0.025 s = 0.375 m from the frame's place
+    raw = spec.ego_SE3_sensor.transform_from(lidar.scan.xyz_lidar_m.astype(float))
+    assert np.abs(ends - raw)[:, 0].max() > 0.3
