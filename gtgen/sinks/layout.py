@@ -29,8 +29,11 @@ from gtgen.frame import FrameRecord
 RADAR_COLOUR = "#ff40ff"
 
 
-def foxglove_layout(lidars: list[str], cameras: list[str], radars: list[str], map_vectors: bool = False) -> str:
-    """The layout as JSON, for a rig with these sensor names (topics as in ``run.mcap``)."""
+def foxglove_layout(
+    lidars: list[str], cameras: list[str], radars: list[str], map_vectors: bool = False, occupancy: bool = False
+) -> str:
+    """The layout as JSON, for a rig with these sensor names (topics as in ``run.mcap``); with
+    ``occupancy``, the 3D view shows ``/occupancy`` too."""
     topics: dict[str, BaseRendererTopicSettings] = {
         f"/{name}": BaseRendererPointCloudTopicSettings(
             visible=True, color_mode="colormap", color_field="class", color_map="turbo", point_size=2.0
@@ -49,6 +52,8 @@ def foxglove_layout(lidars: list[str], cameras: list[str], radars: list[str], ma
     }
     if map_vectors:
         topics["/map/vectors"] = BaseRendererSceneUpdateTopicSettings(visible=True)
+    if occupancy:
+        topics["/occupancy"] = BaseRendererSceneUpdateTopicSettings(visible=True)
     scene = ThreeDeePanel(
         title="drive", config=ThreeDeeConfig(topics=topics, follow_tf="ego", follow_mode="follow-pose")
     )
@@ -78,4 +83,4 @@ def layout_for(record: FrameRecord) -> str:
     """The layout for the rig of a frame record."""
     names = ([o.spec.name for o in record.lidars], list(record.labels.rig_cameras),
              [o.spec.name for o in record.radars])  # fmt: skip
-    return foxglove_layout(*names, map_vectors=record.map is not None)
+    return foxglove_layout(*names, map_vectors=record.map is not None, occupancy=record.occupancy is not None)

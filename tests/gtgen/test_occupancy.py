@@ -164,6 +164,8 @@ def test_mcap_has_the_occupancy_cubes_and_each_points_flow(tmp_path):
         j, k = int((c.pose.position.y + 40.0) // 0.4), int((c.pose.position.z + 1.0) // 0.4)
         covered[i0 : i0 + n, j, k] = 1
     assert np.array_equal(covered == 1, shown)
+    layout = (tmp_path / "foxglove_layout.json").read_text()
+    assert '"/occupancy"' in layout
     points = lidar_points(messages["/lidar"])
     on_car = points["instance"] == 4
     assert np.allclose(points["flow_x"][on_car], 0.5) and not points["flow_x"][~on_car].any()
