@@ -95,24 +95,49 @@ for _rank, _cls in enumerate(PRIORITY):
 class OccupancyFrame:
     """One frame's occupancy on ``grid``: ``semantics_native: (X, Y, Z) uint8`` (our classes, 255
     free), ``instance: (X, Y, Z) uint32`` (the agent's track id, 0: none), ``mask_lidar`` and
-    ``mask_camera: (X, Y, Z) bool``, ``flow_mps`` and ``flow_relative_mps: (X, Y, Z, 3) float32``
-    (0 off agents), ``point_flow_m``: one ``(N, 3) float32`` per LiDAR output of the frame."""
+    ``mask_camera: (X, Y, Z) bool``, each agent's velocity in the ego frame's axes
+    (``agent_id: (A,) uint32``, ``agent_velocity_mps`` over the ground and
+    ``agent_velocity_relative_mps`` minus the ego's: ``(A, 3) float32``; the voxels' flow is made
+    from them, :attr:`flow_mps`), ``point_flow_m``: one ``(N, 3) float32`` per LiDAR output."""
 
     grid: VoxelGrid
     semantics_native: npt.NDArray[np.uint8]
     instance: npt.NDArray[np.uint32]
     mask_lidar: npt.NDArray[np.bool_]
     mask_camera: npt.NDArray[np.bool_]
-    flow_mps: npt.NDArray[np.float32]
-    flow_relative_mps: npt.NDArray[np.float32]
+    agent_id: npt.NDArray[np.uint32]
+    agent_velocity_mps: npt.NDArray[np.float32]
+    agent_velocity_relative_mps: npt.NDArray[np.float32]
     point_flow_m: tuple[npt.NDArray[np.float32], ...] = ()
 
     def __post_init__(self) -> None:
         s = self.grid.shape
         check_arrays(
             self, semantics_native=(np.uint8, s), instance=(np.uint32, s), mask_lidar=(np.bool_, s),
-            mask_camera=(np.bool_, s), flow_mps=(np.float32, (*s, 3)), flow_relative_mps=(np.float32, (*s, 3)),
+            mask_camera=(np.bool_, s), agent_id=(np.uint32, ("A",)), agent_velocity_mps=(np.float32, ("A", 3)),
+            agent_velocity_relative_mps=(np.float32, ("A", 3)),
         )  # fmt: skip
+
+    @property
+    def flow_mps(self) -> npt.NDArray[np.float32]:
+        """``(X, Y, Z, 3) float32``: each agent voxel's velocity over the ground (m/s, ego axes), 0 elsewhere."""
+        return self._flow(self.agent_velocity_mps)
+
+    @property
+    def flow_relative_mps(self) -> npt.NDArray[np.float32]:
+        """``(X, Y, Z, 3) float32``: the same minus the ego's velocity."""
+        return self._flow(self.agent_velocity_relative_mps)
+
+    def _flow(self, velocity: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+        flow = np.zeros((*self.grid.shape, 3), np.float32)
+        filled = self.instance != 0
+        order = np.argsort(self.agent_id)
+        at = np.clip(np.searchsorted(self.agent_id[order], self.instance[filled]), 0, max(len(order) - 1, 0))
+        if len(order):
+            known = self.agent_id[order][at] == self.instance[filled]
+            values = np.where(known[:, None], velocity[order][at], 0.0)
+            flow[filled] = values
+        return flow
 
     @property
     def semantics(self) -> npt.NDArray[np.uint8]:
@@ -141,11 +166,13 @@ def occupancy_frame(
     for camera, distance_m in cameras:
         starts, ends = camera_segments(spec, camera, distance_m)
         mark_segments(grid, starts, ends, mask_camera)
-    flow, relative = _voxel_flow(grid, instance, agents, ego_SE3_map, ego_velocity_map_mps)
+    velocity = agents.velocity_map_mps @ ego_SE3_map.rotation.T
+    relative = velocity - ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64)
     point_flow = tuple(point_flow_m(lidar, agents, map_SE3_ego) for lidar in lidars)
     s = grid.shape
     return OccupancyFrame(grid, native.reshape(s), instance.reshape(s), mask_lidar.reshape(s), mask_camera.reshape(s),
-                          flow.reshape(*s, 3), relative.reshape(*s, 3), point_flow)  # fmt: skip
+                          agents.instance_id, velocity.astype(np.float32), relative.astype(np.float32),
+                          point_flow)  # fmt: skip
 
 
 def lidar_segments(
@@ -283,24 +310,6 @@ def _solid_insides(
     cls = solids.inside(centers.reshape(-1, 3))
     inside = np.flatnonzero(cls)
     return inside.astype(np.int64), cls[inside]
-
-
-def _voxel_flow(
-    grid: VoxelGrid, instance: npt.NDArray[np.uint32], agents: Agents, ego_SE3_map: SE3,
-    ego_velocity_map_mps: npt.NDArray[np.float64],
-) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:  # fmt: skip
-    flow = np.zeros((grid.size, 3), np.float32)
-    relative = np.zeros((grid.size, 3), np.float32)
-    filled = np.flatnonzero(instance)
-    if filled.size == 0 or len(agents) == 0:
-        return flow, relative
-    order = np.argsort(agents.instance_id)
-    at = order[np.searchsorted(agents.instance_id[order], instance[filled])]
-    velocity_ego = agents.velocity_map_mps @ ego_SE3_map.rotation.T
-    ego_ego = ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64)
-    flow[filled] = velocity_ego[at]
-    relative[filled] = velocity_ego[at] - ego_ego
-    return flow, relative
 
 
 def point_flow_m(lidar: LidarOutput, agents: Agents, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
