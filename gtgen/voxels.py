@@ -220,25 +220,32 @@ def segment_voxels(grid: VoxelGrid, start_m: F64, end_m: F64) -> I64:
     """Flat indices (with repeats) of every voxel that segments ``start -> end`` (``(N, 3)``
     each) pass through within the grid, the voxels of their ends included: the voxels of the
     segment's ends within the grid, and the voxel entered at each crossing of a voxel face."""
-    return np.concatenate(list(_segment_chunks(grid, start_m, end_m)))
+    return np.concatenate([flat for _, flat in _segment_chunks(grid, start_m, end_m)])
+
+
+def segment_voxel_pairs(grid: VoxelGrid, start_m: F64, end_m: F64) -> tuple[I64, I64]:
+    """``(segment, flat)``: the voxels of :func:`segment_voxels` with the segment each comes from."""
+    pairs = list(_segment_chunks(grid, start_m, end_m))
+    return np.concatenate([r for r, _ in pairs]), np.concatenate([f for _, f in pairs])
 
 
 def mark_segments(grid: VoxelGrid, start_m: F64, end_m: F64, out: npt.NDArray[np.bool_]) -> None:
     """Set ``out`` (flat, ``grid.size``) at every voxel of :func:`segment_voxels`."""
-    for flat in _segment_chunks(grid, start_m, end_m):
+    for _, flat in _segment_chunks(grid, start_m, end_m):
         out[flat] = True
 
 
-def _segment_chunks(grid: VoxelGrid, start_m: F64, end_m: F64) -> Iterator[I64]:
+def _segment_chunks(grid: VoxelGrid, start_m: F64, end_m: F64) -> Iterator[tuple[I64, I64]]:
     s, e = grid.to_grid(start_m), grid.to_grid(end_m)
     shape = np.asarray(grid.shape)
     t0, t1 = _clip_to_box(s, e - s, shape.astype(np.float64))
     keep = t0 < t1
+    kept = np.flatnonzero(keep)
     s, d, t0, t1 = s[keep], (e - s)[keep], t0[keep], t1[keep]
     a, b = s + d * t0[:, None], s + d * t1[:, None]
     step = 1e-6 / np.maximum(np.abs(d).max(axis=1), 1e-12)  # a millionth of a voxel along the segment
     for end in (a, b):  # ends on a face: the voxels on both sides (the crossings give the other)
-        yield grid.flat(np.clip(np.floor(end).astype(np.int64), 0, shape - 1))
+        yield kept, grid.flat(np.clip(np.floor(end).astype(np.int64), 0, shape - 1))
     for axis in range(3):
         other = [x for x in range(3) if x != axis]
         lo = np.ceil(np.minimum(a[:, axis], b[:, axis]))
@@ -252,7 +259,7 @@ def _segment_chunks(grid: VoxelGrid, start_m: F64, end_m: F64) -> Iterator[I64]:
         ijk[:, axis] = np.where(forward, plane, plane - 1)  # the voxel entered at the crossing
         for o in other:
             ijk[:, o] = np.floor(s[ray, o] + d[ray, o] * np.minimum(t, t1[ray]))
-        yield grid.flat(np.clip(ijk, 0, shape - 1))
+        yield kept[ray], grid.flat(np.clip(ijk, 0, shape - 1))
 
 
 def _clip_to_box(s: F64, d: F64, upper: F64) -> tuple[F64, F64]:
