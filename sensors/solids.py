@@ -4,8 +4,10 @@ The world builds these as prisms: vertical walls around a footprint and a flat t
 A point lies inside one iff a horizontal ray from it crosses the walls an odd number of times
 (ray parity, as Open3D's ``compute_occupancy`` counts it, along rays that never meet a floor or
 a top: walls are vertical, so a horizontal ray below a prism's walls or above them crosses none
-of them). Only points under some solid's top (a raster of the tops' heights, map frame) are
-cast. The rest of the world (roads, sidewalks, terrain) is surface, not volume.
+of them). Two rays (along map +x and +y) must agree: a ray that grazes a wall's vertical edge
+and miscounts leaves the point outside rather than filling a voxel in front of a wall. Only
+points under some solid's top (a raster of the tops' heights, map frame) are cast. The rest of
+the world (roads, sidewalks, terrain) is surface, not volume.
 """
 
 from __future__ import annotations
@@ -47,10 +49,12 @@ class Solids:
         px = np.floor((xyz_map_m[:, :2] - origin) / RASTER_M).astype(np.int64)
         px = np.clip(px, 0, np.asarray(top_z.shape[::-1]) - 1)
         candidate = np.flatnonzero(xyz_map_m[:, 2] <= top_z[px[:, 1], px[:, 0]])
-        rays = np.zeros((candidate.shape[0], 6), np.float32)
-        rays[:, :3], rays[:, 3] = xyz_map_m[candidate], 1.0
-        crossings = self._scene.count_intersections(o3c.Tensor.from_numpy(rays)).numpy()
-        odd = candidate[crossings % 2 == 1]
+        odd = candidate
+        for axis in (0, 1):  # along +x and +y: a ray that grazes a wall's edge miscounts one of them
+            rays = np.zeros((odd.shape[0], 6), np.float32)
+            rays[:, :3], rays[:, 3 + axis] = xyz_map_m[odd], 1.0
+            crossings = self._scene.count_intersections(o3c.Tensor.from_numpy(rays)).numpy()
+            odd = odd[crossings % 2 == 1]
         out[odd] = top_class[px[odd, 1], px[odd, 0]]
         return out
 
