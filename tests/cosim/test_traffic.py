@@ -156,7 +156,7 @@ def test_agents_read_around_the_ego_equal_those_found_among_all_agents():
     are exactly the agents a search over every vehicle and person finds, parked cars and
     pedestrians included, with the same boxes and velocities."""
     radius_m = 60.0
-    overrides = ("warmup_s=20", "traffic.parked=60", "traffic.pedestrians=300", "traffic.vehicles_per_lane_km=10")
+    overrides = ("warmup_s=20", "traffic.parked=300", "traffic.pedestrians=300", "traffic.vehicles_per_lane_km=10")
     kinds = {"parked": 0, "pedestrian": 0}
     with running("town10_crowded", *overrides) as (traffic, _):
         traffic.watch_near_ego(radius_m)
