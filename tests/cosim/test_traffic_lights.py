@@ -36,8 +36,12 @@ def signalised_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(traffic_module.Traffic, "step", recording_step)
-        overrides = ["frames=400", "outputs.yolo=false", "outputs.mcap=false",  # a quarter of the pixels: faster
-                     "sensors.cameras=[{name: camera, width_px: 640, height_px: 360}]"]
+        overrides = [
+            "frames=400",
+            "outputs.yolo=false",
+            "outputs.mcap=false",  # a quarter of the pixels: faster
+            "sensors.cameras=[{name: camera, width_px: 640, height_px: 360}]",
+        ]
         run(load_scenario(str(DATA / "tiny.yaml"), overrides), out, progress=False, one_process=True)
     return out, seen
 
