@@ -237,6 +237,13 @@ class Scenario:
                                  "outputs.kitti=false")  # fmt: skip
         if self.outputs.nuscenes:
             self._check_nuscenes(frame_hz, every_frame)
+        for output, cameras in (("kitti", rig.cameras[:2]), ("nuscenes", rig.cameras)):
+            bent = [c.name for c in cameras if c.pinhole.distorted] if getattr(self.outputs, output) else []
+            if bent:
+                raise ValueError(
+                    f"outputs.{output}: its images are undistorted (rectified), but camera {bent[0]} has a lens "
+                    f"distortion; set its distortion to zeros or outputs.{output}=false"
+                )
 
     def _check_nuscenes(self, frame_hz: float, every_frame: str) -> None:
         rig = self.sensors

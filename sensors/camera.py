@@ -23,7 +23,7 @@ from sensors.agents import Agents, EgoState
 from sensors.errors import SensorConfigError, SensorError
 from sensors.hits import RayHits
 from sensors.photo import SUBPIXEL_OFFSETS, AgentBoxes, Supersamples
-from sensors.pinhole import EGO_AXES_R_OPTICAL, Pinhole
+from sensors.pinhole import EGO_AXES_R_OPTICAL, NO_DISTORTION, Pinhole
 from sensors.rays import sensor_rays
 from sensors.shading import Shading
 from sensors.view import spheres_in_view
@@ -45,9 +45,11 @@ SHADOW_LIFT_M = 0.02
 
 @dataclass(frozen=True, slots=True)
 class CameraSpec:
-    """A pinhole camera. ``mount_rpy_deg`` turns the camera body (x forward, y left, z up)
+    """A camera. ``mount_rpy_deg`` turns the camera body (x forward, y left, z up)
     in the ego frame with ``SE3.from_xyz_rpy``: (0, 0, 0) looks along ego +x; positive
-    pitch looks down (ROS convention), positive yaw looks left."""
+    pitch looks down (ROS convention), positive yaw looks left. ``distortion``: the lens's
+    OpenCV plumb_bob coefficients ``k1, k2, p1, p2, k3`` (all 0: a pinhole; see
+    :mod:`sensors.pinhole`)."""
 
     name: str = "camera"
     width_px: int = 1280
@@ -58,6 +60,7 @@ class CameraSpec:
     range_m: float = 200.0
     rate_hz: float = 20.0
     shading: str = "realistic"  # or "flat": one colour per class and face, no shadows, faster
+    distortion: tuple[float, float, float, float, float] = NO_DISTORTION  # OpenCV k1, k2, p1, p2, k3
 
     def __post_init__(self) -> None:
         if self.shading not in SHADING_STYLES:
@@ -69,10 +72,19 @@ class CameraSpec:
             raise SensorConfigError(f"camera {self.name}: hfov_deg must be 1..170, got {self.hfov_deg}")
         if self.range_m <= 0 or self.rate_hz <= 0:
             raise SensorConfigError(f"camera {self.name}: range_m and rate_hz must be > 0")
+        if len(self.distortion) != 5:
+            raise SensorConfigError(f"camera {self.name}: distortion must be 5 numbers (OpenCV's k1, k2, p1, p2, k3), "
+                                    f"got {len(self.distortion)}")  # fmt: skip
+        why = self.pinhole.check_lens()
+        if why is not None:
+            raise SensorConfigError(
+                f"camera {self.name}: distortion {list(self.distortion)} cannot be used over a "
+                f"{self.width_px}x{self.height_px} image with hfov_deg {self.hfov_deg:g}: {why}"
+            )
 
     @property
     def pinhole(self) -> Pinhole:
-        return Pinhole(self.width_px, self.height_px, self.hfov_deg)
+        return Pinhole(self.width_px, self.height_px, self.hfov_deg, tuple(float(c) for c in self.distortion))  # type: ignore[arg-type]
 
     @property
     def ego_SE3_body(self) -> SE3:
@@ -132,8 +144,8 @@ class Camera:
         spec = self.spec
         if spec.shading != "flat":
             radius_m = radius_m * SHADOW_REACH
-        vfov_deg = spec.pinhole.vfov_deg
-        return spheres_in_view(body_SE3_map, center_map_m, radius_m, spec.range_m, spec.hfov_deg, vfov_deg)
+        hfov_deg, vfov_deg = spec.pinhole.view_fov_deg
+        return spheres_in_view(body_SE3_map, center_map_m, radius_m, spec.range_m, hfov_deg, vfov_deg)
 
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         """``(H * W, 6) float32`` rays in the map frame, row-major over pixels."""

@@ -194,8 +194,8 @@ def calibration(ns: int, camera: CameraOutput) -> CameraCalibration:
     spec, pinhole = camera.spec, camera.spec.pinhole
     return CameraCalibration(
         timestamp=timestamp(ns), frame_id=spec.name, width=spec.width_px, height=spec.height_px,
-        distortion_model="plumb_bob", D=[0.0] * 5, K=pinhole.K.ravel().tolist(), R=np.eye(3).ravel().tolist(),
-        P=pinhole.P.ravel().tolist(),
+        distortion_model="plumb_bob", D=list(pinhole.distortion), K=pinhole.K.ravel().tolist(),
+        R=np.eye(3).ravel().tolist(), P=pinhole.P.ravel().tolist(),
     )  # fmt: skip
 
 

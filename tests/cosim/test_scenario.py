@@ -151,6 +151,25 @@ def test_kitti_and_yolo_without_a_camera_say_what_to_change(tmp_path):
         load_scenario(str(path), ["outputs.kitti=false"])
 
 
+def test_a_distorting_lens_keeps_kitti_and_nuscenes_out_and_yolo_in(tmp_path):
+    lens = "sensors: {cameras: [{name: front, distortion: [-0.1, 0.01, 0.0, 0.0, 0.0]}]}\n"
+    path = write(tmp_path, "network: skeleton\n" + lens)
+    kitti = r"outputs\.kitti: its images are undistorted .* camera front has a lens distortion; set its distortion "
+    with pytest.raises(ScenarioError, match=kitti + r"to zeros or outputs\.kitti=false"):
+        load_scenario(str(path))
+    with pytest.raises(ScenarioError, match=r"outputs\.nuscenes: .* camera front has a lens distortion"):
+        load_scenario(str(path), ["outputs.kitti=false", "outputs.nuscenes=true"])
+    scenario = load_scenario(str(path), ["outputs.kitti=false"])
+    assert scenario.outputs.yolo and scenario.sensors.cameras[0].pinhole.distorted
+    folds = (
+        r"camera front: distortion \[0\.0, -2\.0, .* cannot be used over a 1280x720 image with hfov_deg 85: it folds"
+    )
+    with pytest.raises(ScenarioError, match=folds):
+        load_scenario(
+            str(path), ["outputs.kitti=false", "sensors.cameras=[{name: front, distortion: [0, -2, 0, 0, 0]}]"]
+        )
+
+
 def test_the_kitti_rig_preset_is_kittis_car_and_stays_editable(tmp_path):
     from cosim.rigs import HDL64E_ELEVATIONS_DEG
 
