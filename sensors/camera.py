@@ -34,6 +34,7 @@ if TYPE_CHECKING:
 
 F64 = npt.NDArray[np.float64]
 SHADING_STYLES = ("realistic", "flat")
+MAX_SHUTTER_S = 0.1
 SHADOW_RANGE_M = 120.0
 """Beyond this distance no shadow ray is cast: the sun is taken as visible."""
 SHADOW_REACH = 4.0
@@ -49,7 +50,8 @@ class CameraSpec:
     in the ego frame with ``SE3.from_xyz_rpy``: (0, 0, 0) looks along ego +x; positive
     pitch looks down (ROS convention), positive yaw looks left. ``distortion``: the lens's
     OpenCV plumb_bob coefficients ``k1, k2, p1, p2, k3`` (all 0: a pinhole; see
-    :mod:`sensors.pinhole`)."""
+    :mod:`sensors.pinhole`). ``shutter_s``: the exposure time over which the image blurs with
+    the motion of the ego and the traffic (0: a sharp image)."""
 
     name: str = "camera"
     width_px: int = 1280
@@ -61,6 +63,7 @@ class CameraSpec:
     rate_hz: float = 20.0
     shading: str = "realistic"  # or "flat": one colour per class and face, no shadows, faster
     distortion: tuple[float, float, float, float, float] = NO_DISTORTION  # OpenCV k1, k2, p1, p2, k3
+    shutter_s: float = 0.0  # exposure time: motion blur over it (realistic shading; 0: none)
 
     def __post_init__(self) -> None:
         if self.shading not in SHADING_STYLES:
@@ -72,6 +75,12 @@ class CameraSpec:
             raise SensorConfigError(f"camera {self.name}: hfov_deg must be 1..170, got {self.hfov_deg}")
         if self.range_m <= 0 or self.rate_hz <= 0:
             raise SensorConfigError(f"camera {self.name}: range_m and rate_hz must be > 0")
+        longest = min(MAX_SHUTTER_S, 1.0 / self.rate_hz)
+        if not (0.0 <= self.shutter_s <= longest):
+            raise SensorConfigError(f"camera {self.name}: shutter_s must be 0..{longest:g} s (at most one frame at "
+                                    f"rate_hz {self.rate_hz:g}), got {self.shutter_s}")  # fmt: skip
+        if self.shutter_s > 0 and self.shading == "flat":
+            raise SensorConfigError(f"camera {self.name}: shutter_s (motion blur) needs shading: realistic")
         if len(self.distortion) != 5:
             raise SensorConfigError(f"camera {self.name}: distortion must be 5 numbers (OpenCV's k1, k2, p1, p2, k3), "
                                     f"got {len(self.distortion)}")  # fmt: skip
@@ -178,7 +187,8 @@ class Camera:
             extra = self._supersamples(scene, map_SE3_cam, hits, weather)
             shading = Shading(self.spec.pinhole, self.spec.range_m, map_R_cam, hits.normal, weather, seed,
                               part=hits.part, origin_map_m=np.asarray(origin, np.float64), sun_lit=sun_lit,
-                              boxes=boxes_in_view(scene.agents, hits.instance_id), extra=extra)  # fmt: skip
+                              boxes=boxes_in_view(scene.agents, hits.instance_id), extra=extra,
+                              shutter_s=self.spec.shutter_s, ego_velocity_map_mps=ego.velocity_map_mps)  # fmt: skip
         frame = CameraFrame(depth.reshape(h, w), hits.instance_id.reshape(h, w), hits.semantic_class.reshape(h, w),
                             shading)  # fmt: skip
         return CameraOutput(self.spec, frame)
@@ -252,7 +262,7 @@ def boxes_in_view(agents: Agents, instance_id: npt.NDArray[np.uint32]) -> AgentB
     """The boxes of the agents seen in the frame (their contact shadows and lower parts)."""
     seen = np.isin(agents.instance_id, np.unique(instance_id))
     a = agents.select(seen)
-    return AgentBoxes(a.instance_id, a.center_map_m, a.lwh_m, a.yaw_map_rad, a.lamps)
+    return AgentBoxes(a.instance_id, a.center_map_m, a.lwh_m, a.yaw_map_rad, a.lamps, a.velocity_map_mps)
 
 
 DEPTH_PNG_MAX_UNITS = 65535

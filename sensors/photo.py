@@ -38,6 +38,7 @@ from sensors.parts import (
     Part,
     part_albedo,
 )
+from sensors.pinhole import Pinhole
 from sensors.weather import Weather, haze_fraction
 
 if TYPE_CHECKING:
@@ -55,12 +56,12 @@ MAX_REFLECTION = 0.45
 """The most of the surroundings a surface mirrors, even at grazing angles (clear coat and
 glass are not perfect mirrors: dirt, curvature and roughness blur and dim what they show)."""
 CONTACT_M = 0.45
+"""How far from a vehicle's footprint its contact shadow fades out."""
 STREET_LIGHT = np.float32(0.28)
 """Light from street lamps at night (of the sun's 2.2 by day), on surfaces facing up most."""
 STREET_LIGHT_FADE_M = 60.0
 STREET_LIGHT_BGR = np.array([0.55, 0.8, 1.0], np.float32)
 """Warm white (LED and sodium street lamps)."""
-"""How far from a vehicle's footprint its contact shadow fades out."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,13 +69,15 @@ class AgentBoxes:
     """Boxes of the agents in view (map frame): ``instance_id (K,) uint32``, ``centre_m
     (K, 3) float64``, ``lwh_m (K, 3) float64``, ``yaw_rad (K,) float64``: their contact shadows
     on the ground and the darker lower parts; ``lamps (K,) uint8``: which lamps are lit
-    (:class:`sensors.agents.Lamp` bits)."""
+    (:class:`sensors.agents.Lamp` bits); ``velocity_mps (K, 3) float64`` (map frame): their
+    motion blur."""
 
     instance_id: npt.NDArray[np.uint32]
     centre_m: npt.NDArray[np.float64]
     lwh_m: npt.NDArray[np.float64]
     yaw_rad: npt.NDArray[np.float64]
     lamps: npt.NDArray[np.uint8]
+    velocity_mps: npt.NDArray[np.float64]
 
     def __post_init__(self) -> None:
         check_arrays(
@@ -84,6 +87,7 @@ class AgentBoxes:
             lwh_m=(np.float64, ("K", 3)),
             yaw_rad=(np.float64, ("K",)),
             lamps=(np.uint8, ("K",)),
+            velocity_mps=(np.float64, ("K", 3)),
         )
 
     def rows_of(self, instance: npt.NDArray[np.uint32]) -> npt.NDArray[np.intp]:
@@ -399,6 +403,55 @@ def radiance(
     return out
 
 
+MAX_BLUR_SAMPLES = 12
+"""Most samples along a pixel's motion (each about a pixel apart up to this many pixels)."""
+
+
+def image_motion_px(
+    pinhole: Pinhole, dirs_cam: F32, range_m: F32, instance: npt.NDArray[np.uint32], map_R_cam: F32,
+    boxes: AgentBoxes | None, ego_velocity_map_mps: npt.NDArray[np.float64], shutter_s: float,
+) -> F32:  # fmt: skip
+    """``(N, 2)`` how far (pixels) each pixel's surface moves across the image while the shutter
+    is open: its agent's velocity (0 for the static world) less the ego's, over ``shutter_s``
+    centred on the frame's instant (the ego's turning is not included); 0 for the sky."""
+    n = len(range_m)
+    motion = np.zeros((n, 2), np.float32)
+    hit = np.flatnonzero(np.isfinite(range_m))
+    if len(hit) == 0:
+        return motion
+    velocity = np.broadcast_to(-np.asarray(ego_velocity_map_mps, np.float32), (len(hit), 3)).copy()
+    if boxes is not None and len(boxes.instance_id):
+        rows = boxes.rows_of(instance[hit])
+        moving = rows >= 0
+        velocity[moving] += boxes.velocity_mps[rows[moving]].astype(np.float32)
+    half = (velocity @ map_R_cam) * np.float32(shutter_s / 2.0)  # camera frame
+    p = dirs_cam[hit] * range_m[hit, None]
+    a, b = p - half, p + half
+    a[:, 2] = np.maximum(a[:, 2], np.float32(0.1))
+    b[:, 2] = np.maximum(b[:, 2], np.float32(0.1))
+    motion[hit] = (pinhole.project(b.astype(np.float64)) - pinhole.project(a.astype(np.float64))).astype(np.float32)
+    return motion
+
+
+def motion_blur(linear: F32, motion_px: F32) -> F32:
+    """``(H, W, 3)`` the image averaged along each pixel's own motion ``(H, W, 2)`` (samples
+    from -1/2 to +1/2 of it, bilinear): a gather, so a moving object smears within its own
+    outline and its edges fade into what lies behind them."""
+    import cv2
+
+    longest = float(np.abs(motion_px).max()) if motion_px.size else 0.0
+    steps = min(max(math.ceil(longest), 1), MAX_BLUR_SAMPLES)
+    if steps <= 1:
+        return linear
+    h, w = linear.shape[:2]
+    v, u = np.mgrid[0:h, 0:w].astype(np.float32)
+    out = np.zeros_like(linear)
+    for t in np.linspace(-0.5, 0.5, steps, dtype=np.float32):
+        out += cv2.remap(linear, u + t * motion_px[..., 0], v + t * motion_px[..., 1], cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
+    return np.asarray(out / np.float32(steps), np.float32)
+
+
 BLOOM_THRESHOLD = np.float32(1.6)
 BLOOM_SIGMA_PX = 5.0
 BLOOM_GAIN = np.float32(0.6)
@@ -549,6 +602,10 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
             lamp_rays(sub_dirs, extra.range_m, extra.instance_id, extra.part, sh.origin_map_m, sh.boxes, sh.weather),
         )
         linear[extra.pixel] = (linear[extra.pixel] + sub_lin.reshape(-1, sub, 3).sum(axis=1)) / np.float32(sub + 1)
+    if sh.shutter_s > 0 and sh.ego_velocity_map_mps is not None:
+        motion = image_motion_px(sh.pinhole, dirs_cam, range_m, instances, sh.map_R_cam, sh.boxes,
+                                 sh.ego_velocity_map_mps, sh.shutter_s)  # fmt: skip
+        linear = motion_blur(linear.reshape(h, w, 3), motion.reshape(h, w, 2)).reshape(-1, 3)
     linear = bloom(linear.reshape(h, w, 3)).reshape(-1, 3)
     linear *= vignette(h, w)[:, None]
     image = tone_map(linear, sh.weather.exposure)

@@ -115,6 +115,8 @@ class Shading:
     sun_lit: npt.NDArray[np.bool_] | None = None
     boxes: AgentBoxes | None = None
     extra: Supersamples | None = None
+    shutter_s: float = 0.0  # motion blur over the exposure (0: none), from the ego's and the agents' motion
+    ego_velocity_map_mps: npt.NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         pixels = self.pinhole.width_px * self.pinhole.height_px

@@ -1,5 +1,6 @@
-"""A camera with lens distortion (OpenCV's plumb_bob): its rays, projection, field of view,
-refusal of lenses that fold the image, and labels that stay on the distorted image."""
+"""The camera's optics: lens distortion (OpenCV's plumb_bob: rays, projection, field of view,
+refusal of lenses that fold the image, labels that stay on the distorted image) and motion
+blur over the shutter's time."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from gtgen.objects import ObjectBoxes
 from gtgen.projection import camera_boxes
 from networks.classes import SemanticClass
 from networks.geometry import SE3
-from networks.mesh import box_mesh
+from networks.mesh import box_mesh, merge
 from sensors.agents import Agents
 from sensors.camera import Camera, CameraSpec
 from sensors.errors import SensorConfigError
@@ -89,6 +90,55 @@ def test_the_mcap_calibration_carries_the_lens() -> None:
                                np.random.default_rng(0)).frame  # fmt: skip
     message = calibration(0, CameraOutput(spec, frame))
     assert message.distortion_model == "plumb_bob" and list(message.D) == [-0.1, 0.01, 0.0, 0.0, 0.0]
+
+
+def _crossing(shutter_s: float, ego_mps: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Image and class mask of a car crossing 12 m ahead at 10 m/s in front of a wall."""
+    from .conftest import agents, ground, wall_at_x
+
+    spec = CameraSpec(width_px=320, height_px=180, shutter_s=shutter_s)
+    car = agents([(1, SemanticClass.CAR, 12.0, 0.0, 0.75, 4.5, 1.8, 1.5, math.pi / 2)], [[0.0, 10.0, 0.0]])
+    ego = type(EGO)(EGO.center_map_m, EGO.lwh_m, 0.0, 0.0, np.array([ego_mps, 0.0, 0.0]))
+    scene = FrameScene(merge([ground(), wall_at_x(30.0)]), car)
+    frame = Camera(spec).sense(scene, ego, DAY, np.random.default_rng(0)).frame
+    from sensors.shading import shade_frame
+
+    return shade_frame(frame).astype(np.float32), frame.instance_id
+
+
+def test_a_crossing_car_blurs_along_its_motion_and_the_still_world_stays_sharp() -> None:
+    sharp, instance = _crossing(0.0)
+    blurred, same = _crossing(0.02)  # 10 m/s over 20 ms at 12 m: about 4 px at this focal length
+    assert np.array_equal(instance, same)  # labels and masks are the frame's instant, unblurred
+    car = instance == 1
+    far = ~cv2.dilate(car.astype(np.uint8), np.ones((15, 15), np.uint8)).astype(bool)
+    assert np.abs(blurred - sharp)[far].max() <= 1.0  # the wall and road do not move: as sharp as before
+
+    def energy(image: np.ndarray, axis: int) -> float:
+        grey = image.mean(axis=2)
+        step = np.abs(np.diff(grey, axis=axis))[:-1, :] if axis == 1 else np.abs(np.diff(grey, axis=axis))[:, :-1]
+        return float(step[car[:-1, :-1]].mean())
+
+    # across the motion (along image rows) the car loses its detail; up and down far less
+    assert energy(blurred, 1) < 0.7 * energy(sharp, 1)
+    assert energy(blurred, 0) > 0.8 * energy(sharp, 0)
+
+
+def test_the_egos_own_motion_blurs_the_still_world() -> None:
+    sharp, _ = _crossing(0.0, ego_mps=0.0)
+    blurred, _ = _crossing(0.03, ego_mps=20.0)
+    assert np.abs(blurred - sharp).mean() > 1.0
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [({"shutter_s": 0.08}, r"shutter_s must be 0\.\.0\.05 s \(at most one frame at rate_hz 20\), got 0\.08"),
+     ({"shutter_s": -0.01}, r"shutter_s must be 0\.\.0\.05"),
+     ({"shutter_s": 0.01, "shading": "flat"}, r"shutter_s \(motion blur\) needs shading: realistic")],
+)  # fmt: skip
+def test_a_shutter_longer_than_a_frame_or_on_the_flat_camera_is_refused(options: dict, message: str) -> None:
+    with pytest.raises(SensorConfigError, match=r"camera front: " + message):
+        CameraSpec(name="front", **options)
 
 
 _ = SE3
