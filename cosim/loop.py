@@ -29,6 +29,7 @@ from cosim.signals import StreetObjects
 from cosim.state import WorldState
 from cosim.traffic_feed import TrafficFeed, TrafficInline, TrafficProcess
 from cosim.world_setup import PreparedNetwork, prepare_network
+from gtgen.content import STOPPED_MPS
 from gtgen.errors import OutputKeptError
 from gtgen.frame import FrameRecord
 from gtgen.labels import FrameLabels, label_frame
@@ -101,10 +102,13 @@ class RunSummary:
     seen: int = 0
     per_class: Counter[str] = field(default_factory=Counter)
     scene_cuts: list[int] = field(default_factory=list)  # frames that start a new scene
+    ego_stopped: int = 0  # frames in which the ego moved slower than STOPPED_MPS
 
-    def add(self, labels: FrameLabels, scene_cut: bool = False) -> None:
+    def add(self, labels: FrameLabels, scene_cut: bool = False, ego_speed_mps: float | None = None) -> None:
         if scene_cut:
             self.scene_cuts.append(labels.frame_index)
+        if ego_speed_mps is not None and ego_speed_mps < STOPPED_MPS:
+            self.ego_stopped += 1
         self.frames += 1
         self.objects += len(labels)
         self.seen += int(labels.seen.sum())
@@ -112,18 +116,20 @@ class RunSummary:
 
     def to_dict(self) -> dict[str, Any]:
         return {"frames": self.frames, "objects": self.objects, "seen": self.seen,
-                "per_class": dict(sorted(self.per_class.items())), "scene_cuts": list(self.scene_cuts)}  # fmt: skip
+                "per_class": dict(sorted(self.per_class.items())), "scene_cuts": list(self.scene_cuts),
+                "ego_stopped": self.ego_stopped}  # fmt: skip
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> RunSummary:
         return cls(int(data["frames"]), int(data["objects"]), int(data["seen"]), Counter(data["per_class"]),
-                   [int(f) for f in data["scene_cuts"]])  # fmt: skip
+                   [int(f) for f in data["scene_cuts"]], int(data.get("ego_stopped", 0)))  # fmt: skip
 
     def lines(self) -> list[str]:
         n = max(self.frames, 1)
         out = [f"frames: {self.frames}", f"objects in range per frame: {self.objects / n:.1f}",
                f"objects seen per frame: {self.seen / n:.1f}"]  # fmt: skip
         out += [f"  {cls}: {count / n:.1f}" for cls, count in sorted(self.per_class.items())]
+        out.append(f"ego stopped (below {STOPPED_MPS:g} m/s): {100 * self.ego_stopped / n:.0f} % of the frames")
         if self.scene_cuts:
             frames = ", ".join(str(f) for f in self.scene_cuts)
             out.append(f"scene cuts (the ego ran out of road and started again) at frames: {frames}")
@@ -463,7 +469,8 @@ class FrameLoop:
                         )
                         record = replace(record, map=ground_truth)
                 with interrupts_after():
-                    self.summary.add(record.labels, record.scene_cut)
+                    speed = float(np.linalg.norm(state.ego.velocity_map_mps))
+                    self.summary.add(record.labels, record.scene_cut, speed)
                     sinks.write(replace(record, checkpoint=self.checkpoint()))
                 probe.frame_done(frame_index)
                 if frame_index == disk_check_frame(scenario.frames):
@@ -596,6 +603,7 @@ def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr:
         "frames": summary.frames,
         "objects_per_frame": summary.objects / max(summary.frames, 1),
         "seen_per_frame": summary.seen / max(summary.frames, 1),
+        "ego_stopped_share": summary.ego_stopped / max(summary.frames, 1),
         "scene_cuts": summary.scene_cuts,
         "versions": versions,
         "files_sha256": files,

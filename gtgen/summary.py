@@ -1,7 +1,8 @@
 """``summary/``: statistics and pictures of a written dataset, read back from its files.
 
 ``stats.csv`` (per class), ``objects_per_frame.png``, ``distance.png``, ``visibility.png``,
-``lidar_points.png``, and for a few frames ``bev_<frame>.png`` (LiDAR points by class with
+``lidar_points.png``, ``content.csv`` (seen objects within 50 m per frame by class, the ego's
+stopped share: :mod:`gtgen.content`), and for a few frames ``bev_<frame>.png`` (LiDAR points by class with
 the label boxes) and ``camera_<frame>.png`` (the image with tight and projected boxes). A run
 with hazards adds ``events.csv`` (events per kind, per minute, median and smallest time to
 collision) and ``events.png`` (each event's minimum time to collision, by kind). A run with
@@ -23,6 +24,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from gtgen.bev import bev_image, map_bev_image
+from gtgen.content import write_content
 from gtgen.load import iter_messages, lidar_points, load_labels, load_map_frame, objects_from_table, topics
 from networks.geometry import SE3, rotation_from_quaternion_xyzw
 
@@ -184,6 +186,7 @@ def _write_summary(
 ) -> pd.DataFrame:
     stats = class_stats(labels)
     stats.to_csv(folder / "stats.csv", index=False, float_format="%.3f")
+    write_content(out_dir, folder)
     plot_summary(labels, folder)
     n = int(labels["frame"].max()) + 1 if len(labels) else 0
     if n and (out_dir / "run.mcap").exists():

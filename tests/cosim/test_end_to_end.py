@@ -1,5 +1,6 @@
 """A short scene on the skeleton grid, written and read back."""
 
+import json
 import os
 import subprocess
 import sys
@@ -7,6 +8,7 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.reader import make_reader
@@ -158,6 +160,20 @@ def test_summary_writes_statistics_and_pictures(dataset):
     labels = load_labels(dataset / "labels.csv")
     total = stats[stats["class"] == "all"].iloc[0]
     assert total["seen_per_frame"] == pytest.approx((labels["seen"] == 1).sum() / 20)
+    content = dict(pd.read_csv(dataset / "summary" / "content.csv").itertuples(index=False))
+    near = labels[(labels["seen"] == 1) & (labels["distance"] <= 50) & (labels["parked"] == 0)]
+    assert content["car"] == pytest.approx((near["type"] == "car").sum() / 20, abs=1e-3)
+    assert content["frames"] == 20 and content["ego_speed_frames"] == 20
+
+
+def test_ego_stopped_share_from_the_transforms_matches_the_runs_own(dataset):
+    from gtgen.content import measure
+
+    manifest = json.loads((dataset / "manifest.json").read_text())
+    content = measure(dataset)
+    # the run counts SUMO's speed, the tool the distance between frames: they may differ in a frame
+    # where the ego starts or stops
+    assert abs(content.stopped_share - manifest["ego_stopped_share"]) <= 2 / 20
 
 
 def test_static_map_is_written_once_at_the_first_frame_with_every_classed_triangle(dataset):
