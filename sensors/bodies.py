@@ -101,8 +101,10 @@ def circle(cx: float, cz: float, r: float, sides: int, start: float = 0.0) -> li
     ]
 
 
-def tube(p0: F64, p1: F64, r0: float, r1: float, part: int, sides: int = 6) -> Piece:
-    """A tapered rod between two 3D points, closed at both ends."""
+def tube(p0: F64, p1: F64, r0: float, r1: float, part: int, sides: int = 6, flat: float = 1.0) -> Piece:
+    """A tapered rod between two 3D points, closed at both ends; ``flat`` < 1 squeezes its
+    cross-section into an ellipse (for a rod along z: as deep along x as ``flat`` times its
+    width along y)."""
     a, b = np.asarray(p0, np.float64), np.asarray(p1, np.float64)
     axis = b - a
     axis /= np.linalg.norm(axis) or 1.0
@@ -111,7 +113,7 @@ def tube(p0: F64, p1: F64, r0: float, r1: float, part: int, sides: int = 6) -> P
     u /= np.linalg.norm(u)
     v = np.cross(axis, u)
     ang = 2 * np.pi * np.arange(sides) / sides
-    ring = np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * v
+    ring = np.cos(ang)[:, None] * u + flat * np.sin(ang)[:, None] * v
     verts = np.concatenate([a + r0 * ring, b + r1 * ring])
     j = np.arange(sides)
     jn = (j + 1) % sides
@@ -563,16 +565,14 @@ def person(
             )
     lean = 0.0 if seated is None else (0.32 if seated == "bicycle" else 0.22)
     chest = np.array([lean * (shoulder_z - hip_z), 0.0, shoulder_z])
-    pieces.append(
-        tube(
-            np.array([0.0, 0.0, hip_z - 0.05 * s]),
-            chest - np.array([0, 0, 0.02]),
-            0.15 * s * build,
-            0.19 * s * build,
-            Part.TOP,
-            sides=8,
-        )
-    )
+    # the trunk: hips, a narrower waist, a chest wider than deep, rounded shoulders
+    waist = np.array([lean * 0.3 * (shoulder_z - hip_z), 0.0, hip_z + 0.2 * s])
+    hips = np.array([0.0, 0.0, hip_z - 0.05 * s])
+    pieces.append(tube(hips, waist, 0.16 * s * build, 0.145 * s * build, Part.TOP, sides=10, flat=0.7))
+    pieces.append(tube(waist, chest - np.array([0, 0, 0.06 * s]), 0.145 * s * build, 0.19 * s * build, Part.TOP,
+                       sides=10, flat=0.62))  # fmt: skip
+    pieces.append(blob(tuple(chest - np.array([0, 0, 0.06 * s])), (0.12 * s * build, 0.19 * s * build, 0.07 * s),
+                       Part.TOP, rings=4, segments=10))  # fmt: skip
     neck = chest + np.array([0.0, 0.0, 0.06 * s])
     head_c = neck + np.array([0.02, 0.0, 0.13 * s])
     pieces.append(tube(chest, neck, 0.05 * s, 0.05 * s, Part.SKIN))
@@ -584,11 +584,11 @@ def person(
             blob(tuple(head_c + np.array([-0.015, 0.0, 0.035 * s])), (0.1 * s, 0.09 * s, 0.09 * s), Part.HAIR)
         )
     for side in (1.0, -1.0):
-        shoulder = chest + np.array([0.0, side * sh_w, -0.03 * s])
-        if seated is None:
+        shoulder = chest + np.array([0.0, side * sh_w, -0.07 * s])
+        if seated is None:  # arms hang clear of the waist, swinging against the legs
             a = 0.0 if phase is None else -0.35 * math.sin(phase + (0 if side > 0 else math.pi))
-            elbow = shoulder + 0.3 * s * np.array([math.sin(a), 0.03 * side, -math.cos(a)])
-            hand = elbow + 0.27 * s * np.array([math.sin(a + 0.25 * abs(a) + 0.1), 0.0, -math.cos(a + 0.1)])
+            elbow = shoulder + 0.3 * s * np.array([math.sin(a), 0.1 * side, -math.cos(a)])
+            hand = elbow + 0.27 * s * np.array([math.sin(a + 0.25 * abs(a) + 0.1), 0.06 * side, -math.cos(a + 0.1)])
         else:
             hand = np.array([0.55 if seated == "bicycle" else 0.5, side * 0.25, hip_z + 0.25 * s])
             elbow = (shoulder + hand) / 2 + np.array([0.0, side * 0.04, -0.08])
