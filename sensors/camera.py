@@ -236,9 +236,9 @@ def sun_visibility(scene: Scene, origin_map_m: F64, dirs_map: npt.NDArray[np.flo
                    normal: npt.NDArray[np.float32], weather: Weather) -> npt.NDArray[np.bool_]:  # fmt: skip
     """``(N,)`` whether the sun reaches each hit point (a shadow ray towards it hits nothing).
     Misses, points beyond :data:`SHADOW_RANGE_M` and surfaces facing away count as lit; with no
-    sun (night) every point is lit and no ray is cast."""
+    sun and no street lamps overhead every point is lit and no ray is cast."""
     lit = np.ones(range_m.shape[0], np.bool_)
-    if weather.sun_gain <= 0:
+    if weather.sun_gain <= 0 and weather.lamp_key_gain <= 0:
         return lit
     sun = np.asarray(weather.sun_dir_map, np.float32)
     sun /= np.linalg.norm(sun)

@@ -57,7 +57,7 @@ MAX_REFLECTION = 0.45
 glass are not perfect mirrors: dirt, curvature and roughness blur and dim what they show)."""
 CONTACT_M = 0.45
 """How far from a vehicle's footprint its contact shadow fades out."""
-STREET_LIGHT = np.float32(0.28)
+STREET_LIGHT = np.float32(0.18)
 """Light from street lamps at night (of the sun's 2.2 by day), on surfaces facing up most."""
 STREET_LIGHT_FADE_M = 60.0
 STREET_LIGHT_BGR = np.array([0.55, 0.8, 1.0], np.float32)
@@ -364,6 +364,7 @@ def radiance(
             * (np.float32(0.3) + np.float32(0.7) * cos_v)
             * fall
             * forward[at] ** 6
+            * _dipped(p[:, 2] - np.float32(origin_map_m[2]))
         )
     colour = albedo * light[:, None]
     night = np.float32(night_of(weather))
@@ -372,6 +373,13 @@ def radiance(
         lamps = night * STREET_LIGHT * (side + (np.float32(1.0) - side) * np.maximum(nrm[:, 2], 0.0))
         lamps /= np.float32(1.0) + (r / np.float32(STREET_LIGHT_FADE_M)) ** 2
         colour += albedo * lamps[:, None] * STREET_LIGHT_BGR
+    if weather.lamp_key_gain > 0:  # the street lamps overhead, with their shadows
+        key = np.float32(weather.lamp_key_gain) * np.float32(2.2) * sun_cos
+        key /= np.float32(1.0) + (r / np.float32(STREET_LIGHT_FADE_M)) ** 2
+        above = p[:, 2] - np.float32(origin_map_m[2])  # height over the camera (about 1.6 m over the road)
+        key *= np.clip(np.float32(1.0) - (above - np.float32(LAMP_LIT_UP_TO_M)) / np.float32(LAMP_FADE_M), 0.0, 1.0)
+        key *= lamp_pools(p)
+        colour += albedo * key[:, None] * STREET_LIGHT_BGR
     # highlights and reflections
     spec = SPECULAR_BY_PART[pt]
     shiny = np.flatnonzero((spec > 0) | (mirror > 0))
@@ -380,9 +388,8 @@ def radiance(
         half = sun[None, :] - ds
         half /= np.linalg.norm(half, axis=1, keepdims=True)
         hl = np.maximum(np.einsum("ij,ij->i", ns, half), 0.0) ** SHININESS_BY_PART[pt[shiny]]
-        colour[shiny] += (spec[shiny] * hl * sun_lit[at][shiny] * np.float32(weather.sun_gain) * np.float32(3.0))[
-            :, None
-        ]
+        glint = np.float32(weather.sun_gain + weather.lamp_key_gain)
+        colour[shiny] += (spec[shiny] * hl * sun_lit[at][shiny] * glint * np.float32(3.0))[:, None]
         cosi = cos_v[shiny]
         fres = mirror[shiny] + (np.float32(1.0) - mirror[shiny]) * (np.float32(1.0) - cosi) ** 5 * (mirror[shiny] > 0)
         fres = np.minimum(fres, np.float32(MAX_REFLECTION))
@@ -450,6 +457,34 @@ def motion_blur(linear: F32, motion_px: F32) -> F32:
         out += cv2.remap(linear, u + t * motion_px[..., 0], v + t * motion_px[..., 1], cv2.INTER_LINEAR,
                          borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
     return np.asarray(out / np.float32(steps), np.float32)
+
+
+LAMP_LIT_UP_TO_M, LAMP_FADE_M = 3.0, 6.0
+"""Street lamps light what stands up to this high over the camera (about 4.6 m over the road),
+fading out over the next 6 m: facades above the street stay dark."""
+DIPPED_CUTOFF_M, DIPPED_ABOVE = 0.5, np.float32(0.2)
+"""Dipped headlights light what lies below the cutoff (this high over the camera) and send a
+fifth of that above it."""
+
+
+LAMP_SPACING_M, LAMP_POOL_M, LAMP_BETWEEN = 28.0, 7.0, np.float32(0.2)
+"""Street lamps stand every 28 m (a square grid in the map frame); each lights a pool about
+7 m in radius (Gaussian sigma) and a fifth of its light reaches halfway between lamps."""
+
+
+def lamp_pools(points: F32) -> F32:
+    """``(N,)`` how much of the street lamps' light reaches ``points``: 1 under a lamp, falling
+    to :data:`LAMP_BETWEEN` between them (the pools of light along a lit street at night)."""
+    s = np.float32(LAMP_SPACING_M)
+    off = points[:, :2] - np.round(points[:, :2] / s) * s  # from the nearest lamp, per axis
+    d2 = (off**2).sum(axis=1)
+    pool = np.exp(-d2 / np.float32(2.0 * LAMP_POOL_M**2))
+    return (LAMP_BETWEEN + (np.float32(1.0) - LAMP_BETWEEN) * pool).astype(np.float32)
+
+
+def _dipped(above_m: F32) -> F32:
+    """``(N,)`` share of the headlights' light at points ``above_m`` over the camera."""
+    return np.where(above_m < np.float32(DIPPED_CUTOFF_M), np.float32(1.0), DIPPED_ABOVE).astype(np.float32)
 
 
 BLOOM_THRESHOLD = np.float32(1.6)

@@ -37,6 +37,9 @@ class Weather:
     over ``headlight_range_m``; ``haze_m`` is the distance of 63 % haze towards
     ``haze_bgr``; misses show a gradient from ``sky_horizon_bgr`` to ``sky_zenith_bgr``;
     ``exposure`` scales the image and ``noise_sigma`` (0..255 scale) adds Gaussian noise.
+    At night ``lamp_key_gain`` stands for the street lamps overhead: one warm light from
+    ``sun_dir_map`` with its shadows (the realistic camera's shadow rays), so that roofs and
+    bonnets catch the light, sides fall darker and every road user casts a shadow.
     """
 
     name: str
@@ -51,6 +54,7 @@ class Weather:
     lidar_spurious_intensity: float = 0.02
     sun_dir_map: tuple[float, float, float] = (-0.45, 0.35, 0.82)
     sun_gain: float = 0.75
+    lamp_key_gain: float = 0.0
     ambient: float = 0.35
     headlight_gain: float = 0.0
     headlight_range_m: float = 25.0
@@ -70,6 +74,8 @@ class Weather:
             raise SensorConfigError(f"weather {self.name}: need 0 < lidar_spurious_min_m < lidar_spurious_max_m")
         if min(self.lidar_extinction_per_m, self.lidar_range_noise_m, self.noise_sigma, self.ambient) < 0:
             raise SensorConfigError(f"weather {self.name}: extinction, noise and ambient must be >= 0")
+        if self.lamp_key_gain < 0:
+            raise SensorConfigError(f"weather {self.name}: lamp_key_gain must be >= 0")
         if self.haze_m <= 0 or self.headlight_range_m <= 0 or self.exposure <= 0:
             raise SensorConfigError(f"weather {self.name}: haze_m, headlight_range_m and exposure must be > 0")
         sun = np.asarray(self.sun_dir_map, dtype=np.float64)
@@ -83,7 +89,8 @@ class Weather:
 PRESETS: dict[str, Weather] = {
     "day": Weather("day"),
     "night": Weather(
-        "night", sun_gain=0.0, ambient=0.07, headlight_gain=1.0, headlight_range_m=18.0, haze_m=400.0,
+        "night", sun_gain=0.0, lamp_key_gain=0.5, sun_dir_map=(-0.3, 0.24, 0.92325),
+        ambient=0.05, headlight_gain=0.6, headlight_range_m=18.0, haze_m=400.0,
         haze_bgr=(40.0, 25.0, 20.0), sky_horizon_bgr=(45.0, 30.0, 25.0), sky_zenith_bgr=(20.0, 8.0, 5.0),
         exposure=1.0, noise_sigma=6.0,
     ),

@@ -52,7 +52,7 @@ def test_both_engines_give_the_same_hits(town):
         assert (a.instance_id == b.instance_id).mean() >= 0.999 and (
             a.semantic_class == b.semantic_class
         ).mean() >= 0.999
-        assert (a.instance_id > 0).sum() > 100  # agents are in view
+        assert (a.instance_id > 0).sum() > 50  # agents are in view
         same = both & (a.instance_id == b.instance_id)
         assert np.abs(np.abs(np.einsum("ij,ij->i", a.normal[same], b.normal[same])) - 1.0).max() < 1e-3
 
