@@ -17,8 +17,10 @@ import numpy.typing as npt
 from cosim.demand import (
     KINDS,
     PEDESTRIAN,
+    KindSpec,
     TypeVariant,
     busiest,
+    sample_size,
     sample_variants,
     split_by_mix,
     target_vehicle_count,
@@ -33,7 +35,7 @@ from cosim.kinematics import (
     sumo_angle_to_yaw,
 )
 from cosim.net_index import index_net
-from cosim.parking import ParkingArea, additional_xml, find_parking_areas, lane_types
+from cosim.parking import SPACE_LENGTH_M, ParkingArea, additional_xml, find_parking_areas, lane_types
 from cosim.scenario import Scenario
 from cosim.state import WorldState
 from networks.cache import cache_dir, digest, intact, seal, take_notices
@@ -84,6 +86,12 @@ VEHICLE_VARIABLES = (
 """Read for vehicles: the state of every agent, and the lamps SUMO sets (brakes, indicators)."""
 CONTEXT_MARGIN_M = 25.0
 PERSON_ANCHOR = "ego_person_context"
+FASTER_ROAD_SHARE = 1.3
+SIZE_STREAM = 0x5125
+"""Vehicles' own sizes are drawn from a random stream of their own (seeded with the scene's seed
+and this), so that sizing them does not change the rest of the traffic's draws."""
+PARKED_CLEARANCE_M = 0.6
+"""A parked car is at most this much shorter than its parking space."""
 EGO_MOVING_MPS = 2.0
 """The ego is picked among the cars moving faster than this, where any are."""
 
@@ -112,6 +120,7 @@ class Traffic:
     def __init__(self, net_path: Path, net: sumolib.net.Net, scenario: Scenario) -> None:
         self._scenario = scenario
         self._rng = np.random.default_rng(scenario.seed)
+        self._size_rng = np.random.default_rng([scenario.seed, SIZE_STREAM])  # each vehicle's own size
         self._index = index_net(net)
         self._track_ids: dict[str, int] = {}
         self._serial = 0
@@ -235,6 +244,14 @@ class Traffic:
         libsumo.route.add(rid, edges)
         libsumo.vehicle.add(vid, rid, typeID=variant.type_id, depart="now", departLane="best",
                             departPos=depart_pos, departSpeed="max")  # fmt: skip
+        self._size(vid, KINDS[kind])
+
+    def _size(self, vid: str, spec: KindSpec, max_length_m: float = np.inf) -> None:
+        """Give a vehicle a size of its own, drawn from its kind's distribution."""
+        length, width, height = sample_size(spec, self._size_rng, max_length_m)
+        libsumo.vehicle.setLength(vid, length)
+        libsumo.vehicle.setWidth(vid, width)
+        libsumo.vehicle.setHeight(vid, height)
 
     def _walk(self) -> list[str]:
         """Footpath edges of a walk between two distinct footpaths, starting out of the ego's
@@ -296,6 +313,7 @@ class Traffic:
                 lane_index = area.lane_id.rsplit("_", 1)[1]
                 libsumo.vehicle.add(vid, f"park_{area_id}", typeID=variant.type_id, depart="now",
                                     departLane=lane_index, departPos="stop", departSpeed="0")  # fmt: skip
+                self._size(vid, KINDS["car"], SPACE_LENGTH_M - PARKED_CLEARANCE_M)
                 libsumo.vehicle.setParkingAreaStop(vid, area_id, duration=1e7)
                 self._parked.add(vid)
         self.counts.parked = len(self._parked)
@@ -342,8 +360,8 @@ class Traffic:
 
     def _keep_to_its_roads(self) -> None:
         """A hazard scene's ego is sent to the destination, of 20 drawn among the roads as fast as
-        its own (and the one it had), whose route keeps to such roads the longest (a motorway ego
-        does not leave the motorway at the next exit)."""
+        its own (:func:`_as_fast`; and the one it had), whose route keeps to such roads the
+        longest (a motorway ego does not leave the motorway at the next exit)."""
         route = list(libsumo.vehicle.getRoute(self._ego))
         best = (_fast_ahead_m(self._ego), route[-1])
         edges = self._ego_targets()
@@ -441,7 +459,7 @@ class Traffic:
         if not self._scenario.hazards or not lane or lane.startswith(":"):
             return edges
         limit = libsumo.lane.getMaxSpeed(lane)
-        return [e for e in edges if libsumo.lane.getMaxSpeed(f"{e}_0") >= limit - 0.1] or edges
+        return [e for e in edges if _as_fast(libsumo.lane.getMaxSpeed(f"{e}_0"), limit)] or edges
 
     def _retarget_ego(self, edges: list[str]) -> None:
         """Send the ego on to a road drawn from ``edges`` (its route then goes on for more than
@@ -592,6 +610,7 @@ class Traffic:
         cached = self._statics.get(sid)
         if cached is None:
             type_id = domain.getTypeID(sid)  # type: ignore[attr-defined]
+            type_id = type_id.split("@", 1)[0]  # a vehicle sized alone has its own copy of its type: "car_2@car_17"
             kind = "car" if type_id == "ego_car" else type_id.rsplit("_", 1)[0]
             spec = PEDESTRIAN if kind == "pedestrian" else KINDS.get(kind, KINDS["car"])
             cached = (int(spec.semantic_class), domain.getLength(sid), domain.getWidth(sid), domain.getHeight(sid))  # type: ignore[attr-defined]
@@ -648,10 +667,17 @@ def _fast_ahead_m(vid: str, up_to_m: float = 10_000.0) -> float:
     route, at = libsumo.vehicle.getRoute(vid), libsumo.vehicle.getRouteIndex(vid)
     ahead = -libsumo.vehicle.getLanePosition(vid)
     for road in route[at:]:
-        if libsumo.lane.getMaxSpeed(f"{road}_0") < limit - 0.1 or ahead >= up_to_m:
+        if not _as_fast(libsumo.lane.getMaxSpeed(f"{road}_0"), limit) or ahead >= up_to_m:
             break
         ahead += libsumo.lane.getLength(f"{road}_0")
     return float(max(ahead, 0.0))
+
+
+def _as_fast(road_mps: float, own_mps: float) -> bool:
+    """Whether a road's speed limit is like a vehicle's own road's: as fast, and less than
+    ``FASTER_ROAD_SHARE`` faster (a motorway ego stays on the motorway; a town ego does not
+    take the ring road, where a scene's hazards at crossings and lights cannot happen)."""
+    return own_mps - 0.1 <= road_mps <= FASTER_ROAD_SHARE * own_mps + 0.1
 
 
 def _spread(items: list[str], count: int) -> list[str]:

@@ -49,6 +49,8 @@ class HazardController(Vehicles, Jaywalkers, RedLights):
         for index, hazard in enumerate(self._hazards):
             self._prepare(index, hazard, ego, now)
         self._hold_ego_lane(ego)
+        if any(h.kind == "red_light" for h in self._hazards):
+            self._green_ahead(ego, actuate=True)  # the ego does not wait at a red: it is to approach greens
 
     def active(self, track_id: Callable[[str], int], ego: str) -> tuple[ActiveHazard, ...]:
         shown = sorted((e for e in self._events if e.number), key=lambda e: e.number)

@@ -1,6 +1,8 @@
 """Red-light runners: while the ego approaches its green, a vehicle on a crossing approach runs
 its red (the ego's light turns green as it comes, as an actuated light would; a crossing car
-is made out of the rig's sight where none could run)."""
+is made out of the rig's sight where none could run). In a scene with red-light runners every
+light the ego comes to turns green for it so: an ego waiting at a red when an event is due
+would pass its light too close to it, and its next light may be far away."""
 
 from __future__ import annotations
 

@@ -163,6 +163,29 @@ def follow(vid: str, ego: str) -> bool:
     return True
 
 
+def join(vid: str, ego: str) -> bool:
+    """Route a vehicle beside or behind the ego along the ego's way, from the road it is on
+    (it drives beside the ego as long as the ego goes on, rather than turning off or arriving
+    where its own trip ends; in a junction, it keeps its route); False: no way leads from its
+    road to the ego's."""
+    road = libsumo.vehicle.getRoadID(vid)
+    route, at = list(libsumo.vehicle.getRoute(ego)), libsumo.vehicle.getRouteIndex(ego)
+    if road.startswith(":"):
+        return True
+    if road in route[at:]:
+        way = route[route.index(road, at) :]
+    else:
+        found = libsumo.simulation.findRoute(road, route[at])
+        if not found.edges:
+            return False
+        way = [*found.edges, *route[at + 1 :]]
+    try:
+        libsumo.vehicle.setRoute(vid, way)
+    except libsumo.TraCIException:
+        return False
+    return True
+
+
 def lane_ahead(ego: str) -> tuple[str, ...]:
     """The lanes the ego's route continues on from its lane (SUMO's best lanes)."""
     lane = libsumo.vehicle.getLaneID(ego)

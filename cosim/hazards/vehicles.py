@@ -167,7 +167,7 @@ class Vehicles(Base):
             return None  # no gap in metres is also one in seconds at this speed
         gap_m = float(self._rng.uniform(near, far))
         found = self._beside(ego, now, event.due_s, gap_m, CUT_IN_ROAD_M)
-        if found is None:
+        if found is None or not roads.join(found[0], ego):
             return None
         event.gap_m = gap_m
         self._drive(event, found[0], now, found[1])

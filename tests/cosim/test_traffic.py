@@ -10,12 +10,12 @@ import shapely
 import sumolib
 from shapely.geometry import Point
 
-from cosim.demand import busiest
+from cosim.demand import KINDS, busiest
 from cosim.net_index import index_net
-from cosim.parking import lane_types
+from cosim.parking import SPACE_LENGTH_M, lane_types
 from cosim.scenario import load_scenario
 from cosim.soak import soak
-from cosim.traffic import Traffic
+from cosim.traffic import PARKED_CLEARANCE_M, Traffic
 from cosim.world_setup import PreparedNetwork, prepare_network
 from networks.classes import SemanticClass
 from networks.world import lane_footprint
@@ -74,6 +74,7 @@ def test_parked_cars_stand_still_on_parking_lanes_and_are_labelled_parked():
     parked = first.agents.parked
     assert parked.sum() == 25
     assert set(np.unique(first.agents.semantic_class[parked]).tolist()) == {SemanticClass.CAR}
+    assert np.all(first.agents.lwh_m[parked, 0] <= SPACE_LENGTH_M - PARKED_CLEARANCE_M + 1e-6)  # they fit their space
     types = lane_types(prepared.net_path)
     on_parking = _lane_area(prepared.net, types, "parking").buffer(0.3)
     driving = _lane_area(prepared.net, types, "driving").buffer(-0.3)
@@ -115,6 +116,9 @@ def test_density_sets_the_number_of_vehicles(density):
     vehicles = int(np.sum(state.agents.semantic_class != SemanticClass.PEDESTRIAN)) + 1  # the ego drives too
     expected = density * lane_km
     assert abs(vehicles - expected) <= max(3.0, 0.1 * expected), (vehicles, expected)
+    cars = state.agents.lwh_m[state.agents.semantic_class == SemanticClass.CAR]
+    assert len({tuple(c) for c in cars.round(2).tolist()}) >= 0.9 * len(cars)  # each car its own size
+    assert abs(float(cars[:, 0].mean()) - KINDS["car"].mean_lwh_m[0]) < 0.25  # nuScenes' 4.62 m
 
 
 def test_on_ramp_start_puts_the_ego_on_an_entrance_ramp_that_merges_into_the_motorway():
