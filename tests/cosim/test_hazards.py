@@ -168,9 +168,9 @@ def _made_and_gone(monkeypatch: pytest.MonkeyPatch, scene: str, *overrides: str)
 @pytest.mark.slow
 @pytest.mark.parametrize(("scene", "overrides"), [
     ("town06_cut_ins", ["traffic.vehicles_per_lane_km=1"]),
-    ("town05_hard_braking", ["traffic.vehicles_per_lane_km=1"]),
+    ("town05_hard_braking", ["traffic.vehicles=0"]),  # no traffic: even a sparse one may offer a leader
     ("town05_jaywalkers", ["hazards=[{kind: jaywalker, per_minute: 3, distance_m: [12, 50], behind_parked: false}]"]),
-    ("town05_red_light", ["traffic.vehicles_per_lane_km=1"]),
+    ("town05_red_light", ["traffic.vehicles=0"]),  # or a vehicle that could run the red
 ])  # fmt: skip
 def test_actors_made_for_events_come_and_go_out_of_the_rigs_sight(monkeypatch, scene, overrides):
     """Where the traffic offers no actor, one is made: cars behind the ego (cut-ins), ahead of it
