@@ -25,7 +25,7 @@ from sensors.radar import RadarSpec
 
 CATALOG_DIR = Path(__file__).parent / "catalog"
 MAX_SEED = 2**31 - 1  # SUMO takes a signed 32-bit seed
-AGENT_KINDS = ("car", "truck", "bus", "motorcycle", "bicycle")
+AGENT_KINDS = ("car", "truck", "truck_trailer", "bus", "motorcycle", "bicycle")
 
 
 def _check(ok: bool, key: str, expected: str, got: object) -> None:
@@ -100,6 +100,28 @@ class EgoConfig:
 
     route: tuple[str, ...] = ()
     start: Literal["any", "urban", "highway", "on_ramp"] = "any"
+
+
+@dataclass(frozen=True, slots=True)
+class ConstructionConfig:
+    """A construction zone closing one lane of the SUMO edge ``edge`` ("": none): lane ``lane``
+    (0 is the rightmost) is closed to traffic over the whole edge, so traffic merges into the
+    next lane before it; cones, barriers and a construction vehicle (``vehicle``) stand on it
+    from ``start_m`` along it for about ``length_m`` (cosim/construction.py), cones every
+    ``cone_spacing_m``. The edge needs another lane open to cars."""
+
+    edge: str = ""
+    lane: int = 0
+    start_m: float = 5.0
+    length_m: float = 60.0
+    cone_spacing_m: float = 4.0
+    vehicle: bool = True
+
+    def __post_init__(self) -> None:
+        _check(self.lane >= 0, "lane", "a lane index >= 0 (0: the rightmost)", self.lane)
+        _check(self.start_m >= 0, "start_m", "metres >= 0 along the lane", self.start_m)
+        _check(self.length_m >= 10, "length_m", "metres >= 10", self.length_m)
+        _check(1.0 <= self.cone_spacing_m <= 50.0, "cone_spacing_m", "metres in [1, 50]", self.cone_spacing_m)
 
 
 @dataclass(frozen=True, slots=True)
@@ -206,6 +228,7 @@ class Scenario:
     rig: Literal["default", "kitti", "nuscenes"] = "default"  # a sensor rig preset (cosim/rigs.py) under `sensors`
     street: StreetConfig = field(default_factory=StreetConfig)
     hazards: tuple[HazardConfig, ...] = ()  # cut-ins, hard braking, jaywalkers, red-light runners near the ego
+    construction: ConstructionConfig = field(default_factory=ConstructionConfig)  # a lane closed by a work zone
     sensors: SensorsConfig = field(default_factory=SensorsConfig)
     outputs: OutputsConfig = field(default_factory=OutputsConfig)
     name: str = "scenario"

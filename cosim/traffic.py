@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from cosim.construction import zone_layout
 from cosim.demand import (
     KINDS,
     PEDESTRIAN,
@@ -38,6 +39,7 @@ from cosim.net_index import index_net
 from cosim.parking import SPACE_LENGTH_M, ParkingArea, additional_xml, find_parking_areas, lane_types
 from cosim.scenario import Scenario
 from cosim.state import WorldState
+from cosim.trailers import HITCH_BEHIND_M, Combination, hitch_point, pulled_axle, trailer_box_center
 from networks.cache import cache_dir, digest, intact, seal, take_notices
 from networks.classes import SemanticClass
 from networks.errors import clipped, quoted
@@ -171,6 +173,36 @@ class Traffic:
                                              Sight.of_rig(scenario.sensors),
                                              shortest.type_id if shortest is not None else "", cars)  # fmt: skip
         self._ego_collided = False
+        self._trailers: dict[str, Combination] = {}  # SUMO id -> lengths, for trucks with a trailer
+        self._axles: dict[str, tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64]]] = {}
+        self._works = self._close_lane(net) if scenario.construction.edge else Agents.empty()
+
+    def _close_lane(self, net: sumolib.net.Net) -> Agents:
+        """Close the construction zone's lane to every vehicle; its objects (track ids given as
+        world states are read)."""
+        zone = self._scenario.construction
+        where = f"construction.edge {zone.edge!r}"
+        if not net.hasEdge(zone.edge):
+            raise TrafficError(f"{where}: no such edge in the network")
+        lanes = net.getEdge(zone.edge).getLanes()
+        if zone.lane >= len(lanes):
+            raise TrafficError(
+                f"construction.lane {zone.lane}: {where} has {len(lanes)} lane(s), 0 to {len(lanes) - 1}"
+            )
+        open_lanes = [k for k, ln in enumerate(lanes) if k != zone.lane and ln.allows("passenger")]
+        if not open_lanes:
+            raise TrafficError(f"{where}: closing lane {zone.lane} leaves no lane open to cars; pick a wider road")
+        lane = lanes[zone.lane]
+        libsumo.lane.setDisallowed(lane.getID(), ["all"])
+        side = 1 if max(open_lanes) > zone.lane else -1  # the open lane beside it: left (+1) or right
+        layout = zone_layout(lane.getShape3D(), lane.getWidth(), side, zone.start_m, zone.length_m,
+                             zone.cone_spacing_m, zone.vehicle)  # fmt: skip
+        n = len(layout)
+        agents = Agents.standing(np.arange(1, n + 1, dtype=np.uint32), layout.semantic_class, layout.center_map_m,
+                                 layout.lwh_m, layout.yaw_map_rad)  # fmt: skip
+        parked = layout.semantic_class == int(SemanticClass.CONSTRUCTION_VEHICLE)  # stands for the whole scene
+        return Agents(agents.instance_id, agents.semantic_class, agents.center_map_m, agents.lwh_m,
+                      agents.yaw_map_rad, agents.pitch_rad, agents.velocity_map_mps, parked)  # fmt: skip
 
     def _open_targets(self, targets: dict[str, int]) -> dict[str, int]:
         """The vehicle counts of the kinds some lane of the network is open to; a notice for each other."""
@@ -565,6 +597,9 @@ class Traffic:
             cls[i], lwh[i, 0], lwh[i, 1], lwh[i, 2] = self._static_attributes(sid, domain)
         yaw = sumo_angle_to_yaw(angle)
         pitch = np.radians(slope)
+        pulling = [i for i, sid in enumerate(ids[: len(vehicles)]) if sid in self._trailers]
+        for i in pulling:
+            lwh[i, 0] = self._trailers[ids[i]].truck_m
         center = front_bumper_to_center(front, yaw, pitch, lwh[:, 0], lwh[:, 2])
         velocity = heading_vectors(yaw, pitch) * speed[:, None]
         track = np.array([self._track_id(s) for s in ids], dtype=np.uint32)
@@ -574,6 +609,10 @@ class Traffic:
         sumo_signals[~self._turn_signal_shown(rows)] &= ~(SUMO_BLINKER_LEFT | SUMO_BLINKER_RIGHT)
         lamps = lamps_of(sumo_signals, np.isin(cls, LAMPED_CLASSES), parked, self._time(), track)
         agents = Agents(track, cls, center, lwh, yaw, pitch, velocity, parked, lamps)
+        agents = agents.joined(self._trailers_of([ids[i] for i in pulling], agents.select(np.asarray(pulling, np.intp)),
+                                                 front[pulling]))  # fmt: skip
+        agents = agents.joined(self._works_now())
+        is_ego = np.concatenate([is_ego, np.zeros(len(agents) - n, np.bool_)])
         if not is_ego.any():
             raise TrafficError(f"the ego vehicle {self._ego!r} is not among the agents read at t={self._time():.2f} s")
         e = int(np.flatnonzero(is_ego)[0])
@@ -585,6 +624,45 @@ class Traffic:
         hazards = () if self._hazards is None else self._hazards.active(self._track_id, self._ego)
         return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut, signals, lane, ahead, hazards,
                           self._ego_collided)  # fmt: skip
+
+    def _trailers_of(self, sids: list[str], trucks: Agents, front: npt.NDArray[np.float64]) -> Agents:
+        """The trailers of the trucks ``sids`` (``trucks``: their boxes, ``front``: their front
+        bumpers), each pulled along by its truck's hitch since the last read (cosim/trailers.py)."""
+        now = self._time()
+        axles = {}
+        rows = []
+        for k, sid in enumerate(sids):
+            combo, yaw, pitch = self._trailers[sid], float(trucks.yaw_map_rad[k]), float(trucks.pitch_rad[k])
+            hitch = hitch_point(front[k, :2], yaw, combo)
+            last = self._axles.get(sid)
+            axle = pulled_axle(None if last is None else last[1], hitch, yaw, combo)
+            center_xy, trailer_yaw = trailer_box_center(hitch, axle, combo)
+            height = float(trucks.lwh_m[k, 2])
+            behind = combo.truck_m + HITCH_BEHIND_M + combo.axle_to_hitch_m
+            z = front[k, 2] - behind * np.sin(pitch) + np.cos(pitch) * height / 2.0
+            center = np.array([center_xy[0], center_xy[1], z])
+            dt = now - last[0] if last is not None else 0.0
+            velocity = (center - last[2]) / dt if last is not None and dt > 0 else trucks.velocity_map_mps[k]
+            axles[sid] = (now, axle, center)
+            rows.append((self._track_id(f"{sid}/trailer"), center, (combo.trailer_m, float(trucks.lwh_m[k, 1]), height),
+                         trailer_yaw, pitch, velocity, bool(trucks.parked[k]), int(trucks.lamps[k])))  # fmt: skip
+        self._axles = axles  # trucks not read this time start in line when read again
+        if not rows:
+            return Agents.empty()
+        cols = list(zip(*rows, strict=True))
+        return Agents(np.array(cols[0], np.uint32), np.full(len(rows), int(SemanticClass.TRAILER), np.uint8),
+                      np.array(cols[1], np.float64), np.array(cols[2], np.float64), np.array(cols[3], np.float64),
+                      np.array(cols[4], np.float64), np.array(cols[5], np.float64), np.array(cols[6], np.bool_),
+                      np.array(cols[7], np.uint8))  # fmt: skip
+
+    def _works_now(self) -> Agents:
+        """The construction zone's objects with their track ids."""
+        w = self._works
+        if not len(w):
+            return w
+        track = np.array([self._track_id(f"works_{k}") for k in range(len(w))], np.uint32)
+        return Agents(track, w.semantic_class, w.center_map_m, w.lwh_m, w.yaw_map_rad, w.pitch_rad,
+                      w.velocity_map_mps, w.parked, w.lamps)  # fmt: skip
 
     def _turn_signal_shown(self, rows: list[tuple[Any, ...]]) -> npt.NDArray[np.bool_]:
         """Whether each vehicle's indicators may flash: in a junction, or within
@@ -615,6 +693,8 @@ class Traffic:
             spec = PEDESTRIAN if kind == "pedestrian" else KINDS.get(kind, KINDS["car"])
             cached = (int(spec.semantic_class), domain.getLength(sid), domain.getWidth(sid), domain.getHeight(sid))  # type: ignore[attr-defined]
             self._statics[sid] = cached
+            if kind == "truck_trailer":
+                self._trailers[sid] = Combination.of(cached[1])
         return cached
 
     @property

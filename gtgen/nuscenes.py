@@ -77,6 +77,10 @@ CATEGORIES = {
     SemanticClass.MOTORCYCLE: ("vehicle.motorcycle", "Motorcycle with its rider."),
     SemanticClass.BICYCLE: ("vehicle.bicycle", "Bicycle with its rider."),
     SemanticClass.PEDESTRIAN: ("human.pedestrian.adult", "Adult pedestrian."),
+    SemanticClass.TRAILER: ("vehicle.trailer", "Trailer pulled by a truck (its own object behind the tractor)."),
+    SemanticClass.CONSTRUCTION_VEHICLE: ("vehicle.construction", "Vehicle designed for construction work."),
+    SemanticClass.TRAFFIC_CONE: ("movable_object.trafficcone", "Traffic cone of a construction zone."),
+    SemanticClass.BARRIER: ("movable_object.barrier", "Temporary barrier closing a lane."),
 }
 # Traffic lights and signs are no nuScenes category (the devkit's renderer has no colour for a
 # new one): they go to an extension table the devkit does not read, traffic_control.json.

@@ -53,6 +53,10 @@ _CATEGORY_OF = {
     SemanticClass.MOTORCYCLE: "vehicle.motorcycle",
     SemanticClass.BICYCLE: "vehicle.bicycle",
     SemanticClass.PEDESTRIAN: "human.pedestrian.adult",
+    SemanticClass.TRAILER: "vehicle.trailer",
+    SemanticClass.CONSTRUCTION_VEHICLE: "vehicle.construction",
+    SemanticClass.TRAFFIC_CONE: "movable_object.trafficcone",
+    SemanticClass.BARRIER: "movable_object.barrier",
 }
 LIDARSEG_LUT = np.zeros(256, np.uint8)  # a class not listed is noise
 for _cls, _name in _CATEGORY_OF.items():

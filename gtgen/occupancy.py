@@ -67,7 +67,9 @@ OCC3D_FREE = OCC3D_CLASSES.index("free")
 # nuScenes-lidarseg category -> Occ3D-nuScenes class (the lidarseg challenge's 16 classes).
 _OCC3D_OF_CATEGORY = {
     "human.pedestrian.adult": "pedestrian", "vehicle.bicycle": "bicycle", "vehicle.bus.rigid": "bus",
-    "vehicle.car": "car", "vehicle.motorcycle": "motorcycle", "vehicle.truck": "truck",
+    "vehicle.car": "car", "vehicle.motorcycle": "motorcycle", "vehicle.truck": "truck", "vehicle.trailer": "trailer",
+    "vehicle.construction": "construction_vehicle", "movable_object.trafficcone": "traffic_cone",
+    "movable_object.barrier": "barrier",
     "flat.driveable_surface": "driveable_surface", "flat.sidewalk": "sidewalk", "flat.terrain": "terrain",
     "static.manmade": "manmade", "static.vegetation": "vegetation",
 }  # fmt: skip
@@ -81,7 +83,8 @@ OCC3D_LUT[FREE_NATIVE] = OCC3D_FREE
 
 PRIORITY = (
     SemanticClass.PEDESTRIAN, SemanticClass.BICYCLE, SemanticClass.MOTORCYCLE, SemanticClass.CAR, SemanticClass.TRUCK,
-    SemanticClass.BUS, SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN, SemanticClass.POLE,
+    SemanticClass.BUS, SemanticClass.TRAILER, SemanticClass.CONSTRUCTION_VEHICLE, SemanticClass.TRAFFIC_CONE,
+    SemanticClass.BARRIER, SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN, SemanticClass.POLE,
     SemanticClass.VEGETATION, SemanticClass.BUILDING, SemanticClass.CURB, SemanticClass.SIDEWALK,
     SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW, SemanticClass.CROSSING, SemanticClass.ROAD,
     SemanticClass.TERRAIN, SemanticClass.NONE,

@@ -24,6 +24,10 @@ class SemanticClass(IntEnum):
     MOTORCYCLE = 13
     BICYCLE = 14
     PEDESTRIAN = 15
+    TRAILER = 16  # the trailer of an articulated truck, its own object behind the tractor
+    CONSTRUCTION_VEHICLE = 17
+    TRAFFIC_CONE = 18  # construction zones' static objects
+    BARRIER = 19
     LANE_MARKING = 20  # white paint: lane, edge, stop and give-way lines, zebra stripes
     LANE_MARKING_YELLOW = 21  # yellow paint
     TRAFFIC_LIGHT = 22
@@ -31,8 +35,9 @@ class SemanticClass(IntEnum):
 
     @property
     def is_agent(self) -> bool:
-        """A road user moved by the traffic simulation."""
-        return SemanticClass.CAR.value <= self.value <= SemanticClass.PEDESTRIAN.value
+        """An object labelled in every output (3D box, track): the road users the traffic moves, the
+        trailers they pull, and the construction zones' vehicles, cones and barriers."""
+        return SemanticClass.CAR.value <= self.value <= SemanticClass.BARRIER.value
 
     @property
     def is_paint(self) -> bool:

@@ -38,7 +38,8 @@ from networks.markings import PaintedLine, crossing_lanes, painted_lines, read_r
 MAP_VERSION = "2"  # part of the cache key of a network's map.json
 ELEMENT_TYPES = ("lane_divider", "edge_line", "stop_line", "road_boundary", "crossing", "lane_centre")
 RASTER_LAYERS = ("drivable", "lane_divider", "road_boundary", "crossing", "walkway", "car", "truck", "bus",
-                 "motorcycle", "bicycle", "pedestrian")  # fmt: skip
+                 "motorcycle", "bicycle", "pedestrian", "trailer", "construction_vehicle", "traffic_cone",
+                 "barrier")  # fmt: skip
 ROLE_TYPE = {"divider": "lane_divider", "edge": "edge_line", "stop": "stop_line", "give_way": "stop_line"}
 
 

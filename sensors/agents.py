@@ -99,6 +99,10 @@ class Agents:
             self.lamps[mask],
         )  # fmt: skip
 
+    def joined(self, other: Agents) -> Agents:
+        """These agents followed by ``other``'s."""
+        return Agents(*(np.concatenate([getattr(self, f), getattr(other, f)]) for f in AGENT_FIELDS))
+
     def rotations(self) -> npt.NDArray[np.float64]:
         """``(N, 3, 3)`` map_R_box: yaw about +z after pitch about the box's y axis."""
         return box_rotations(self.yaw_map_rad, self.pitch_rad)
@@ -114,6 +118,10 @@ class Agents:
         found = ids[pos] == instance_id
         out[found] = self.velocity_map_mps[order[pos[found]]]
         return out
+
+
+AGENT_FIELDS = ("instance_id", "semantic_class", "center_map_m", "lwh_m", "yaw_map_rad", "pitch_rad",
+                "velocity_map_mps", "parked", "lamps")  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)

@@ -7,13 +7,15 @@ its box, so every LiDAR point of an agent stays inside its label.
 
 Cars come as sedan, hatchback, estate, SUV, van and pickup; trucks as a box truck and a
 tractor with a semi-trailer; buses as a city bus and a coach; motorcycles and bicycles with a
-rider (the cyclist pedalling); pedestrians in a walking cycle. An agent's body type is the one
+rider (the cyclist pedalling); pedestrians in a walking cycle; trailers as a centre-axle box
+trailer; construction zones' objects as a work truck, a road cone and a water-filled barrier. An agent's body type is the one
 whose nominal size fits its l/w/h best, ties broken by its instance id, so it is stable over
 its track (:func:`body_of`).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -659,6 +661,102 @@ def motorcycle() -> Piece:
     return merge(pieces + rider)
 
 
+def _recoloured(piece: Piece, parts: dict[int, int]) -> Piece:
+    out = piece.parts.copy()
+    for old, new in parts.items():
+        out[piece.parts == old] = new
+    return Piece(piece.vertices, piece.triangles, out)
+
+
+def work_truck(length: float = 7.0, width: float = 2.5, h: float = 3.2) -> Piece:
+    """A construction site's truck: a box truck in safety yellow with retro-reflective stripes
+    along its sides and an amber beacon on the cab roof."""
+    body = _recoloured(box_truck(length, width, h), {int(Part.PAINT): int(Part.SAFETY_YELLOW),
+                                                     int(Part.CARGO): int(Part.SAFETY_YELLOW)})  # fmt: skip
+    hl, hw = length / 2, width / 2 - 0.01
+    pieces = [body]
+    for side in (-1.0, 1.0):  # stripes on the box's sides, standing 4 mm out of them
+        y0, y1 = sorted((side * (hw + 0.002), side * (hw + 0.006)))
+        pieces.append(box(-hl + 0.3, hl - 2.9, y0, y1, 1.3, 1.45, Part.RETRO_WHITE))
+    cab_x0, roof = hl - 2.2, min(h - 0.05, 3.0) + 0.003  # the beacon's base stands just off the cab's roof
+    pieces.append(box(cab_x0 + 0.8, cab_x0 + 1.1, -0.15, 0.15, roof, roof + 0.04, Part.TRIM))
+    pieces.append(tube(np.array([cab_x0 + 0.95, 0.0, roof + 0.043]), np.array([cab_x0 + 0.95, 0.0, h]), 0.09, 0.08,
+                       Part.INDICATOR, sides=10))  # fmt: skip
+    return merge(pieces)
+
+
+def centre_axle_trailer(length: float = 7.0, width: float = 2.5, h: float = 3.4) -> Piece:
+    """A box trailer on a tandem axle near its middle (its drawbar is not drawn: it would
+    reach out of the trailer's box towards the truck's)."""
+    hl, hw = length / 2, width / 2 - 0.01
+    z0 = 1.15
+    pieces = [box(-hl + 0.02, hl - 0.02, -hw, hw, z0, h, Part.CARGO)]
+    pieces.append(box(-hl + 0.3, hl - 0.3, -0.45, 0.45, 0.55, z0 - 0.01, Part.UNDERBODY))  # chassis
+    pieces.append(box(hl - 0.015, hl, -hw + 0.1, hw - 0.1, z0 + 0.1, h - 0.1, Part.TRIM))  # front wall's frame
+    for side in (-1.0, 1.0):
+        t0, t1 = sorted((side * 0.7 * hw, side * 0.84 * hw))
+        pieces.append(box(-hl, -hl + 0.05, t0, t1, z0 - 0.3, z0 - 0.12, Part.TAIL_LAMP))
+        t0, t1 = sorted((side * (0.84 * hw + 0.01), side * 0.95 * hw))
+        pieces.append(box(-hl, -hl + 0.05, t0, t1, z0 - 0.3, z0 - 0.12, Part.INDICATOR))
+        y0, y1 = sorted((side * (hw - 0.09), side * (hw - 0.05)))
+        pieces.append(box(0.9, hl - 0.4, y0, y1, 0.5, z0 - 0.02, Part.TRIM))  # side guards
+    pieces.append(box(-hl + 0.01, -hl + 0.06, -hw + 0.05, hw - 0.05, z0 - 0.35, z0 - 0.05, Part.TRIM))
+    pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, z0 - 0.48, z0 - 0.36, Part.PLATE))
+    pieces += _rear_doors(-hl + 0.02, hw, z0, h)
+    pieces.append(box(-hl + 0.12, -hl + 0.24, -hw + 0.2, hw - 0.2, 0.42, 0.56, Part.TRIM))  # underrun guard
+    for x in (-0.65, 0.65):
+        for side in (-1.0, 1.0):
+            pieces += wheel(x, 0.45, side * (hw - 0.32), side * (hw - 0.04))
+    return merge(pieces)
+
+
+def traffic_cone(height: float = 0.75) -> Piece:
+    """A road cone (EN 13422's 750 mm class): a black square base, an orange shell with two
+    white retro-reflective collars, each a few millimetres proud of the shell."""
+    base_hw, r0, r1, z0 = 0.2, 0.16, 0.03, 0.035
+    pieces = [box(-base_hw, base_hw, -base_hw, base_hw, 0.0, z0, Part.TRIM)]
+
+    def radius(z: float) -> float:
+        return r0 + (r1 - r0) * (z - z0) / (height - z0)
+
+    cuts = [z0, 0.38 * height, 0.52 * height, 0.62 * height, 0.74 * height, height]
+    for k, (za, zb) in enumerate(itertools.pairwise(cuts)):
+        white = k in (1, 3)
+        lift, trim = (0.004, 0.002) if white else (0.0, 0.0)  # collars: no face in the shell's planes
+        za, zb = (za + 0.002, zb) if k == 0 else (za + trim, zb - trim)
+        pieces.append(tube(np.array([0.0, 0.0, za]), np.array([0.0, 0.0, zb]), radius(za) + lift, radius(zb) + lift,
+                           Part.RETRO_WHITE if white else Part.SAFETY_ORANGE, sides=16))  # fmt: skip
+    return merge(pieces)
+
+
+def barrier(length: float = 2.0, width: float = 0.5, h: float = 1.0) -> Piece:
+    """A water-filled plastic road barrier: a tapering block in alternating orange-red and white
+    sections, a retro-reflective band along both faces near the top."""
+    hl, hw = length / 2, width / 2
+    top_hw = 0.4 * hw
+
+    def half_width(z: float) -> float:
+        return hw + (top_hw - hw) * z / h
+
+    sections = 4
+    step = length / sections
+    pieces = []
+    for k in range(sections):
+        x0, x1 = -hl + k * step + (0.003 if k else 0.0), -hl + (k + 1) * step  # 3 mm joints: no shared faces
+        # the side outline: a foot recess at the bottom, a rounded top
+        outline = [(x0, 0.0), (x0 + 0.12 * step, 0.0), (x0 + 0.18 * step, 0.12), (x1 - 0.18 * step, 0.12),
+                   (x1 - 0.12 * step, 0.0), (x1, 0.0), (x1, 0.9 * h), (x1 - 0.05 * step, 0.97 * h),
+                   (x1 - 0.2 * step, h), (x0 + 0.2 * step, h), (x0 + 0.05 * step, 0.97 * h), (x0, 0.9 * h)]  # fmt: skip
+        part = Part.SAFETY_ORANGE if k % 2 == 0 else Part.RETRO_WHITE
+        pieces.append(prism(outline, half_width, part, part))
+    for side in (-1.0, 1.0):
+        za, zb = 0.72 * h, 0.8 * h
+        y_out = half_width(zb) + 0.006
+        y0, y1 = sorted((side * (half_width(za) - 0.02), side * y_out))
+        pieces.append(box(-hl + 0.05, hl - 0.05, y0, y1, za, zb, Part.RETRO_WHITE))
+    return merge(pieces)
+
+
 def _rigid(build: Callable[[CarShape], Piece], shape: CarShape) -> Callable[[int], Piece]:
     """A builder of one pose: the same mesh whatever the pose index."""
 
@@ -715,6 +813,10 @@ BODIES: dict[int, tuple[Body, ...]] = {
         Body("adult", (0.73, 0.5, 1.75), 0.7, lambda p: pedestrian(_pose_phase(p)), GAIT_PHASES + 1),
         Body("adult_broad", (0.73, 0.6, 1.75), 0.3, lambda p: pedestrian(_pose_phase(p), 1.15), GAIT_PHASES + 1),
     ),
+    int(SemanticClass.TRAILER): (Body("box_trailer", (7.0, 2.5, 3.4), 1.0, lambda _p: centre_axle_trailer()),),
+    int(SemanticClass.CONSTRUCTION_VEHICLE): (Body("work_truck", (7.0, 2.5, 3.2), 1.0, lambda _p: work_truck()),),
+    int(SemanticClass.TRAFFIC_CONE): (Body("cone", (0.4, 0.4, 0.75), 1.0, lambda _p: traffic_cone()),),
+    int(SemanticClass.BARRIER): (Body("water_barrier", (2.0, 0.5, 1.0), 1.0, lambda _p: barrier()),),
 }
 """Body types per agent class; classes not here are drawn as their box."""
 

@@ -33,6 +33,10 @@ _REFLECTIVITY = {
     SemanticClass.MOTORCYCLE: 0.55,
     SemanticClass.BICYCLE: 0.5,
     SemanticClass.PEDESTRIAN: 0.35,
+    SemanticClass.TRAILER: 0.6,
+    SemanticClass.CONSTRUCTION_VEHICLE: 0.6,
+    SemanticClass.TRAFFIC_CONE: 0.5,  # orange plastic; the white bands are retro-reflective parts
+    SemanticClass.BARRIER: 0.5,
 }
 
 # Metal reflects radar far better than asphalt, plants or people.
@@ -55,6 +59,10 @@ _RADAR_REFLECTIVITY = {
     SemanticClass.MOTORCYCLE: 0.6,
     SemanticClass.BICYCLE: 0.35,
     SemanticClass.PEDESTRIAN: 0.15,
+    SemanticClass.TRAILER: 1.0,
+    SemanticClass.CONSTRUCTION_VEHICLE: 1.0,
+    SemanticClass.TRAFFIC_CONE: 0.1,  # plastic
+    SemanticClass.BARRIER: 0.3,
 }
 
 # Blue, green, red in 0..1.
@@ -78,6 +86,10 @@ _ALBEDO_BGR = {
     SemanticClass.MOTORCYCLE: (0.2, 0.2, 0.7),
     SemanticClass.BICYCLE: (0.6, 0.6, 0.2),
     SemanticClass.PEDESTRIAN: (0.35, 0.45, 0.75),
+    SemanticClass.TRAILER: (0.8, 0.8, 0.8),
+    SemanticClass.CONSTRUCTION_VEHICLE: (0.05, 0.6, 0.9),  # construction yellow
+    SemanticClass.TRAFFIC_CONE: (0.05, 0.35, 0.95),  # signal orange
+    SemanticClass.BARRIER: (0.1, 0.1, 0.8),
 }
 
 # Paint colours (BGR, 0..1) cycled over instance ids of vehicles, so that cars differ.

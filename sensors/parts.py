@@ -40,6 +40,9 @@ class Part(IntEnum):
     CARGO = 16  # box bodies of trucks, light colours per instance
     UNDERBODY = 17  # the dark underside and arch linings
     INDICATOR = 18  # amber direction indicators, front and rear corners
+    SAFETY_ORANGE = 19  # traffic cones' and barriers' orange-red plastic
+    RETRO_WHITE = 20  # retro-reflective white sheeting: cone collars, barrier and work-vehicle stripes
+    SAFETY_YELLOW = 21  # construction vehicles' yellow paint
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,6 +85,12 @@ MATERIALS: dict[Part, PartMaterial] = {
     Part.FRAME: PartMaterial((0.18, 0.18, 0.2), 0.5, 40.0, 0.05, 0.0, 0.5, 0.8),
     Part.CARGO: PartMaterial(None, 0.2, 20.0, 0.0, 0.0, 0.55, 1.0),
     Part.UNDERBODY: PartMaterial((0.04, 0.04, 0.04), 0.0, 1.0, 0.0, 0.0, 0.05, 0.8),
+    # Cones and barriers: orange PVC and polyethylene, bright at 905 nm but a weak radar target;
+    # their white bands are retro-reflective sheeting (EN 13422 cones, EN 12899 signs), which
+    # returns like a number plate.
+    Part.SAFETY_ORANGE: PartMaterial((0.05, 0.3, 0.95), 0.25, 20.0, 0.0, 0.0, 0.5, 0.1),
+    Part.RETRO_WHITE: PartMaterial((0.9, 0.9, 0.9), 0.3, 30.0, 0.0, 0.0, 0.95, 0.1),
+    Part.SAFETY_YELLOW: PartMaterial((0.05, 0.65, 0.92), 0.5, 50.0, 0.06, 0.0, 0.55, 1.0),
 }
 
 # Car paint by real-world frequency (BASF/Axalta global colour popularity reports, 2020-2024:
@@ -170,7 +179,7 @@ def lidar_reflectivity(semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[
 # (body paint, cargo bodies) is 0.05 + 0.7 x the mean of the instance's albedo.
 PAINT_REFLECTIVITY_FLOOR, PAINT_REFLECTIVITY_PER_ALBEDO = 0.05, 0.7
 COLOURED_BY_PAINT = (Part.PAINT, Part.CARGO)
-RETRO_PARTS = (Part.PLATE,)
+RETRO_PARTS = (Part.PLATE, Part.RETRO_WHITE)
 
 
 def lidar_reflectance(

@@ -191,10 +191,11 @@ def ground_truth_as_predictions(nusc: NuScenes, split: str, out: Path) -> dict[s
     loaded = load_gt_of_sample_tokens(nusc, samples, DetectionBox)
     loaded_names = sorted({b.detection_name for b in loaded.all})  # before the filter, which works in place
     gt = filter_eval_boxes(nusc, add_center_dist(nusc, loaded), default.class_range)
-    # The simulation has no trailers, construction vehicles, barriers or traffic cones, and a
-    # class without a box the devkit keeps scores AP 0: the classes evaluated are those with
-    # kept boxes. DetectionConfig insists on all ten names, so it is made with the names of the
-    # classes loaded (the devkit's filter needs their ranges), then evaluates the kept ones.
+    # A scene without trailers, construction vehicles, barriers or traffic cones (they come with
+    # construction zones and trucks with trailers) has no box of theirs, and a class without a
+    # box the devkit keeps scores AP 0: the classes evaluated are those with kept boxes.
+    # DetectionConfig insists on all ten names, so it is made with the names of the classes
+    # loaded (the devkit's filter needs their ranges), then evaluates the kept ones.
     present = sorted({b.detection_name for b in gt.all})
     detection = default.serialize()
     detection["class_range"] = {c: default.class_range[c] for c in loaded_names}
@@ -228,7 +229,8 @@ def ground_truth_as_predictions(nusc: NuScenes, split: str, out: Path) -> dict[s
     tracking_metrics, _ = trk.evaluate()
     t_summary = tracking_metrics.serialize()
     return {"mAP": summary["mean_ap"], "NDS": summary["nd_score"], "AMOTA": t_summary["amota"],
-            "detection_classes": present, "tracking_classes": tracked,
+            "detection_classes": present, "tracking_classes": tracked, "class_ap": summary["mean_dist_aps"],
+            "gt_per_class": dict(Counter(b.detection_name for b in gt.all)),
             "gt_boxes": len(gt.all), "samples": len(samples)}  # fmt: skip
 
 

@@ -53,8 +53,11 @@ FORMER_PATHS = ("image_2", "velodyne", "label_2", "calib", "labels", "poses.txt"
 DONT_CARE = "DontCare -1 -1 -10 0.00 0.00 0.00 0.00 -1 -1 -1 -1000 -1000 -1000 -10\n"
 
 # KITTI's own types (Car, Van, Truck, Pedestrian, Person_sitting, Cyclist, Tram, Misc,
-# DontCare): two-wheelers with their rider are Cyclist, a bus is Misc (KITTI's "other
-# vehicles"). ``native``: the simulator's class names instead.
+# DontCare): two-wheelers with their rider are Cyclist, a bus, a trailer and a construction
+# vehicle are Misc (KITTI's "other vehicles"); traffic cones and barriers, which KITTI does
+# not label, are DontCare regions (their 2D box only, so that a detector finding them is
+# neither rewarded nor penalised). ``native``: the simulator's class names, every object with
+# its 3D box.
 KITTI_TYPES = {
     SemanticClass.CAR: "Car",
     SemanticClass.TRUCK: "Truck",
@@ -62,6 +65,10 @@ KITTI_TYPES = {
     SemanticClass.MOTORCYCLE: "Cyclist",
     SemanticClass.BICYCLE: "Cyclist",
     SemanticClass.PEDESTRIAN: "Pedestrian",
+    SemanticClass.TRAILER: "Misc",
+    SemanticClass.CONSTRUCTION_VEHICLE: "Misc",
+    SemanticClass.TRAFFIC_CONE: "DontCare",
+    SemanticClass.BARRIER: "DontCare",
 }
 NATIVE_TYPES = {cls: cls.label.capitalize() for cls in KITTI_TYPES}
 KITTI_MARGIN_M = 0.015
@@ -72,7 +79,9 @@ test of a label finds exactly the object's LiDAR points."""
 
 # Our classes as SemanticKITTI's label ids (its semantic-kitti.yaml): bicycles and
 # motorcycles include their riders, which SemanticKITTI would label bicyclist/motorcyclist;
-# the curb goes with the sidewalk, crossings with the road; 1 "outlier" for spurious returns.
+# the curb goes with the sidewalk, crossings with the road; 1 "outlier" for spurious returns;
+# trailers are SemanticKITTI's other-vehicle (20), construction vehicles its truck (18), traffic
+# cones and barriers its other-object (99).
 SEMANTIC_KITTI_IDS = {
     SemanticClass.NONE: 1,
     SemanticClass.ROAD: 40,
@@ -89,6 +98,10 @@ SEMANTIC_KITTI_IDS = {
     SemanticClass.MOTORCYCLE: 15,
     SemanticClass.BICYCLE: 11,
     SemanticClass.PEDESTRIAN: 30,
+    SemanticClass.TRAILER: 20,
+    SemanticClass.CONSTRUCTION_VEHICLE: 18,
+    SemanticClass.TRAFFIC_CONE: 99,
+    SemanticClass.BARRIER: 99,
     SemanticClass.LANE_MARKING: 60,
     SemanticClass.LANE_MARKING_YELLOW: 60,
     SemanticClass.TRAFFIC_LIGHT: 81,  # SemanticKITTI has no traffic-light class: with the signs
@@ -220,6 +233,10 @@ class KittiSink:
             length, width, height = dims[i]
             x, y, z = location[i]
             occluded = int(cam_labels.visibility.occluded[i])
+            if kitti_type == "DontCare":  # a region: KITTI's DontCare lines carry no 3D box
+                rows.append(f"DontCare -1 -1 -10 {left:.2f} {top:.2f} {right:.2f} {bottom_px:.2f} -1 -1 -1 "
+                            "-1000 -1000 -1000 -10")  # fmt: skip
+                continue
             rows.append(
                 f"{kitti_type} {boxes.truncated[i]:.2f} {occluded} {boxes.alpha_rad[i]:.2f} "
                 f"{left:.2f} {top:.2f} {right:.2f} {bottom_px:.2f} {height:.4f} {width:.4f} {length:.4f} "

@@ -20,16 +20,24 @@ from networks.street import STATES
 
 YOLO_CLASSES = (SemanticClass.CAR, SemanticClass.TRUCK, SemanticClass.BUS, SemanticClass.MOTORCYCLE,
                 SemanticClass.BICYCLE, SemanticClass.PEDESTRIAN)  # fmt: skip
+# After the road users: traffic lights by the state they show (traffic_light_red is 6, ...),
+# then signs by kind (traffic_sign_stop is 11, traffic_sign_yield 12, traffic_sign_speed_limit 13),
+# then the classes added later, so that earlier datasets' ids keep their meaning (trailer 14,
+# construction_vehicle 15, traffic_cone 16, barrier 17).
+LIGHT_CLASSES = {state: len(YOLO_CLASSES) + k for k, state in enumerate(STATES)}
+SIGN_CLASSES = {kind: len(YOLO_CLASSES) + len(STATES) + k for k, kind in enumerate(("stop", "yield", "speed_limit"))}
+LATER_CLASSES = (SemanticClass.TRAILER, SemanticClass.CONSTRUCTION_VEHICLE, SemanticClass.TRAFFIC_CONE,
+                 SemanticClass.BARRIER)  # fmt: skip
+LATER_FROM = len(YOLO_CLASSES) + len(STATES) + len(SIGN_CLASSES)
 _INDEX = np.full(256, -1, np.int64)
 for _i, _c in enumerate(YOLO_CLASSES):
     _INDEX[int(_c)] = _i
-# After the road users: traffic lights by the state they show (traffic_light_red is 6, ...),
-# then signs by kind (traffic_sign_stop is 11, traffic_sign_yield 12, traffic_sign_speed_limit 13).
-LIGHT_CLASSES = {state: len(YOLO_CLASSES) + k for k, state in enumerate(STATES)}
-SIGN_CLASSES = {kind: len(YOLO_CLASSES) + len(STATES) + k for k, kind in enumerate(("stop", "yield", "speed_limit"))}
+for _i, _c in enumerate(LATER_CLASSES):
+    _INDEX[int(_c)] = LATER_FROM + _i
 YOLO_NAMES = {**{i: c.label for i, c in enumerate(YOLO_CLASSES)},
               **{i: f"traffic_light_{state}" for state, i in LIGHT_CLASSES.items()},
-              **{i: f"traffic_sign_{kind}" for kind, i in SIGN_CLASSES.items()}}  # fmt: skip
+              **{i: f"traffic_sign_{kind}" for kind, i in SIGN_CLASSES.items()},
+              **{LATER_FROM + i: c.label for i, c in enumerate(LATER_CLASSES)}}  # fmt: skip
 
 
 def _street_class(subtype: str, state: str) -> int:

@@ -16,6 +16,7 @@ from cosim.parking import SPACE_LENGTH_M, lane_types
 from cosim.scenario import load_scenario
 from cosim.soak import soak
 from cosim.traffic import PARKED_CLEARANCE_M, Traffic
+from cosim.trailers import DRAWBAR_M, HITCH_BEHIND_M
 from cosim.world_setup import PreparedNetwork, prepare_network
 from networks.classes import SemanticClass
 from networks.world import lane_footprint
@@ -203,3 +204,45 @@ def test_vehicles_change_lanes_by_moving_across_not_by_jumping():
                 last[vid] = (road, index, lateral)
     assert len(shifts) >= 10  # lane changes happened
     assert max(abs(s) for s in shifts) < 0.3  # about 2.5 m/s for 0.05 s, not a lane's width
+
+
+def _hitches(agents, index: np.ndarray, behind_m: np.ndarray) -> np.ndarray:
+    """``(K, 2)`` points ``behind_m`` behind the front (+) or rear (-) of the given boxes."""
+    heading = np.column_stack([np.cos(agents.yaw_map_rad[index]), np.sin(agents.yaw_map_rad[index])])
+    return agents.center_map_m[index, :2] + heading * behind_m[:, None]
+
+
+def test_a_construction_zone_closes_its_lane_and_trailers_hang_on_their_trucks_hitches():
+    overrides = (*LIGHT, "warmup_s=20", "traffic.mix.truck_trailer=0.6")
+    works = (SemanticClass.TRAFFIC_CONE, SemanticClass.BARRIER, SemanticClass.CONSTRUCTION_VEHICLE)
+    bends, pairs, first = [], 0, None
+    with running("town05_construction", *overrides) as (traffic, prepared):
+        zone = traffic._scenario.construction
+        closed = lane_footprint(prepared.net.getEdge(zone.edge).getLanes()[zone.lane]).buffer(-0.9)
+        for step in range(200):
+            traffic.step()
+            state = traffic.world_state(everyone=True)
+            a = state.agents
+            static = np.isin(a.semantic_class, [int(c) for c in works])
+            first = first if first is not None else (a.instance_id[static], a.center_map_m[static])
+            np.testing.assert_array_equal(a.instance_id[static], first[0])  # the zone stands still
+            np.testing.assert_array_equal(a.center_map_m[static], first[1])
+            moving = np.flatnonzero(~static & (a.semantic_class != int(SemanticClass.PEDESTRIAN)))
+            inside = [closed.contains(Point(*a.center_map_m[i, :2])) for i in moving]
+            assert not any(inside) or step < 40, "a vehicle drives in the closed lane"
+            trailers = np.flatnonzero(a.semantic_class == int(SemanticClass.TRAILER))
+            trucks = np.flatnonzero(a.semantic_class == int(SemanticClass.TRUCK))
+            if not len(trailers):
+                continue
+            at_trailer = _hitches(a, trailers, a.lwh_m[trailers, 0] / 2 + DRAWBAR_M)
+            at_truck = _hitches(a, trucks, -(a.lwh_m[trucks, 0] / 2 + HITCH_BEHIND_M))
+            gaps = np.linalg.norm(at_trailer[:, None] - at_truck[None], axis=2)
+            mate = gaps.argmin(axis=1)
+            level = np.abs(a.pitch_rad[trailers]) < 1e-3  # on slopes the boxes' centres shift by pitch x height
+            assert np.all(gaps.min(axis=1)[level] < 0.01) and np.all(gaps.min(axis=1) < 0.3)  # hung on a hitch
+            pairs += len(trailers)
+            bends += np.abs(np.angle(np.exp(1j * (a.yaw_map_rad[trailers] - a.yaw_map_rad[trucks[mate]])))).tolist()
+    counts = {c: int(np.sum(a.semantic_class[static] == int(c))) for c in works}
+    assert counts[SemanticClass.BARRIER] == 2 and counts[SemanticClass.CONSTRUCTION_VEHICLE] == 1
+    assert counts[SemanticClass.TRAFFIC_CONE] >= 18
+    assert pairs > 100 and max(bends) > 0.2  # trailers bend behind turning trucks
