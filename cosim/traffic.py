@@ -214,7 +214,11 @@ class Traffic:
     # --- set-up --------------------------------------------------------------------------
     def _define_types(self) -> dict[str, list[TypeVariant]]:
         variants: dict[str, list[TypeVariant]] = {}
-        for spec in [*KINDS.values(), PEDESTRIAN]:
+        mix = self._scenario.traffic.mix
+        # kinds added later (trucks with trailers) draw their types only where the mix has them,
+        # so that scenes without them keep their random draws, and so their traffic
+        optional = {"truck_trailer"}
+        for spec in [s for s in KINDS.values() if s.kind not in optional or mix.get(s.kind, 0) > 0] + [PEDESTRIAN]:
             base = "DEFAULT_PEDTYPE" if spec is PEDESTRIAN else "DEFAULT_VEHTYPE"
             variants[spec.kind] = sample_variants(spec, self._rng)
             for v in variants[spec.kind]:
