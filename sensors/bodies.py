@@ -8,9 +8,9 @@ its box, so every LiDAR point of an agent stays inside its label.
 Cars come as sedan, hatchback, estate, SUV, van and pickup; trucks as a box truck and a
 tractor with a semi-trailer; buses as a city bus and a coach; motorcycles and bicycles with a
 rider (the cyclist pedalling); pedestrians in a walking cycle; trailers as a centre-axle box
-trailer; construction zones' objects as a work truck, a road cone and a water-filled barrier. An agent's body type is the one
-whose nominal size fits its l/w/h best, ties broken by its instance id, so it is stable over
-its track (:func:`body_of`).
+trailer; construction zones' objects as a work truck, a road cone and a water-filled barrier.
+An agent's body type is the one whose nominal size fits its l/w/h best, ties broken by its
+instance id, so it is stable over its track (:func:`body_of`).
 """
 
 from __future__ import annotations
