@@ -68,9 +68,11 @@ KINDS: dict[str, KindSpec] = {
                  (6.9, 2.38, 2.73), (2.2, 0.1, 0.5)),
         # A truck with a centre-axle trailer, moved by SUMO as one vehicle and labelled as a
         # truck and a trailer (cosim/trailers.py); 18.75 m is the EU's limit for such a road
-        # train; sizes uniform within the ranges (no dataset measures the pair as one).
+        # train; the sizes of the whole combination are assumed (17.0 m +- 0.8, as wide as the
+        # law allows, 3.6 m high +- 0.2: the box bodies of road trains).
         KindSpec("truck_trailer", "truck", SemanticClass.TRUCK,
-                 (15.5, 18.5), (2.45, 2.55), (3.3, 3.9), (22, 25), (0.8, 1.2), 4.0, "truck/trailer"),
+                 (15.5, 18.5), (2.45, 2.55), (3.3, 3.9), (22, 25), (0.8, 1.2), 4.0, "truck/trailer",
+                 (17.0, 2.5, 3.6), (0.8, 0.03, 0.2)),
         KindSpec("bus", "bus", SemanticClass.BUS,
                  (9.0, 13.5), (2.45, 2.55), (3.0, 3.9), (22, 27), (1.0, 1.3), 4.0, "bus",
                  (11.19, 2.52, 3.47), (1.0, 0.03, 0.2)),
