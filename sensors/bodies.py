@@ -258,8 +258,9 @@ def car(s: CarShape) -> Piece:
         return cabin_hw0 - (z - s.belt_z) * 0.28
 
     def glass_or_roof(nx: float, nz: float) -> int:
-        # the roof and the rear face are paint: the rear window is a panel set into it
-        return int(Part.PAINT) if nz > 0.85 or nz < -0.85 or nx < -0.2 else int(Part.GLASS)
+        # the roof (level) and the rear face are paint: the rear window is a panel set into it;
+        # a windscreen raked as far as 14 degrees from level stays glass
+        return int(Part.PAINT) if nz > 0.97 or nz < -0.85 or nx < -0.2 else int(Part.GLASS)
 
     pieces.append(prism(green, cabin, Part.GLASS, glass_or_roof))
     # the rear window: narrower than the rear face, framed by thick pillars, inset from the roof

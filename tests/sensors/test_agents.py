@@ -74,6 +74,24 @@ def test_vehicles_have_the_parts_detectors_learn() -> None:
     assert {Part.SKIN, Part.HAIR, Part.TOP, Part.TROUSERS, Part.SHOES} <= walker
 
 
+def test_every_car_shows_a_windscreen_and_a_rear_window_of_glass() -> None:
+    """Glass facing forward and up (the windscreen, however far it is raked) and facing back
+    (the rear window) on every car body type; the roof is paint."""
+    for i, body in enumerate(BODIES[int(SemanticClass.CAR)]):
+        t = template_of(int(SemanticClass.CAR), i, 0)
+        v = t.unit_vertices[t.triangles] * np.asarray(body.lwh_m)  # (M, 3, 3) in metres
+        n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+        glass = t.triangle_part == Part.GLASS
+        area = 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
+        ahead = glass & (np.abs(n[:, 0]) > 0.3) & (np.abs(n[:, 2]) > 0.3) & (v[:, :, 0].mean(axis=1) > 0)
+        behind = glass & (np.abs(n[:, 0]) > 0.3) & (v[:, :, 0].mean(axis=1) < 0)
+        assert area[ahead].sum() > 0.5, (body.name, area[ahead].sum())  # m2 of windscreen
+        assert area[behind].sum() > 0.2, (body.name, area[behind].sum())
+        roof = (np.abs(n[:, 2]) > 0.99) & (v[:, :, 2].mean(axis=1) > 0.45 * body.lwh_m[2])
+        assert area[glass & roof].sum() < 0.02, body.name  # at most the thin edges of a window panel
+
+
 def test_every_body_type_lies_inside_its_box_over_its_class_size_range() -> None:
     r = np.random.default_rng(5)
     rows = []
