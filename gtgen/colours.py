@@ -28,6 +28,8 @@ CLASS_RGB: dict[int, tuple[float, float, float]] = {
     SemanticClass.LANE_MARKING_YELLOW: (1.0, 0.85, 0.1),
     SemanticClass.TRAFFIC_LIGHT: (0.1, 1.0, 0.4),
     SemanticClass.TRAFFIC_SIGN: (1.0, 0.3, 0.6),
+    SemanticClass.FENCE: (0.55, 0.45, 0.3),
+    SemanticClass.OTHER_OBJECT: (0.6, 0.3, 0.9),
 }
 
 

@@ -47,6 +47,8 @@ _CATEGORY_OF = {
     SemanticClass.POLE: "static.manmade",
     SemanticClass.TRAFFIC_LIGHT: "static.manmade",
     SemanticClass.TRAFFIC_SIGN: "static.manmade",
+    SemanticClass.FENCE: "static.manmade",  # guard rails and fences are man-made structures in nuScenes-lidarseg
+    SemanticClass.OTHER_OBJECT: "static.manmade",  # so are benches, bins and bus stops
     SemanticClass.CAR: "vehicle.car",
     SemanticClass.TRUCK: "vehicle.truck",
     SemanticClass.BUS: "vehicle.bus.rigid",

@@ -85,9 +85,9 @@ PRIORITY = (
     SemanticClass.PEDESTRIAN, SemanticClass.BICYCLE, SemanticClass.MOTORCYCLE, SemanticClass.CAR, SemanticClass.TRUCK,
     SemanticClass.BUS, SemanticClass.TRAILER, SemanticClass.CONSTRUCTION_VEHICLE, SemanticClass.TRAFFIC_CONE,
     SemanticClass.BARRIER, SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN, SemanticClass.POLE,
-    SemanticClass.VEGETATION, SemanticClass.BUILDING, SemanticClass.CURB, SemanticClass.SIDEWALK,
-    SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW, SemanticClass.CROSSING, SemanticClass.ROAD,
-    SemanticClass.TERRAIN, SemanticClass.NONE,
+    SemanticClass.OTHER_OBJECT, SemanticClass.FENCE, SemanticClass.VEGETATION, SemanticClass.BUILDING,
+    SemanticClass.CURB, SemanticClass.SIDEWALK, SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW,
+    SemanticClass.CROSSING, SemanticClass.ROAD, SemanticClass.TERRAIN, SemanticClass.NONE,
 )  # fmt: skip
 _RANK = np.full(256, len(PRIORITY), np.int64)
 for _rank, _cls in enumerate(PRIORITY):

@@ -29,6 +29,8 @@ MAP_RGBA: dict[SemanticClass, tuple[float, float, float, float]] = {
     SemanticClass.LANE_MARKING_YELLOW: (0.95, 0.8, 0.1, 1.0),
     SemanticClass.TRAFFIC_LIGHT: (0.15, 0.15, 0.15, 1.0),
     SemanticClass.TRAFFIC_SIGN: (0.85, 0.85, 0.85, 1.0),
+    SemanticClass.FENCE: (0.7, 0.7, 0.72, 1.0),
+    SemanticClass.OTHER_OBJECT: (0.5, 0.35, 0.25, 1.0),
 }
 
 

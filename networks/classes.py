@@ -32,6 +32,8 @@ class SemanticClass(IntEnum):
     LANE_MARKING_YELLOW = 21  # yellow paint
     TRAFFIC_LIGHT = 22
     TRAFFIC_SIGN = 23
+    FENCE = 24  # guardrails and median barriers (SemanticKITTI's fence: fences, crash barriers)
+    OTHER_OBJECT = 25  # street furniture: benches, bins, bus shelters (SemanticKITTI's other-object)
 
     @property
     def is_agent(self) -> bool:

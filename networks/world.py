@@ -1,9 +1,12 @@
 """The static world: a classed triangle mesh built from a SUMO network.
 
 Lane surfaces keep the network's z; sidewalks and walking areas are raised by a
-curb; junctions are triangulated from their outlines; buildings fill the free
-space beside the streets (never on a lane or sidewalk); a terrain plane lies
-under the rest. Deterministic by seed, cached by the network's content.
+curb; junctions are triangulated from their outlines; buildings in their
+district's style fill the free space beside the streets (never on a lane or
+sidewalk, none along motorways: :mod:`networks.buildings`); guardrails and median
+barriers line the motorways, benches, bins, bus shelters and bollards the
+sidewalks (:mod:`networks.roadside`), trees and street lights too; a terrain plane
+lies under the rest. Deterministic by seed, cached by the network's content.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ import sumolib
 from shapely.geometry import LineString, Point, Polygon, box
 from shapely.prepared import prep
 
+from networks.buildings import Districts, place_buildings
 from networks.cache import cache_dir, digest, intact, seal
 from networks.classes import SemanticClass
 from networks.errors import NetworkError
@@ -36,9 +40,10 @@ from networks.mesh import (
     raised_polygon,
     ribbon,
 )
+from networks.roadside import motorway_barriers, street_furniture
 from networks.street import STREET_VERSION, pole_mesh, read_signs, street_objects
 
-WORLD_VERSION = "12"  # 12: round, lumpy tree crowns
+WORLD_VERSION = "14"  # 14: buildings by district, motorway barriers, street furniture
 CURB_HEIGHT_M = 0.15
 CURB_WALL_M = CURB_HEIGHT_M + 0.15  # curbs reach below the road and the terrain: no ray slips under a sidewalk
 ROAD_SKIRT_M = 0.15  # below a road's outer edges, deeper than the terrain lies under it
@@ -47,8 +52,6 @@ ELEVATED_M = 2.0  # a lane this far above the ground is a bridge deck (with side
 DECK_DEPTH_M = 0.8
 PIER_SPACING_M = 30.0
 PIER_CLEARANCE_M = 1.0  # between a pier and a lane or sidewalk under the bridge
-BUILDING_GAP_M = 1.5  # between a building and any paved surface
-BUILDING_SPACING_M = 0.5  # between two buildings
 PROP_GAP_M = 0.4  # between a pole or tree and any paved surface
 
 
@@ -152,11 +155,15 @@ def _build(net: sumolib.net.Net, seed: int, props: bool) -> StaticWorld:
     xmin, ymin, xmax, ymax = paved.bounds
     ground_z = min(z_values) if z_values else 0.0
     rng = np.random.default_rng(seed)
-    buildings = _place_buildings(net, paved, rng)
-    parts.extend(prism(fp, ground_z - 0.05, h, SemanticClass.BUILDING) for fp, h in buildings)
+    districts = Districts.of(net, seed)
+    buildings = place_buildings(net, paved, rng, districts, ground_z - 0.05)
+    parts.extend(b.mesh for b in buildings)
+    parts += motorway_barriers(net, paved)
     if props:
-        blocked = [fp for fp, _ in buildings]
-        parts += _street_props(net, paved, blocked, rng, ground_z - 0.05)
+        blocked = [b.footprint for b in buildings]
+        furniture, taken = street_furniture(net, paved, blocked, districts, rng, ground_z - 0.05)
+        parts += furniture
+        parts += _street_props(net, paved, blocked + taken, rng, ground_z - 0.05)
     margin = 150.0
     terrain = box(xmin - margin, ymin - margin, xmax + margin, ymax + margin)
     parts.append(flat_polygon(terrain, ground_z - 0.05, SemanticClass.TERRAIN))
@@ -312,93 +319,6 @@ def _junction_surfaces(net: sumolib.net.Net, footprints: list[Polygon]) -> list[
             parts.append(draped_polygon(piece, outline, SemanticClass.ROAD))
         parts.append(_hanging_wall(np.concatenate([outline, outline[:1]]), ROAD_SKIRT_M))
     return parts
-
-
-def _place_buildings(
-    net: sumolib.net.Net, paved: shapely.Geometry, rng: np.random.Generator
-) -> list[tuple[Polygon, float]]:
-    """Street-facing buildings along every normal edge, set back from the paved area and
-    apart from each other."""
-    keep_out = prep(paved.buffer(BUILDING_GAP_M))
-    placed = FootprintGrid()
-    for edge in sorted(net.getEdges(withInternal=False), key=lambda e: e.getID()):
-        if edge.getFunction():
-            continue
-        line = LineString(np.asarray(edge.getShape())[:, :2])
-        half_width = sum(lane.getWidth() for lane in edge.getLanes()) / 2.0
-        for side in (1.0, -1.0):
-            _row_of_buildings(line, half_width, side, rng, keep_out, placed)
-    return [(fp, float(rng.uniform(6.0, 28.0))) for fp in placed.footprints]
-
-
-def _row_of_buildings(
-    line: LineString,
-    half_width_m: float,
-    side: float,
-    rng: np.random.Generator,
-    keep_out: object,
-    placed: FootprintGrid,
-) -> None:
-    """Buildings along one side of ``line``, each added to ``placed`` unless it would stand on
-    the paved area or within ``BUILDING_SPACING_M`` of a building placed before."""
-    s = float(rng.uniform(2.0, 8.0))
-    while s < line.length:
-        frontage = float(rng.uniform(8.0, 20.0))
-        depth = float(rng.uniform(8.0, 16.0))
-        setback = half_width_m + float(rng.uniform(3.0, 6.0))
-        footprint = _footprint(line, s + frontage / 2.0, side * (setback + depth / 2.0), frontage, depth, rng)
-        s += frontage + float(rng.uniform(1.0, 6.0))
-        if footprint is None or keep_out.intersects(footprint):  # type: ignore[attr-defined]
-            continue
-        if placed.any_within(footprint, BUILDING_SPACING_M):
-            continue
-        placed.add(footprint)
-
-
-class FootprintGrid:
-    """Footprints in the cells of a square grid they overlap, so that a new one is checked
-    against its neighbours only (a road of 1,000 km has about 100,000 buildings)."""
-
-    def __init__(self, cell_m: float = 50.0) -> None:
-        self.footprints: list[Polygon] = []
-        self._cell_m = cell_m
-        self._cells: dict[tuple[int, int], list[int]] = {}
-
-    def _keys(self, bounds: tuple[float, float, float, float], margin_m: float) -> list[tuple[int, int]]:
-        xmin, ymin, xmax, ymax = bounds
-        x0, y0 = math.floor((xmin - margin_m) / self._cell_m), math.floor((ymin - margin_m) / self._cell_m)
-        x1, y1 = math.floor((xmax + margin_m) / self._cell_m), math.floor((ymax + margin_m) / self._cell_m)
-        return [(i, j) for i in range(x0, x1 + 1) for j in range(y0, y1 + 1)]
-
-    def add(self, footprint: Polygon) -> None:
-        for key in self._keys(footprint.bounds, 0.0):
-            self._cells.setdefault(key, []).append(len(self.footprints))
-        self.footprints.append(footprint)
-
-    def any_within(self, footprint: Polygon, distance_m: float) -> bool:
-        near = {i for key in self._keys(footprint.bounds, distance_m) for i in self._cells.get(key, ())}
-        if not near:
-            return False
-        others = np.asarray([self.footprints[i] for i in sorted(near)], dtype=object)
-        return bool(np.any(shapely.dwithin(others, footprint, distance_m)))
-
-
-def _footprint(
-    line: LineString, s_m: float, offset_m: float, frontage_m: float, depth_m: float, rng: np.random.Generator
-) -> Polygon | None:
-    """A box or L-shaped footprint centred ``offset_m`` to the left of ``line`` at ``s_m``."""
-    if s_m + 1.0 >= line.length:
-        return None
-    p0, p1 = line.interpolate(s_m), line.interpolate(min(s_m + 1.0, line.length))
-    heading = math.atan2(p1.y - p0.y, p1.x - p0.x)
-    cx = p0.x - math.sin(heading) * offset_m
-    cy = p0.y + math.cos(heading) * offset_m
-    shape = box(-frontage_m / 2, -depth_m / 2, frontage_m / 2, depth_m / 2)
-    if rng.random() < 0.35:  # L-shape: cut one corner out
-        cut = box(0.0, 0.0, frontage_m / 2, depth_m / 2)
-        shape = shape.difference(cut)
-    shape = shapely.affinity.rotate(shape, heading, origin=(0, 0), use_radians=True)
-    return shapely.affinity.translate(shape, cx, cy)
 
 
 def _street_props(

@@ -27,6 +27,8 @@ _REFLECTIVITY = {
     SemanticClass.LANE_MARKING_YELLOW: 0.55,
     SemanticClass.TRAFFIC_LIGHT: 0.3,
     SemanticClass.TRAFFIC_SIGN: 0.9,  # retro-reflective sheeting
+    SemanticClass.FENCE: 0.55,  # galvanised steel rails, concrete
+    SemanticClass.OTHER_OBJECT: 0.4,
     SemanticClass.CAR: 0.6,
     SemanticClass.TRUCK: 0.6,
     SemanticClass.BUS: 0.6,
@@ -53,6 +55,8 @@ _RADAR_REFLECTIVITY = {
     SemanticClass.LANE_MARKING_YELLOW: 0.02,
     SemanticClass.TRAFFIC_LIGHT: 0.6,
     SemanticClass.TRAFFIC_SIGN: 0.9,
+    SemanticClass.FENCE: 0.8,  # steel guardrails
+    SemanticClass.OTHER_OBJECT: 0.5,
     SemanticClass.CAR: 1.0,
     SemanticClass.TRUCK: 1.0,
     SemanticClass.BUS: 1.0,
@@ -80,6 +84,8 @@ _ALBEDO_BGR = {
     SemanticClass.LANE_MARKING_YELLOW: (0.1, 0.7, 0.9),
     SemanticClass.TRAFFIC_LIGHT: (0.08, 0.08, 0.08),
     SemanticClass.TRAFFIC_SIGN: (0.8, 0.8, 0.8),
+    SemanticClass.FENCE: (0.62, 0.63, 0.64),  # galvanised steel, grey concrete
+    SemanticClass.OTHER_OBJECT: (0.25, 0.32, 0.4),  # dark wood and painted steel
     SemanticClass.CAR: (0.6, 0.3, 0.2),
     SemanticClass.TRUCK: (0.3, 0.55, 0.8),
     SemanticClass.BUS: (0.15, 0.7, 0.85),

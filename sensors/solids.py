@@ -1,6 +1,7 @@
 """Which points lie inside the static world's solids (buildings, trees, poles, bridge piers).
 
-The world builds these as prisms: vertical walls around a footprint and a flat top (no floor).
+The world builds these as prisms: vertical walls around a footprint and a flat top (no floor),
+or a gable roof on the walls (its slopes count as tops at their highest point).
 A point lies inside one iff a horizontal ray from it crosses the walls an odd number of times
 (ray parity, as Open3D's ``compute_occupancy`` counts it, along rays that never meet a floor or
 a top: walls are vertical, so a horizontal ray below a prism's walls or above them crosses none
@@ -37,8 +38,11 @@ class Solids:
             self._scene.add_triangles(o3c.Tensor.from_numpy(vertices), o3c.Tensor.from_numpy(indices))
         normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         flat = np.abs(normal[:, 2]) > 0.999 * np.linalg.norm(normal, axis=1)
-        self._tops = tri[flat]
-        self._top_class = world.triangle_class[keep][flat]
+        roof = (world.triangle_class[keep] == SemanticClass.BUILDING) & (
+            np.abs(normal[:, 2]) > 0.05 * np.linalg.norm(normal, axis=1)
+        )  # a gable roof's slopes: tops at their highest point
+        self._tops = tri[flat | roof]
+        self._top_class = world.triangle_class[keep][flat | roof]
 
     def inside(self, xyz_map_m: npt.NDArray[np.float64]) -> npt.NDArray[np.uint8]:
         """``(N,) uint8``: the class of the solid each point (map frame) lies inside, 0 if none."""
@@ -69,7 +73,7 @@ class Solids:
         top_class = np.zeros((size[1], size[0]), np.uint8)
         xy = (self._tops[:, :, :2] - origin) / RASTER_M
         near = np.all(xy.max(axis=1) >= 0, axis=1) & np.all(xy.min(axis=1) <= size, axis=1)
-        tops_px, tops_z, tops_class = xy[near], self._tops[near, 0, 2], self._top_class[near]
+        tops_px, tops_z, tops_class = xy[near], self._tops[near, :, 2].max(axis=1), self._top_class[near]
         for z in np.unique(tops_z):  # lowest first: a higher top over a lower one wins
             at = tops_z == z
             polygons = list(np.round(tops_px[at] * 16).astype(np.int32))

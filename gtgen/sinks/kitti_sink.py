@@ -106,6 +106,8 @@ SEMANTIC_KITTI_IDS = {
     SemanticClass.LANE_MARKING_YELLOW: 60,
     SemanticClass.TRAFFIC_LIGHT: 81,  # SemanticKITTI has no traffic-light class: with the signs
     SemanticClass.TRAFFIC_SIGN: 81,
+    SemanticClass.FENCE: 51,
+    SemanticClass.OTHER_OBJECT: 99,
 }
 SEMANTIC_KITTI_LUT = np.zeros(256, np.uint32)  # 0 "unlabeled" for any class not listed
 for _cls, _id in SEMANTIC_KITTI_IDS.items():

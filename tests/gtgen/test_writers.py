@@ -244,3 +244,15 @@ def test_sinks_leave_nothing_when_the_with_block_raises(records, tmp_path):
         sinks.write(records[0])
         raise RuntimeError("stop")
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_static_furniture_classes_map_to_semantic_kitti_nuscenes_and_occ3d():
+    from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, LIDARSEG_LUT
+    from gtgen.occupancy import OCC3D_OF_CLASS
+    from networks.classes import SemanticClass
+
+    assert SEMANTIC_KITTI_LUT[SemanticClass.FENCE] == 51  # fence: fences, guard rails, crash barriers
+    assert SEMANTIC_KITTI_LUT[SemanticClass.OTHER_OBJECT] == 99  # other-object: benches, bins, shelters
+    for cls in (SemanticClass.FENCE, SemanticClass.OTHER_OBJECT):
+        assert LIDARSEG_CATEGORIES[LIDARSEG_LUT[cls]] == "static.manmade"
+        assert OCC3D_OF_CLASS[cls] == "manmade"

@@ -6,9 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
+import shapely.prepared
 import sumolib
 from shapely.geometry import LineString, Polygon
 
+from networks.buildings import is_motorway
 from networks.classes import SemanticClass
 from networks.convert import import_opendrive
 from networks.towns import TOWNS, town_opendrive, town_parking_edges
@@ -237,3 +239,28 @@ def test_motorway_ends_turn_back_on_loops_as_wide_as_the_carriageways():
         assert edge.getLength() > 50.0, edge.getID()
         for after in edge.getOutgoing():
             assert len(edge.getConnections(after)) == edge.getLaneNumber(), (edge.getID(), after.getID())
+
+
+def test_motorways_have_barriers_beside_them_and_no_buildings_and_furniture_stands_off_the_paving(town):
+    """Guardrails and median barriers (FENCE) line the motorways, off the carriageway; no
+    building stands along a motorway; benches, bins and shelters (OTHER_OBJECT) stand beyond
+    the sidewalks, off every lane."""
+    name, _, net, world = town
+    mesh = world.mesh
+    centroid = mesh.vertices_m[mesh.triangles].mean(axis=1).astype(np.float64)
+    motorway = [e for e in net.getEdges(withInternal=False) if not e.getFunction() and is_motorway(e)]
+    fence = centroid[mesh.triangle_class == SemanticClass.FENCE]
+    assert bool(motorway) == (len(fence) > 0), name
+    furniture = centroid[mesh.triangle_class == SemanticClass.OTHER_OBJECT]
+    assert len(furniture) > 0, name
+    lanes = _lanes(net, True) + _lanes(net, False)
+    for high in (False, True):  # a guardrail passes under a bridge: lanes at their own height only
+        level = [lane_footprint(ln) for ln in lanes if (np.asarray(ln.getShape3D())[:, 2].max() > 2.0) == high]
+        inner = shapely.prepared.prep(shapely.union_all(level).buffer(-0.05))
+        points = np.concatenate([fence, furniture])[::7]
+        points = points[(points[:, 2] > 2.0) == high]
+        assert not any(inner.contains(shapely.Point(p[:2])) for p in points), (name, high)
+    if motorway:
+        lanes = shapely.union_all([lane_footprint(lane) for e in motorway for lane in e.getLanes()])
+        along = [p for p in shapely.get_parts(_building_footprints(world)) if p.distance(lanes) < 5.0]
+        assert sum(p.area for p in along) < 0.01 * _building_footprints(world).area, name
