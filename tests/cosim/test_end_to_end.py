@@ -243,7 +243,7 @@ def test_semantic_kitti_point_labels_match_the_point_cloud_and_poses_follow_the_
         assert len(labels) == len(velo) == len(cloud)
         np.testing.assert_array_equal(labels & 0xFFFF, SEMANTIC_KITTI_LUT[cloud["class"]])
         np.testing.assert_array_equal(labels >> 16, cloud["instance"] & 0xFFFF)
-        assert set(np.unique(labels & 0xFFFF)) <= {1, 10, 11, 13, 15, 18, 30, 40, 48, 50, 60, 70, 72, 80, 81}
+        assert set(np.unique(labels & 0xFFFF)) <= {1, 10, 11, 13, 15, 18, 30, 40, 48, 50, 51, 60, 70, 72, 80, 81, 99}
         assert {10, 40, 50, 60} <= set(np.unique(labels & 0xFFFF))
     poses = np.loadtxt(kitti / "poses.txt").reshape(-1, 3, 4)
     assert poses.shape == (20, 3, 4)
@@ -305,7 +305,9 @@ def test_foxglove_layout_names_only_topics_of_the_mcap(dataset):
 def test_kitti_boxes_hold_exactly_each_objects_lidar_points_under_a_strict_test(dataset):
     """As OpenPCDet reads KITTI (camera -> LiDAR through Tr_velo_to_cam and R0_rect, the box
     centre half a height above its bottom, heading -(pi/2 + rotation_y)) and as its CPU
-    points-in-box test counts (|dz| <= h/2, |dx| < l/2, |dy| < w/2, here without its 1 cm slack)."""
+    points-in-box test counts (|dz| <= h/2, |dx| < l/2, |dy| < w/2, here without its 1 cm slack):
+    every point of the object (SemanticKITTI's instance id) in its box, and no point of the
+    static world; where boxes overlap (two people walking side by side), the other's points too."""
     kitti, labels = dataset / "kitti", load_labels(dataset / "labels.csv")
     compared = 0
     for label_file in sorted((kitti / "label_2").glob("*.txt")):
@@ -316,6 +318,7 @@ def test_kitti_boxes_hold_exactly_each_objects_lidar_points_under_a_strict_test(
         rect_to_velo = np.linalg.inv(np.vstack([np.hstack([calib["R0_rect"].reshape(3, 3), np.zeros((3, 1))]),
                                                 [0, 0, 0, 1]]) @ tr)  # fmt: skip
         points = np.fromfile(kitti / "velodyne" / f"{label_file.stem}.bin", dtype="<f4").reshape(-1, 4)[:, :3]
+        instance = np.fromfile(kitti / "labels" / f"{label_file.stem}.label", dtype="<u4") >> 16
         rows = labels[(labels["frame"] == frame) & labels["left"].notna() & (labels["seen"] == 1)]
         rows = rows[~rows["type"].isin(["traffic_light", "traffic_sign"])]  # not in KITTI's labels
         for line, (_, row) in zip(label_file.read_text().splitlines(), rows.iterrows(), strict=True):
@@ -326,7 +329,9 @@ def test_kitti_boxes_hold_exactly_each_objects_lidar_points_under_a_strict_test(
             c, s = np.cos(np.pi / 2 + ry), np.sin(np.pi / 2 + ry)  # rotation by -heading
             dx, dy = c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]
             inside = (np.abs(d[:, 2]) <= h / 2) & (np.abs(dx) < length / 2) & (np.abs(dy) < w / 2)
-            assert int(inside.sum()) == row["lidar_points"], (frame, row["id"], row["type"])
+            own = inside & (instance == int(row["id"]) % 65536)
+            assert int(own.sum()) == row["lidar_points"], (frame, row["id"], row["type"])
+            assert np.all(instance[inside] > 0), (frame, row["id"], row["type"])  # no static point in a box
             compared += 1
     assert compared > 50
 
