@@ -16,6 +16,7 @@ from gtgen.sinks.yolo_sink import YOLO_CLASSES
 from gtgen.table import label_table, table_columns
 from networks.classes import SemanticClass
 from networks.geometry import rotation_from_quaternion_xyzw
+from sensors.agents import Agents
 from sensors.shading import shade_frame
 
 
@@ -256,3 +257,60 @@ def test_static_furniture_classes_map_to_semantic_kitti_nuscenes_and_occ3d():
     for cls in (SemanticClass.FENCE, SemanticClass.OTHER_OBJECT):
         assert LIDARSEG_CATEGORIES[LIDARSEG_LUT[cls]] == "static.manmade"
         assert OCC3D_OF_CLASS[cls] == "manmade"
+
+
+def test_work_zone_objects_and_trailers_are_dontcare_regions_and_misc_in_kitti_and_have_yolo_classes(
+    record_maker, tmp_path
+):
+    S = SemanticClass
+    cone, barrier, trailer, work = (int(c) for c in (S.TRAFFIC_CONE, S.BARRIER, S.TRAILER, S.CONSTRUCTION_VEHICLE))
+    agents = Agents.standing([4, 6, 7, 11], [cone, barrier, trailer, work],
+                             [[9.0, -2.0, 0.375], [14.0, 2.5, 0.5], [30.0, 4.0, 1.7], [22.0, -4.0, 1.6]],
+                             [[0.4, 0.4, 0.75], [2.0, 0.5, 1.0], [7.0, 2.5, 3.4], [7.0, 2.5, 3.2]],
+                             [0.0, 1.57, 0.1, 0.0])  # fmt: skip
+    record = record_maker(0, agents=agents)
+    with SinkGroup.open(SinkChoice(tmp_path)) as sinks:
+        sinks.write(record)
+    rows = kitti_rows(tmp_path / "kitti" / "training" / "label_2" / "000000.txt")
+    objects, cam = record.labels.objects, record.labels.cameras[0]
+    in_image = np.flatnonzero(record.labels.seen & np.isfinite(cam.boxes.clipped_px[:, 0]))
+    assert len(rows) == len(in_image) == 4
+    for row, i in zip(rows, in_image, strict=True):
+        cls = int(objects.semantic_class[i])
+        assert row[0] == ("DontCare" if cls in (cone, barrier) else "Misc")
+        np.testing.assert_allclose([float(v) for v in row[4:8]], cam.boxes.clipped_px[i], atol=0.006)
+        if row[0] == "DontCare":  # a region: no 3D box, as KITTI's own DontCare lines
+            assert row[8:15] == ["-1", "-1", "-1", "-1000", "-1000", "-1000", "-10"]
+    yolo = np.loadtxt(tmp_path / "yolo" / "labels" / "000000.txt", ndmin=2)
+    names = yaml.safe_load((tmp_path / "yolo" / "data.yaml").read_text())["names"]
+    visible = np.flatnonzero(cam.visibility.visible_px >= 25)
+    assert [names[int(r[0])] for r in yolo] == [SemanticClass(int(objects.semantic_class[i])).label for i in visible]
+    assert len(visible) >= 3  # the cone is under 25 pixels in this 160x90 camera
+
+
+def test_every_object_class_has_its_place_in_every_output():
+    from gtgen.colours import CLASS_RGB
+    from gtgen.nuscenes import CATEGORIES
+    from gtgen.nuscenes_lidarseg import LIDARSEG_LUT
+    from gtgen.sinks.kitti_sink import SEMANTIC_KITTI_IDS
+    from gtgen.sinks.yolo_sink import YOLO_NAMES
+    from networks.classes import AGENT_CLASSES
+    from sensors.materials import ALBEDO_BGR_BY_CLASS, RADAR_REFLECTIVITY_BY_CLASS, REFLECTIVITY_BY_CLASS
+
+    for c in AGENT_CLASSES:
+        assert c in KITTI_TYPES and c in SEMANTIC_KITTI_IDS and c in CATEGORIES and c in CLASS_RGB, c
+        assert c.label in YOLO_NAMES.values() and LIDARSEG_LUT[int(c)] > 0, c
+        assert REFLECTIVITY_BY_CLASS[int(c)] > 0 and RADAR_REFLECTIVITY_BY_CLASS[int(c)] > 0, c
+        assert ALBEDO_BGR_BY_CLASS[int(c)].tolist() != [0.5, 0.5, 0.5], c
+
+
+def test_nuscenes_categories_and_attributes_of_the_work_zone_and_trailers():
+    from gtgen.nuscenes import attribute_of, category_of
+
+    S = SemanticClass
+    assert [category_of(int(c)) for c in (S.TRAILER, S.CONSTRUCTION_VEHICLE, S.TRAFFIC_CONE, S.BARRIER)] == [
+        "vehicle.trailer", "vehicle.construction", "movable_object.trafficcone", "movable_object.barrier"]  # fmt: skip
+    assert attribute_of("vehicle.trailer", False, 8.0) == "vehicle.moving"
+    assert attribute_of("vehicle.construction", True, 0.0) == "vehicle.parked"
+    assert attribute_of("movable_object.trafficcone", False, 0.0) == ""  # nuScenes gives cones and barriers none
+    assert attribute_of("movable_object.barrier", False, 0.0) == ""
