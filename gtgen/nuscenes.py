@@ -48,7 +48,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, lidarseg_labels, number_instances, panoptic_labels
+from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, lidarseg_of_objects, number_instances, panoptic_labels
 from gtgen.nuscenes_versions import (
     DAY_US,
     TABLES,
@@ -82,6 +82,14 @@ CATEGORIES = {
     SemanticClass.TRAFFIC_CONE: ("movable_object.trafficcone", "Traffic cone of a construction zone."),
     SemanticClass.BARRIER: ("movable_object.barrier", "Temporary barrier closing a lane."),
 }
+# Body types (the labels' subtype column) with a nuScenes category of their own: emergency
+# vehicles (their points get it too, in lidarseg and panoptic). nuScenes's detection and
+# tracking challenges leave these categories out, as the devkit does.
+SUBTYPE_CATEGORIES = {
+    "vehicle.emergency.police": "Police vehicle (a car in police livery).",
+    "vehicle.emergency.ambulance": "Ambulance.",
+}
+CATEGORY_OF_SUBTYPE = {"police": "vehicle.emergency.police", "ambulance": "vehicle.emergency.ambulance"}
 # Traffic lights and signs are no nuScenes category (the devkit's renderer has no colour for a
 # new one): they go to an extension table the devkit does not read, traffic_control.json.
 TRAFFIC_CONTROL = {SemanticClass.TRAFFIC_LIGHT: "traffic_light", SemanticClass.TRAFFIC_SIGN: "traffic_sign"}
@@ -112,7 +120,11 @@ def channel_of(kind: str, name: str, first: bool = False) -> str:
     return "LIDAR_TOP" if kind == "lidar" and first else name.upper()
 
 
-def category_of(semantic_class: int) -> str | None:
+def category_of(semantic_class: int, subtype: str = "") -> str | None:
+    """The nuScenes category of an object of this class and body type (``subtype``: police cars
+    and ambulances have their own); None for classes nuScenes annotates none of."""
+    if subtype in CATEGORY_OF_SUBTYPE:
+        return CATEGORY_OF_SUBTYPE[subtype]
     entry = (
         CATEGORIES.get(SemanticClass(semantic_class)) if semantic_class in SemanticClass._value2member_map_ else None
     )
@@ -218,7 +230,7 @@ def write_tables(root: Path, name: str, location: str, map_json: Path | None, li
     if not rows:
         return
     tables: Tables = {t: [] for t in TABLES}
-    described = dict(CATEGORIES.values())
+    described = dict(CATEGORIES.values()) | SUBTYPE_CATEGORIES
     tables["category"] = [{"token": token("category", c), "name": c, "index": index,
                            "description": described.get(c, f"nuScenes-lidarseg category {c}.")}
                           for index, c in enumerate(LIDARSEG_CATEGORIES)]  # fmt: skip
@@ -357,9 +369,11 @@ def _point_labels(root: Path, name: str, tables: Tables, lidar_channel: str,
             with np.load(staged) as z:
                 semantic_class, instance_id = z["semantic_class"], z["instance_id"]
             sd = token(name, "sample_data", lidar_channel, at)
+            annotated = by_frame[f]["annotations"]
+            special = {a["id"]: a["category"] for a in annotated if a["category"] in SUBTYPE_CATEGORIES}
             panoptic = io.BytesIO()
-            np.savez_compressed(panoptic, data=panoptic_labels(semantic_class, instance_id, number_of))
-            files[f"lidarseg:{sd}"] = lidarseg_labels(semantic_class).tobytes()
+            np.savez_compressed(panoptic, data=panoptic_labels(semantic_class, instance_id, number_of, special))
+            files[f"lidarseg:{sd}"] = lidarseg_of_objects(semantic_class, instance_id, special).tobytes()
             files[f"panoptic:{sd}"] = panoptic.getvalue()
             for task in ("lidarseg", "panoptic"):
                 tables[task].append({"token": sd, "sample_data_token": sd, "filename": ""})

@@ -70,12 +70,26 @@ def lidarseg_labels(semantic_class: npt.NDArray[np.uint8]) -> npt.NDArray[np.uin
     return np.asarray(LIDARSEG_LUT[semantic_class], np.uint8)
 
 
+def lidarseg_of_objects(
+    semantic_class: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32], category_of_track: dict[int, str]
+) -> npt.NDArray[np.uint8]:
+    """``(N,) uint8`` category indices as :func:`lidarseg_labels`, but the points of the tracks
+    in ``category_of_track`` with their boxes' category (a police car's points are
+    ``vehicle.emergency.police``, as its box, not ``vehicle.car``, as its class)."""
+    out = lidarseg_labels(semantic_class)
+    for track, category in category_of_track.items():
+        out[instance_id == track] = LIDARSEG_CATEGORIES.index(category)
+    return out
+
+
 def panoptic_labels(
-    semantic_class: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32], number_of: dict[int, int]
-) -> npt.NDArray[np.uint16]:
+    semantic_class: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32], number_of: dict[int, int],
+    category_of_track: dict[int, str] | None = None,
+) -> npt.NDArray[np.uint16]:  # fmt: skip
     """``(N,) uint16``: ``category * 1000 + instance``, the instance by ``number_of`` (track id ->
-    1..999 in its scene) on the points of objects (0 where a track has no number)."""
-    category = lidarseg_labels(semantic_class).astype(np.int64)
+    1..999 in its scene) on the points of objects (0 where a track has no number); categories as
+    :func:`lidarseg_of_objects`."""
+    category = lidarseg_of_objects(semantic_class, instance_id, category_of_track or {}).astype(np.int64)
     tracks = np.asarray(instance_id, np.int64)
     numbers = np.array([number_of.get(int(t), 0) for t in np.unique(tracks)], np.int64)
     instance = numbers[np.searchsorted(np.unique(tracks), tracks)] if len(tracks) else tracks

@@ -46,8 +46,9 @@ def subtypes(
     semantic_class: npt.NDArray[np.uint8], lwh_m: npt.NDArray[np.float64], track_id: npt.NDArray[np.uint32]
 ) -> npt.NDArray[np.str_]:
     """Each object's body type, the one the camera draws (:func:`sensors.bodies.body_of`): cars
-    as sedan, hatchback, estate, suv, van or pickup, trucks as box_truck or semi_trailer, buses
-    as city_bus or coach; empty for other classes."""
+    as sedan, hatchback, estate, suv, van or pickup (or, about 0.8 % each, police and
+    ambulance), trucks as box_truck or semi_trailer, buses as city_bus or coach; empty for
+    other classes."""
     out = np.full(len(track_id), "", dtype=object)
     for i in np.flatnonzero(np.isin(semantic_class, SUBTYPED)):
         c = int(semantic_class[i])

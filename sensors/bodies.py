@@ -711,6 +711,30 @@ def centre_axle_trailer(length: float = 7.0, width: float = 2.5, h: float = 3.4)
     return merge(pieces)
 
 
+EMERGENCY_BAR_M = 0.1
+"""An emergency vehicle's light bar stands this high on its roof."""
+
+
+def emergency_car(shape: CarShape, ambulance: bool = False) -> Piece:
+    """A police car (a sedan) or an ambulance (a van) in white livery, with a blue light bar on
+    the roof and, on the ambulance, a yellow band along each side."""
+    body = _recoloured(car(shape), {int(Part.PAINT): int(Part.LIVERY)})
+    roof, hw = shape.height + 0.003, shape.width / 2
+    x = (shape.roof_front_x + shape.roof_rear_x) / 2 if not ambulance else shape.roof_front_x - 0.2
+    pieces = [body, box(x - 0.12, x + 0.12, -0.5 * hw, 0.5 * hw, roof, roof + 0.03, Part.TRIM)]
+    for side in (-1.0, 1.0):
+        y0, y1 = sorted((side * 0.05, side * 0.5 * hw))
+        pieces.append(box(x - 0.1, x + 0.1, y0, y1, roof + 0.033, shape.height + EMERGENCY_BAR_M, Part.BEACON))
+    if ambulance:
+        v = body.vertices
+        for side in (-1.0, 1.0):  # just proud of the body's widest point at that height
+            at = (v[:, 2] > 0.85) & (v[:, 2] < 1.0)
+            y_out = float(np.abs(v[at, 1]).max()) + 0.002
+            y0, y1 = sorted((side * y_out, side * (y_out + 0.004)))
+            pieces.append(box(shape.axle_rear - 0.3, shape.axle_front - 0.3, y0, y1, 0.88, 0.98, Part.SAFETY_YELLOW))
+    return merge(pieces)
+
+
 def traffic_cone(height: float = 0.75) -> Piece:
     """A road cone (EN 13422's 750 mm class): a black square base, an orange shell with two
     white retro-reflective collars, each a few millimetres proud of the shell."""
@@ -758,6 +782,13 @@ def barrier(length: float = 2.0, width: float = 0.5, h: float = 1.0) -> Piece:
     return merge(pieces)
 
 
+def _emergency(shape: CarShape, ambulance: bool) -> Callable[[int], Piece]:
+    def one(_pose: int) -> Piece:
+        return emergency_car(shape, ambulance)
+
+    return one
+
+
 def _rigid(build: Callable[[CarShape], Piece], shape: CarShape) -> Callable[[int], Piece]:
     """A builder of one pose: the same mesh whatever the pose index."""
 
@@ -796,6 +827,13 @@ BODIES: dict[int, tuple[Body, ...]] = {
             ("suv", CAR_SHAPES["suv"], 0.2),
             ("van", CAR_SHAPES["van"], 0.07),
             ("pickup", CAR_SHAPES["pickup"], 0.06),
+        )
+    )
+    + tuple(
+        Body(name, (s.length, s.width, s.height + EMERGENCY_BAR_M), share, _emergency(s, amb))
+        for name, s, amb, share in (
+            ("police", CAR_SHAPES["sedan"], False, 0.008),  # about 0.8 % of the cars each (measured)
+            ("ambulance", CAR_SHAPES["van"], True, 0.003),
         )
     ),
     int(SemanticClass.TRUCK): (

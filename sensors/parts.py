@@ -43,6 +43,8 @@ class Part(IntEnum):
     SAFETY_ORANGE = 19  # traffic cones' and barriers' orange-red plastic
     RETRO_WHITE = 20  # retro-reflective white sheeting: cone collars, barrier and work-vehicle stripes
     SAFETY_YELLOW = 21  # construction vehicles' yellow paint
+    LIVERY = 22  # emergency vehicles' white paint
+    BEACON = 23  # emergency vehicles' blue light bars (not lit: SUMO drives them as cars)
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,6 +93,8 @@ MATERIALS: dict[Part, PartMaterial] = {
     Part.SAFETY_ORANGE: PartMaterial((0.05, 0.3, 0.95), 0.25, 20.0, 0.0, 0.0, 0.5, 0.1),
     Part.RETRO_WHITE: PartMaterial((0.9, 0.9, 0.9), 0.3, 30.0, 0.0, 0.0, 0.95, 0.1),
     Part.SAFETY_YELLOW: PartMaterial((0.05, 0.65, 0.92), 0.5, 50.0, 0.06, 0.0, 0.55, 1.0),
+    Part.LIVERY: PartMaterial((0.9, 0.9, 0.9), 0.6, 60.0, 0.08, 0.0, 0.68, 1.0),  # as white paint
+    Part.BEACON: PartMaterial((0.75, 0.3, 0.05), 0.8, 120.0, 0.15, 0.0, 0.5, 0.5),  # blue polycarbonate
 }
 
 # Car paint by real-world frequency (BASF/Axalta global colour popularity reports, 2020-2024:

@@ -41,6 +41,7 @@ from gtgen.nuscenes import (
 )
 from gtgen.sinks.folder import PartialFolder
 from gtgen.sinks.images import JPEG_QUALITY, FrameImages
+from gtgen.table import subtypes as body_subtypes
 from networks.classes import SemanticClass
 from networks.geometry import SE3
 from sensors.camera import CameraOutput
@@ -174,6 +175,7 @@ class NuscenesSink:
         out, control = [], []
         states = record.signals.state_of()
         subtypes = dict(zip(record.signals.track_id.tolist(), record.signals.subtype, strict=True))
+        bodies = body_subtypes(o.semantic_class, o.lwh_m, o.track_id)
         for i in range(len(o)):
             length, width, height = (float(v) for v in o.lwh_m[i])
             box = {"translation": [round(float(v), 6) for v in centre[i]],
@@ -185,7 +187,7 @@ class NuscenesSink:
                 control.append({"id": track, "kind": kind, "subtype": subtypes.get(track, ""),
                                 "state": states.get(track, ""), **box, "num_lidar_pts": int(lidar_pts[i])})  # fmt: skip
                 continue
-            category = category_of(int(o.semantic_class[i]))
+            category = category_of(int(o.semantic_class[i]), str(bodies[i]))
             if category is None:
                 continue
             out.append({

@@ -314,3 +314,21 @@ def test_nuscenes_categories_and_attributes_of_the_work_zone_and_trailers():
     assert attribute_of("vehicle.construction", True, 0.0) == "vehicle.parked"
     assert attribute_of("movable_object.trafficcone", False, 0.0) == ""  # nuScenes gives cones and barriers none
     assert attribute_of("movable_object.barrier", False, 0.0) == ""
+
+
+def test_police_cars_and_ambulances_are_nuscenes_emergency_vehicles_boxes_and_points():
+    from gtgen.nuscenes import category_of
+    from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, lidarseg_of_objects, panoptic_labels
+
+    assert category_of(int(SemanticClass.CAR), "police") == "vehicle.emergency.police"
+    assert category_of(int(SemanticClass.CAR), "ambulance") == "vehicle.emergency.ambulance"
+    assert category_of(int(SemanticClass.CAR), "sedan") == "vehicle.car"
+    cls = np.array([10, 10, 10, 1], np.uint8)
+    ids = np.array([4, 7, 7, 0], np.uint32)
+    special = {7: "vehicle.emergency.police"}
+    seg = lidarseg_of_objects(cls, ids, special)
+    assert [LIDARSEG_CATEGORIES[k] for k in seg] == ["vehicle.car", *["vehicle.emergency.police"] * 2,
+                                                      "flat.driveable_surface"]  # fmt: skip
+    pan = panoptic_labels(cls, ids, {4: 1, 7: 2}, special)
+    s = seg.astype(int)
+    assert pan.tolist() == [s[0] * 1000 + 1, s[1] * 1000 + 2, s[2] * 1000 + 2, s[3] * 1000]
