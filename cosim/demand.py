@@ -88,6 +88,10 @@ KINDS: dict[str, KindSpec] = {
 PEDESTRIAN = KindSpec("pedestrian", "pedestrian", SemanticClass.PEDESTRIAN,
                       (0.3, 0.5), (0.5, 0.7), (1.55, 1.95), (1.0, 1.6), (1.0, 1.5), 2.0, "pedestrian")  # fmt: skip
 """A walker's box holds its stride: 0.6-0.8 m long (nuScenes' pedestrians: 0.73 m on average)."""
+CHILD = KindSpec("child", "pedestrian", SemanticClass.PEDESTRIAN,
+                 (0.3, 0.45), (0.4, 0.5), (1.0, 1.45), (0.9, 1.4), (1.0, 1.5), 2.0, "pedestrian")  # fmt: skip
+"""A child of about 4 to 10 years (1.0-1.45 m tall), labelled a pedestrian; it walks with a group
+or alone (:mod:`cosim.people`)."""
 
 VARIANTS_PER_KIND = 4
 

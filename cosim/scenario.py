@@ -42,12 +42,16 @@ class TrafficConfig:
     )
     pedestrians: int = 60
     parked: int = 0
+    street_pedestrians: int = 0  # more, kept on the sidewalks and crossings along the ego's way (cosim/people.py)
+    street_cyclists: int = 0  # cyclists kept on the roads along the ego's way
 
     def __post_init__(self) -> None:
         _check(self.vehicles_per_lane_km >= 0, "vehicles_per_lane_km", "a number >= 0", self.vehicles_per_lane_km)
         _check(self.vehicles is None or self.vehicles >= 0, "vehicles", "a whole number >= 0", self.vehicles)
         _check(self.pedestrians >= 0, "pedestrians", "a whole number >= 0", self.pedestrians)
         _check(self.parked >= 0, "parked", "a whole number >= 0", self.parked)
+        _check(self.street_pedestrians >= 0, "street_pedestrians", "a whole number >= 0", self.street_pedestrians)
+        _check(self.street_cyclists >= 0, "street_cyclists", "a whole number >= 0", self.street_cyclists)
         for kind, share in self.mix.items():
             _check(kind in AGENT_KINDS, f"mix.{kind}", "one of " + ", ".join(AGENT_KINDS), kind)
             _check(share >= 0, f"mix.{kind}", "a share >= 0", share)
@@ -96,10 +100,17 @@ class HazardConfig:
 class EgoConfig:
     """``route``: SUMO edge ids the ego starts on; empty: a passenger car picked after the
     warm-up where ``start`` says (``urban``: a street of at most 60 km/h, ``highway``: at
-    least 80 km/h, ``on_ramp``: inserted at the start of a highway entrance ramp)."""
+    least 80 km/h, ``on_ramp``: inserted at the start of a highway entrance ramp).
+    ``max_stopped_s``: once the ego has stood (below 0.1 m/s) this long, a car on the move is
+    the ego instead, picked as at the start (a scene cut; 0: the ego stands as long as traffic
+    holds it; in a hazard scene, not while an event is prepared or under way)."""
 
     route: tuple[str, ...] = ()
     start: Literal["any", "urban", "highway", "on_ramp"] = "any"
+    max_stopped_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check(self.max_stopped_s >= 0, "max_stopped_s", "seconds >= 0 (0: no limit)", self.max_stopped_s)
 
 
 @dataclass(frozen=True, slots=True)

@@ -16,6 +16,7 @@ import numpy.typing as npt
 
 from cosim.construction import zone_layout
 from cosim.demand import (
+    CHILD,
     KINDS,
     PEDESTRIAN,
     KindSpec,
@@ -37,9 +38,11 @@ from cosim.kinematics import (
 )
 from cosim.net_index import index_net
 from cosim.parking import SPACE_LENGTH_M, ParkingArea, additional_xml, find_parking_areas, lane_types
+from cosim.people import WALKER, StreetPeople
 from cosim.scenario import Scenario
 from cosim.state import WorldState
 from cosim.trailers import HITCH_BEHIND_M, Combination, hitch_point, pulled_axle, trailer_box_center
+from gtgen.content import STOPPED_MPS
 from networks.cache import cache_dir, digest, intact, seal, take_notices
 from networks.classes import SemanticClass
 from networks.errors import clipped, quoted
@@ -172,10 +175,17 @@ class Traffic:
             self._hazards = HazardController(scenario.hazards, scenario.seed, self._parked, self._index.walk_edges,
                                              Sight.of_rig(scenario.sensors),
                                              shortest.type_id if shortest is not None else "", cars)  # fmt: skip
+        self._street: StreetPeople | None = None
+        if traffic.street_pedestrians or traffic.street_cyclists:  # its own random draws: the others' stay
+            self._street = StreetPeople(self._index, np.random.default_rng([scenario.seed, 0x57EE7]),
+                                        traffic.street_pedestrians, traffic.street_cyclists,
+                                        self._variants["pedestrian"], self._variants.get("child", []),
+                                        self._variants["bicycle"])  # fmt: skip
         self._ego_collided = False
         self._trailers: dict[str, Combination] = {}  # SUMO id -> lengths, for trucks with a trailer
         self._axles: dict[str, tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64]]] = {}
         self._works = self._close_lane(net) if scenario.construction.edge else Agents.empty()
+        self._stood_s = 0.0  # how long the ego has stood (below STOPPED_MPS) without a break
 
     def _close_lane(self, net: sumolib.net.Net) -> Agents:
         """Close the construction zone's lane to every vehicle; its objects (track ids given as
@@ -234,6 +244,14 @@ class Traffic:
                 libsumo.vehicletype.setHeight(v.type_id, v.height_m)
                 libsumo.vehicletype.setMaxSpeed(v.type_id, v.max_speed_mps)
         libsumo.vehicletype.copy("car_0", "ego_car")
+        if self._scenario.traffic.street_pedestrians:  # drawn after the others: their sizes stay
+            variants["child"] = sample_variants(CHILD, np.random.default_rng([self._scenario.seed, 0xC41D]))
+            for v in variants["child"]:
+                libsumo.vehicletype.copy("DEFAULT_PEDTYPE", v.type_id)
+                libsumo.vehicletype.setLength(v.type_id, v.length_m)
+                libsumo.vehicletype.setWidth(v.type_id, v.width_m)
+                libsumo.vehicletype.setHeight(v.type_id, v.height_m)
+                libsumo.vehicletype.setMaxSpeed(v.type_id, v.max_speed_mps)
         return variants
 
     # --- demand ----------------------------------------------------------------------------
@@ -322,8 +340,18 @@ class Traffic:
             for _ in range(min(self._targets[kind] - counts[kind], max_new - added)):
                 self._add_vehicle(kind)
                 added += 1
-        for _ in range(min(self._pedestrians - libsumo.person.getIDCount(), 5)):
+        walking = libsumo.person.getIDCount()
+        if self._street is not None:  # the street's people are counted apart
+            walking = sum(1 for p in libsumo.person.getIDList() if not p.startswith(WALKER))
+        for _ in range(min(self._pedestrians - walking, 5)):
             self._add_person()
+
+    def _street_top_up(self, at_once: bool) -> None:
+        """The people along the ego's way (:mod:`cosim.people`)."""
+        if self._street is not None and self._ego_xy is not None:
+            route = libsumo.vehicle.getRoute(self._ego)
+            ahead = list(route[max(int(libsumo.vehicle.getRouteIndex(self._ego)), 0) :])
+            self._street.top_up(self._ego_xy, ahead, at_once)
 
     def _add_parked(self) -> None:
         """Vehicles standing in street-parking spaces for the whole scene (inserted parked)."""
@@ -370,6 +398,7 @@ class Traffic:
         self._choose_ego()
         x, y = libsumo.vehicle.getPosition(self._ego)
         self._ego_xy = (x, y)
+        self._street_top_up(at_once=True)
         if self._hazards is not None:
             self._hazards.begin(self._time() + lead * step_s)  # the first events are due after the warm-up
         for _ in range(lead):
@@ -459,12 +488,7 @@ class Traffic:
     def _pick_ego(self, start: str) -> None:
         cars = sorted(v for v in libsumo.vehicle.getIDList() if v.startswith("car_"))
         if start != "any":
-
-            def fits(v: str) -> bool:
-                speed = libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(v)) if libsumo.vehicle.getLaneID(v) else 0
-                return speed <= 16.7 if start == "urban" else speed >= 22.2
-
-            matching = [v for v in cars if not libsumo.vehicle.getRoadID(v).startswith(":") and fits(v)]
+            matching = [v for v in cars if not libsumo.vehicle.getRoadID(v).startswith(":") and _fits(v, start)]
             if not matching:
                 self.notices.append(f"note: no car is on a {start} road after the warm-up; the ego is a random car")
             cars = matching or cars
@@ -481,6 +505,46 @@ class Traffic:
         cars = moving or cars  # a scene starts on the move: frames of a car waiting repeat one view
         self._ego = cars[int(self._rng.integers(0, len(cars)))]
 
+    def _stood_too_long(self) -> bool:
+        """Whether the ego has stood longer than ``ego.max_stopped_s`` (counted from this step)."""
+        cap = self._scenario.ego.max_stopped_s
+        if cap <= 0:
+            return False
+        if libsumo.vehicle.getSpeed(self._ego) >= STOPPED_MPS:
+            self._stood_s = 0.0
+            return False
+        self._stood_s += self._scenario.step_s
+        return self._stood_s > cap and (self._hazards is None or not self._hazards.busy)
+
+    def _hand_over_ego(self) -> None:
+        """A car on the move becomes the ego, picked as at the start (among the busiest, on the
+        kind of road ``ego.start`` asks for): a scene cut. The ego that stood goes on as traffic.
+        Where no car moves, the ego stays and this is tried again a second later."""
+        start = self._scenario.ego.start if self._scenario.ego.start in ("urban", "highway") else "any"
+        d = libsumo.vehicle
+        cars = sorted(v for v in d.getIDList() if v.startswith("car_") and d.getSpeed(v) > EGO_MOVING_MPS
+                      and not d.getRoadID(v).startswith(":") and (start == "any" or _fits(v, start)))  # fmt: skip
+        if self._scenario.hazards:
+            flowing = [v for v in cars if _flowing(v)]
+            cars = [v for v in flowing if _staying(v, HAZARD_EGO_ROAD_M)] or flowing
+        if not cars:
+            self._stood_s -= 1.0
+            return
+        cars = [cars[i] for i in busiest(_positions(cars), _positions(), EGO_BUSY_RADIUS_M, EGO_BUSY_SHARE)]
+        if self._watch_radius_m is not None:
+            libsumo.vehicle.unsubscribeContext(self._ego, libsumo.constants.CMD_GET_VEHICLE_VARIABLE,
+                                               self._watch_radius_m + CONTEXT_MARGIN_M)  # fmt: skip
+        libsumo.vehicle.setColor(self._ego, (200, 200, 200, 255))
+        self._ego = cars[int(self._rng.integers(0, len(cars)))]
+        self._stood_s = 0.0
+        if self._scenario.hazards:
+            self._keep_to_its_roads()
+        libsumo.vehicle.setColor(self._ego, (255, 0, 0, 255))
+        self._keep_ego_going()
+        if self._watch_radius_m is not None:
+            self._subscribe_near_ego(self._watch_radius_m)
+        self._scene_cut = True
+
     def _keep_ego_going(self) -> None:
         route = libsumo.vehicle.getRoute(self._ego)
         if libsumo.vehicle.getRouteIndex(self._ego) < len(route) - 2:
@@ -488,10 +552,13 @@ class Traffic:
         self._retarget_ego(self._ego_targets())
 
     def _ego_targets(self) -> list[str]:
-        """Where the ego may be sent on: any road open to cars; in a hazard scene, the roads as
+        """Where the ego may be sent on: any road open to cars (with ``ego.start: urban``, the
+        streets of at most 60 km/h: an urban ego stays in town); in a hazard scene, the roads as
         fast as the one it is on, where it is on a road (a motorway ego stays on the motorway)."""
         edges = self._index.edges_by_vclass["passenger"]
         lane = libsumo.vehicle.getLaneID(self._ego)
+        if not self._scenario.hazards and self._scenario.ego.start == "urban":
+            return [e for e in edges if libsumo.lane.getMaxSpeed(f"{e}_0") <= 16.7] or edges
         if not self._scenario.hazards or not lane or lane.startswith(":"):
             return edges
         limit = libsumo.lane.getMaxSpeed(lane)
@@ -527,6 +594,9 @@ class Traffic:
         except libsumo.TraCIException:
             self._respawn_ego()
             x, y = libsumo.vehicle.getPosition(self._ego)
+        if self._stood_too_long():
+            self._hand_over_ego()
+            x, y = libsumo.vehicle.getPosition(self._ego)
         self._ego_xy = (x, y)
         self._keep_ego_going()
         if self._hazards is not None:
@@ -534,8 +604,11 @@ class Traffic:
             self._hazards.step(self._ego, self._time())
         if self._watch_radius_m is not None:
             libsumo.poi.setPosition(PERSON_ANCHOR, x, y)
+        if self._scene_cut:
+            self._street_top_up(at_once=True)
         if round(libsumo.simulation.getTime() / self._scenario.step_s) % 20 == 0:
             self._top_up()
+            self._street_top_up(at_once=False)
 
     def close(self) -> None:
         libsumo.close()
@@ -694,7 +767,7 @@ class Traffic:
             type_id = domain.getTypeID(sid)  # type: ignore[attr-defined]
             type_id = type_id.split("@", 1)[0]  # a vehicle sized alone has its own copy of its type: "car_2@car_17"
             kind = "car" if type_id == "ego_car" else type_id.rsplit("_", 1)[0]
-            spec = PEDESTRIAN if kind == "pedestrian" else KINDS.get(kind, KINDS["car"])
+            spec = {"pedestrian": PEDESTRIAN, "child": CHILD}.get(kind) or KINDS.get(kind, KINDS["car"])
             cached = (int(spec.semantic_class), domain.getLength(sid), domain.getWidth(sid), domain.getHeight(sid))  # type: ignore[attr-defined]
             self._statics[sid] = cached
             if kind == "truck_trailer":
@@ -731,6 +804,14 @@ def _positions(vehicles: list[str] | None = None) -> npt.NDArray[np.float64]:
         return np.array([libsumo.vehicle.getPosition(v) for v in vehicles], dtype=np.float64).reshape(-1, 2)
     people = [libsumo.person.getPosition(p) for p in libsumo.person.getIDList()]
     return np.concatenate([_positions(list(libsumo.vehicle.getIDList())), np.array(people).reshape(-1, 2)])
+
+
+def _fits(vid: str, start: str) -> bool:
+    """Whether a vehicle is on the kind of road ``start`` names (urban: at most 60 km/h,
+    highway: at least 80 km/h)."""
+    lane = libsumo.vehicle.getLaneID(vid)
+    speed = libsumo.lane.getMaxSpeed(lane) if lane else 0
+    return bool(speed <= 16.7 if start == "urban" else speed >= 22.2)
 
 
 def _flowing(vid: str) -> bool:

@@ -31,6 +31,11 @@ class HazardController(Vehicles, Jaywalkers, RedLights):
         """How long before an event is due its preparation may start."""
         return max(LEADS_S[h.kind] for h in self._hazards)
 
+    @property
+    def busy(self) -> bool:
+        """Whether an event is being prepared or is under way."""
+        return bool(self._events)
+
     def begin(self, start_s: float) -> None:
         """Events are due from ``start_s`` on (the first step's time, if not called)."""
         self._schedules = [Schedule(60.0 / h.per_minute, start_s, np.random.default_rng([self._seed, 0x5C4E, i]))

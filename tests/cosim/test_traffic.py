@@ -246,3 +246,58 @@ def test_a_construction_zone_closes_its_lane_and_trailers_hang_on_their_trucks_h
     assert counts[SemanticClass.BARRIER] == 2 and counts[SemanticClass.CONSTRUCTION_VEHICLE] == 1
     assert counts[SemanticClass.TRAFFIC_CONE] >= 18
     assert pairs > 100 and max(bends) > 0.2  # trailers bend behind turning trucks
+
+
+def test_street_people_walk_near_the_egos_route_in_groups_with_children_and_cyclists_ride_it():
+    """Issue #26: ``traffic.street_pedestrians`` are kept on the sidewalks along the ego's way
+    (within reach of it, near its route), some of them children; ``street_cyclists`` on its roads."""
+    from cosim.people import ENTER_MAX_M, KEEP_M, NEAR_ROUTE_M
+
+    overrides = ("traffic.pedestrians=0", "warmup_s=10", "traffic.street_pedestrians=40", "traffic.street_cyclists=6",
+                 "traffic.vehicles_per_lane_km=4", "ego.start=urban", "traffic.mix={car: 1}")  # fmt: skip
+    with running("town05_crowded", *overrides) as (traffic, prepared):
+        index = index_net(prepared.net)
+        traffic.step()  # people added in a step walk from the next
+        first = traffic.world_state(everyone=True)
+        route = [e for e in traffic.ego_route if e in index.edge_length_m]
+        near_50, heights = [], []
+        for step in range(1200):  # 60 s
+            traffic.step()
+            if step % 100 == 99:
+                state = traffic.world_state(everyone=True)
+                people = state.agents.semantic_class == SemanticClass.PEDESTRIAN
+                d = np.linalg.norm(state.agents.center_map_m[:, :2] - state.ego.center_map_m[:2], axis=1)
+                assert people.sum() <= 40 and d[people].max() <= KEEP_M + 20
+                near_50.append(int((people & (d <= 50)).sum()))
+                heights += state.agents.lwh_m[people, 2].tolist()
+    people = first.agents.semantic_class == SemanticClass.PEDESTRIAN
+    assert people.sum() == 40  # all of them at once when the ego is picked
+    ego_xy = tuple(first.ego.center_map_m[:2])
+    route_d = np.array(
+        [min(index.distance_m(e, (p[0], p[1])) for e in route) for p in first.agents.center_map_m[people]]
+    )
+    from_ego = np.linalg.norm(first.agents.center_map_m[people, :2] - np.asarray(ego_xy), axis=1)
+    assert np.all(from_ego <= ENTER_MAX_M + 5)
+    assert np.all(route_d <= NEAR_ROUTE_M + 15), route_d.max()  # + sampling and the sidewalk's offset
+    bikes = first.agents.semantic_class == SemanticClass.BICYCLE
+    assert 1 <= bikes.sum() <= 6
+    assert np.mean(near_50) >= 3, near_50  # the ego drives among them
+    assert min(heights) < 1.45 and max(heights) > 1.55  # children and adults
+
+
+def test_the_ego_stands_no_longer_than_max_stopped_s_then_a_moving_car_takes_over():
+    """``ego.max_stopped_s``: a queue or a red light holds the ego this long at most; then a
+    car on the move is the ego (a scene cut)."""
+    overrides = ("traffic.pedestrians=0", "warmup_s=30", "traffic.vehicles_per_lane_km=31", "ego.start=urban",
+                 "ego.max_stopped_s=4")  # fmt: skip
+    with running("town10_crowded", *overrides) as (traffic, _):
+        stood, longest, cuts, egos = 0, 0, 0, {traffic.ego_id}
+        for _ in range(2400):  # 120 s in the densest town
+            traffic.step()
+            state = traffic.world_state()
+            cuts += state.scene_cut
+            egos.add(traffic.ego_id)
+            stood = stood + 1 if np.linalg.norm(state.ego.velocity_map_mps) < 0.1 else 0
+            longest = max(longest, stood)
+    assert longest <= 4.0 / 0.05 + 1, longest
+    assert cuts == len(egos) - 1 and cuts >= 1
