@@ -33,3 +33,27 @@ def test_every_catalog_scene_has_traffic_and_a_described_setting():
         scenario = load_scenario(name)
         assert scenario.description, name
         assert scenario.traffic.vehicles_per_lane_km > 0 or (scenario.traffic.vehicles or 0) > 0, name
+
+
+URBAN_SCENES = {"town03_day", "town03_night", "town05_crowded", "town07_village", "town07_rain", "town10_crowded",
+                "town10_night"}  # fmt: skip
+
+
+def test_reference_scenes_cap_the_egos_standing_and_urban_ones_have_people_along_its_way():
+    """Issue #26: the reference scenes keep the ego moving (a stop lasts at most 10 s); the
+    urban ones keep pedestrians and cyclists along the ego's way."""
+    for name in REFERENCE_SCENES:
+        scenario = load_scenario(name)
+        assert 0 < scenario.ego.max_stopped_s <= 10, name
+        if name in URBAN_SCENES:
+            assert scenario.traffic.street_pedestrians > 0 and scenario.traffic.street_cyclists > 0, name
+
+
+def test_a_negative_stop_cap_or_street_count_is_refused_naming_the_key():
+    import pytest
+
+    from cosim.errors import ScenarioError
+
+    for key in ("ego.max_stopped_s=-1", "traffic.street_pedestrians=-2", "traffic.street_cyclists=-1"):
+        with pytest.raises(ScenarioError, match=key.split("=")[0].replace(".", r"\.")):
+            load_scenario("town03_day", [key])
