@@ -93,8 +93,9 @@ def test_parked_cars_stand_still_on_parking_lanes_and_are_labelled_parked():
 
 
 def test_ego_is_rerouted_when_its_route_ends_and_stays_in_the_scene():
-    overrides = (*LIGHT, "step_s=0.1", "traffic.vehicles_per_lane_km=4", "ego.start=urban")
-    with running("town03_day", *overrides) as (traffic, _):
+    overrides = (*LIGHT, "step_s=0.1", "traffic.vehicles_per_lane_km=4", "ego.start=urban", "ego.max_stopped_s=0",
+                 "traffic.street_pedestrians=0", "traffic.street_cyclists=0")  # fmt: skip
+    with running("town03_day", *overrides) as (traffic, _):  # the same ego all along, on its own
         first_route = traffic.ego_route
         visited = [traffic.ego_road_id]
         for _ in range(3000):  # 300 s: longer than any first route across the town
