@@ -479,7 +479,7 @@ def lamp_pools(points: F32) -> F32:
     off = points[:, :2] - np.round(points[:, :2] / s) * s  # from the nearest lamp, per axis
     d2 = (off**2).sum(axis=1)
     pool = np.exp(-d2 / np.float32(2.0 * LAMP_POOL_M**2))
-    return (LAMP_BETWEEN + (np.float32(1.0) - LAMP_BETWEEN) * pool).astype(np.float32)
+    return np.asarray(LAMP_BETWEEN + (np.float32(1.0) - LAMP_BETWEEN) * pool, np.float32)
 
 
 def _dipped(above_m: F32) -> F32:
