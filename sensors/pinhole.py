@@ -101,10 +101,7 @@ class Pinhole:
         ray from the optical axis (barrel distortion sees more than the pinhole)."""
         if not self.distorted:
             return self.hfov_deg, self.vfov_deg
-        d = self.pixel_directions(*_border(self).T)
-        half_h = np.degrees(np.arctan(np.abs(d[:, 0] / d[:, 2]))).max()
-        half_v = np.degrees(np.arctan(np.abs(d[:, 1] / d[:, 2]))).max()
-        return float(2.0 * half_h), float(2.0 * half_v)
+        return _lens_fov_deg(self)
 
     def check_lens(self) -> str | None:
         """Why the lens distortion cannot be used over this image (None if it can): each pixel
@@ -149,6 +146,16 @@ def undistort_pixels(pinhole: Pinhole, uv: F64) -> F64:
     pts = np.ascontiguousarray(uv, np.float64).reshape(-1, 1, 2)
     out = cv2.undistortPoints(pts, pinhole.K, np.asarray(pinhole.distortion, np.float64), None, None, None, criteria)
     return np.asarray(out, np.float64).reshape(-1, 2)
+
+
+@functools.lru_cache(maxsize=16)
+def _lens_fov_deg(pinhole: Pinhole) -> tuple[float, float]:
+    """:attr:`Pinhole.view_fov_deg` of a distorting lens (computed once per camera model: the
+    camera culls by it every frame)."""
+    d = pinhole.pixel_directions(*_border(pinhole).T)
+    half_h = np.degrees(np.arctan(np.abs(d[:, 0] / d[:, 2]))).max()
+    half_v = np.degrees(np.arctan(np.abs(d[:, 1] / d[:, 2]))).max()
+    return float(2.0 * half_h), float(2.0 * half_v)
 
 
 @functools.lru_cache(maxsize=16)
