@@ -1,5 +1,5 @@
 """Construction zones as data: where the cones, barriers and the work vehicle of a closed lane
-stand (pure functions; :mod:`cosim.traffic` closes the lane in SUMO and adds the objects to
+stand (pure functions; :mod:`cosim.sumo.traffic` closes the lane in SUMO and adds the objects to
 every world state).
 
 Along the closed lane, from ``start_m``: a taper of cones leading diagonally from the lane's

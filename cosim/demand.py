@@ -91,7 +91,7 @@ PEDESTRIAN = KindSpec("pedestrian", "pedestrian", SemanticClass.PEDESTRIAN,
 CHILD = KindSpec("child", "pedestrian", SemanticClass.PEDESTRIAN,
                  (0.3, 0.45), (0.4, 0.5), (1.0, 1.45), (0.9, 1.4), (1.0, 1.5), 2.0, "pedestrian")  # fmt: skip
 """A child of about 4 to 10 years (1.0-1.45 m tall), labelled a pedestrian; it walks with a group
-or alone (:mod:`cosim.people`)."""
+or alone (:mod:`cosim.sumo.people`)."""
 
 VARIANTS_PER_KIND = 4
 

@@ -42,7 +42,7 @@ class TrafficConfig:
     )
     pedestrians: int = 60
     parked: int = 0
-    street_pedestrians: int = 0  # more, kept on the sidewalks and crossings along the ego's way (cosim/people.py)
+    street_pedestrians: int = 0  # more, kept on the sidewalks and crossings along the ego's way (cosim/sumo/people.py)
     street_cyclists: int = 0  # cyclists kept on the roads along the ego's way
 
     def __post_init__(self) -> None:

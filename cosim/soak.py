@@ -14,7 +14,7 @@ import time
 from dataclasses import dataclass
 
 from cosim.scenario import catalog_names, load_scenario
-from cosim.traffic import Traffic, TrafficCounts
+from cosim.sumo.traffic import Traffic, TrafficCounts
 from networks.convert import import_opendrive
 from networks.towns import town_opendrive
 from networks.world import load_net

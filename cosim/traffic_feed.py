@@ -1,7 +1,7 @@
 """The frame loop's source of world states: SUMO in a process of its own, one frame ahead.
 
 :class:`TrafficProcess` starts a new interpreter (:mod:`gtgen.child`) that runs
-:class:`~cosim.traffic.Traffic` (libsumo runs one simulation per process): it warms the
+:class:`~cosim.sumo.traffic.Traffic` (libsumo runs one simulation per process): it warms the
 traffic up, then steps it and reads the frame's world state while the loop senses the
 previous frame, so SUMO's work leaves the loop's process and only small world states
 cross the pipe. It makes the same libsumo calls in the same order as stepping in line
@@ -57,7 +57,7 @@ class TrafficInline(ClosedOnExit):
     def __init__(
         self, net_path: Path, scenario: Scenario, radius_m: float, clock: StageClock = NO_CLOCK, skip_frames: int = 0
     ) -> None:
-        from cosim.traffic import Traffic
+        from cosim.sumo.traffic import Traffic
         from networks.world import load_net
 
         self._traffic = Traffic(net_path, load_net(net_path), scenario)

@@ -21,8 +21,8 @@ from sensors.sensor import SensorOutput
 
 @dataclass(frozen=True, slots=True)
 class ActiveHazard:
-    """A hazard event under way (made by ``cosim.hazards``): ``name`` (``cut_in-3``: its kind and
-    the run's event number), the track ids of its actors and of the ego."""
+    """A hazard event under way (made by ``cosim.sumo.hazards``): ``name`` (``cut_in-3``: its
+    kind and the run's event number), the track ids of its actors and of the ego."""
 
     name: str
     kind: str

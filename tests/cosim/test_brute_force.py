@@ -8,7 +8,7 @@ import pytest
 from cosim.loop import AGENT_MARGIN_M, on_raised_surfaces, sense_and_label
 from cosim.rig import build_rig
 from cosim.scenario import load_scenario
-from cosim.traffic import Traffic
+from cosim.sumo.traffic import Traffic
 from cosim.world_setup import prepare_network
 from sensors.scene import FrameScene, StaticCrop
 

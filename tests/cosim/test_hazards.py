@@ -10,12 +10,12 @@ import pandas as pd
 import pytest
 import shapely
 
-from cosim.hazards import roads
 from cosim.hazards.plan import Schedule, Sight
 from cosim.loop import run
 from cosim.scenario import load_scenario
 from cosim.state import WorldState
-from cosim.traffic import Traffic
+from cosim.sumo.hazards import roads
+from cosim.sumo.traffic import Traffic
 from cosim.traffic_feed import TrafficInline
 from cosim.world_setup import prepare_network
 from gtgen.criticality import time_to_collision

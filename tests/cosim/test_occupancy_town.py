@@ -18,7 +18,7 @@ from cosim.loop import AGENT_MARGIN_M, NO_PROBE, sense_and_label
 from cosim.occupancy_step import OccupancyStep
 from cosim.rig import build_rig
 from cosim.scenario import load_scenario
-from cosim.traffic import Traffic
+from cosim.sumo.traffic import Traffic
 from cosim.world_setup import prepare_network
 from gtgen.occupancy import FREE_NATIVE, OCC3D_LUT
 from gtgen.voxels import segment_voxel_pairs, triangle_voxels

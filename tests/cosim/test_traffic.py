@@ -15,7 +15,7 @@ from cosim.net_index import index_net
 from cosim.parking import SPACE_LENGTH_M, lane_types
 from cosim.scenario import load_scenario
 from cosim.soak import soak
-from cosim.traffic import PARKED_CLEARANCE_M, Traffic
+from cosim.sumo.traffic import PARKED_CLEARANCE_M, Traffic
 from cosim.trailers import DRAWBAR_M, HITCH_BEHIND_M
 from cosim.world_setup import PreparedNetwork, prepare_network
 from networks.classes import SemanticClass
@@ -252,7 +252,7 @@ def test_a_construction_zone_closes_its_lane_and_trailers_hang_on_their_trucks_h
 def test_street_people_walk_near_the_egos_route_in_groups_with_children_and_cyclists_ride_it():
     """Issue #26: ``traffic.street_pedestrians`` are kept on the sidewalks along the ego's way
     (within reach of it, near its route), some of them children; ``street_cyclists`` on its roads."""
-    from cosim.people import ENTER_MAX_M, KEEP_M, NEAR_ROUTE_M
+    from cosim.sumo.people import ENTER_MAX_M, KEEP_M, NEAR_ROUTE_M
 
     overrides = ("traffic.pedestrians=0", "warmup_s=10", "traffic.street_pedestrians=40", "traffic.street_cyclists=6",
                  "traffic.vehicles_per_lane_km=4", "ego.start=urban", "traffic.mix={car: 1}")  # fmt: skip

@@ -9,9 +9,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cosim import traffic as traffic_module
 from cosim.loop import run
 from cosim.scenario import load_scenario
+from cosim.sumo import traffic as traffic_module
 from cosim.world_setup import prepare_network
 from gtgen.load import load_labels
 

@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cosim.hazards import roads
 from cosim.hazards.plan import Schedule, Sight
 from cosim.scenario import HazardConfig
+from cosim.sumo.hazards import roads
 from networks.sumo_tools import sumo_home
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
@@ -58,7 +58,7 @@ class Event:
 
 
 class Base:
-    """What the hazard kinds share (their mixins make up :class:`~cosim.hazards.HazardController`)."""
+    """What the hazard kinds share (their mixins make up :class:`~cosim.sumo.hazards.HazardController`)."""
 
     def __init__(
         self, hazards: tuple[HazardConfig, ...], seed: int, parked: set[str], walk_edges: list[str], sight: Sight,

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from cosim.hazards import roads
-from cosim.hazards.base import CHILD_TYPE, HIDDEN_MARGIN_M, STRAIGHT_REACH_M, Base, Event
 from cosim.scenario import HazardConfig
+from cosim.sumo.hazards import roads
+from cosim.sumo.hazards.base import CHILD_TYPE, HIDDEN_MARGIN_M, STRAIGHT_REACH_M, Base, Event
 from networks.sumo_tools import sumo_home
 
 sumo_home()  # exports SUMO_HOME before libsumo loads

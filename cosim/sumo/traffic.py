@@ -1,4 +1,4 @@
-"""The only module that talks to libsumo: start, demand, the ego, and world states.
+"""The running simulation: start, demand, the ego, and world states.
 
 libsumo runs one simulation per process; parallel runs use separate processes.
 """
@@ -38,9 +38,9 @@ from cosim.kinematics import (
 )
 from cosim.net_index import index_net
 from cosim.parking import SPACE_LENGTH_M, ParkingArea, additional_xml, find_parking_areas, lane_types
-from cosim.people import WALKER, StreetPeople
 from cosim.scenario import Scenario
 from cosim.state import WorldState
+from cosim.sumo.people import WALKER, StreetPeople
 from cosim.trailers import HITCH_BEHIND_M, Combination, hitch_point, pulled_axle, trailer_box_center
 from gtgen.content import STOPPED_MPS
 from networks.cache import cache_dir, digest, intact, seal, take_notices
@@ -50,7 +50,7 @@ from networks.sumo_tools import sumo_binary, sumo_home, sumo_refusal
 from sensors.agents import Agents, EgoState
 
 if TYPE_CHECKING:
-    from cosim.hazards import HazardController
+    from cosim.sumo.hazards import HazardController
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
@@ -167,8 +167,8 @@ class Traffic:
         self.counts = TrafficCounts()
         self._hazards: HazardController | None = None
         if scenario.hazards:
-            from cosim.hazards import HazardController
             from cosim.hazards.plan import Sight
+            from cosim.sumo.hazards import HazardController
 
             shortest = min(self._variants.get("pedestrian", []), key=lambda v: v.height_m, default=None)
             cars = tuple(v.type_id for v in self._variants.get("car", []))
@@ -347,7 +347,7 @@ class Traffic:
             self._add_person()
 
     def _street_top_up(self, at_once: bool) -> None:
-        """The people along the ego's way (:mod:`cosim.people`)."""
+        """The people along the ego's way (:mod:`cosim.sumo.people`)."""
         if self._street is not None and self._ego_xy is not None:
             route = libsumo.vehicle.getRoute(self._ego)
             ahead = list(route[max(int(libsumo.vehicle.getRouteIndex(self._ego)), 0) :])

@@ -1,5 +1,5 @@
 """The roads around the ego as hazard events need them, read from libsumo (for
-:mod:`cosim.hazards`): where its way runs straight, who drives beside it and how far ahead,
+:mod:`cosim.sumo.hazards`): where its way runs straight, who drives beside it and how far ahead,
 the roads it came along (where vehicles are made out of its sight) and the kerb of a road."""
 
 from __future__ import annotations

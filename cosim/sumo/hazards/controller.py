@@ -7,12 +7,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from cosim.hazards.base import KEEP_LANE, LATE_S, Event
-from cosim.hazards.jaywalkers import JAYWALK_LEAD_S, Jaywalkers
 from cosim.hazards.plan import Schedule
-from cosim.hazards.red_lights import RED_LEAD_S, RedLights
-from cosim.hazards.vehicles import LEADER_LEAD_S, MAKE_LEAD_S, Vehicles
 from cosim.scenario import HazardConfig
+from cosim.sumo.hazards.base import KEEP_LANE, LATE_S, Event
+from cosim.sumo.hazards.jaywalkers import JAYWALK_LEAD_S, Jaywalkers
+from cosim.sumo.hazards.red_lights import RED_LEAD_S, RedLights
+from cosim.sumo.hazards.vehicles import LEADER_LEAD_S, MAKE_LEAD_S, Vehicles
 from gtgen.frame import ActiveHazard
 from networks.sumo_tools import sumo_home
 

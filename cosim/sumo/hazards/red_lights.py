@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cosim.hazards import roads
-from cosim.hazards.base import CAR_RADIUS_M, HIDDEN_MARGIN_M, SPEED_DEFAULT, Base, Event, free
+from cosim.sumo.hazards import roads
+from cosim.sumo.hazards.base import CAR_RADIUS_M, HIDDEN_MARGIN_M, SPEED_DEFAULT, Base, Event, free
 from networks.sumo_tools import sumo_home
 
 sumo_home()  # exports SUMO_HOME before libsumo loads

@@ -7,8 +7,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from cosim.hazards import roads
-from cosim.hazards.base import (
+from cosim.scenario import HazardConfig
+from cosim.sumo.hazards import roads
+from cosim.sumo.hazards.base import (
     AHEAD_OF_TIME_S,
     CAR_RADIUS_M,
     CATCH_UP_MPS,
@@ -20,7 +21,6 @@ from cosim.hazards.base import (
     Event,
     free,
 )
-from cosim.scenario import HazardConfig
 from networks.sumo_tools import sumo_home
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
