@@ -154,13 +154,14 @@ def blob(
     return Piece(v, t, np.full(t.shape[0], part, np.uint8))
 
 
-def wheel(x: float, r: float, y_in: float, y_out: float, sides: int = 14) -> list[Piece]:
-    """A tyre with a rim on its outer face (``y_out`` is the outer face, either side)."""
+def wheel(x: float, r: float, y_in: float, y_out: float, sides: int = 14, rim_share: float = 0.62) -> list[Piece]:
+    """A tyre with a rim on its outer face (``y_out`` is the outer face, either side);
+    ``rim_share`` is the rim's radius as a share of the tyre's (about 0.5 on trucks' and buses' tall tyres)."""
     width = abs(y_out - y_in)
     sign = 1.0 if y_out > y_in else -1.0
     # outwards, each face a few millimetres beyond the last (no two parts share a plane)
     tyre = prism(circle(x, r, r, sides), width / 2 - 0.008, Part.TYRE, Part.TYRE, (y_in + y_out) / 2 - sign * 0.008)
-    rim = prism(circle(x, r, 0.62 * r, sides), 0.011, Part.RIM, Part.RIM, y_out - sign * 0.014)
+    rim = prism(circle(x, r, rim_share * r, sides), 0.011, Part.RIM, Part.RIM, y_out - sign * 0.014)
     hub = prism(circle(x, r, 0.18 * r, 6), 0.0025, Part.TRIM, Part.TRIM, y_out + sign * 0.0015)
     return [tyre, rim, hub]
 
@@ -392,7 +393,20 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
         )
     )
     pieces.append(box(cab_x0 + 0.9, cab_x1 - 0.35, -hw + 0.005, hw - 0.005, 1.6, 2.35, Part.GLASS))
-    pieces.append(box(cab_x1 - 0.05, cab_x1 - 0.01, -0.7 * hw, 0.7 * hw, 0.75, 1.35, Part.TRIM))  # grille
+    # the grille: dark slats across the front under the windscreen, the cab's colour between them
+    for k in range(5):
+        z = 0.95 + 0.11 * k
+        pieces.append(box(cab_x1 - 0.05, cab_x1 - 0.01, -0.72 * hw, 0.72 * hw, z, z + 0.07, Part.TRIM))
+    pieces.append(box(cab_x1 - 0.05, cab_x1 - 0.01, -0.55 * hw, 0.55 * hw, 0.72, 0.92, Part.TRIM))
+    visor = (cab_top - 0.18, cab_top - 0.06)
+    pieces.append(box(face - 0.33, face - 0.1, -hw + 0.04, hw - 0.04, *visor, Part.TRIM))
+    for side in (-1.0, 1.0):
+        # wind deflectors down the cab's front corners, the steps under the doors
+        y0, y1 = sorted((side * (hw - 0.1), side * (hw - 0.01)))
+        pieces.append(box(face - 0.3, face - 0.01, y0, y1, 1.0, cab_top - 0.25, Part.TRIM))
+        s0, s1 = sorted((side * (hw - 0.25), side * (hw - 0.02)))
+        pieces.append(box(face - 1.1, face - 0.55, s0, s1, 0.3, 0.52, Part.TRIM))
+        pieces.append(box(face - 1.1, face - 0.55, s0, s1, 0.62, 0.74, Part.TRIM))
     for side in (-1.0, 1.0):
         y0, y1 = sorted((side * 0.72 * hw, side * 0.86 * hw))
         pieces.append(box(cab_x1 - 0.05, cab_x1, y0, y1, 0.72, 0.9, Part.HEADLAMP))
@@ -404,30 +418,53 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
     pieces.append(box(cab_x1 - 0.15, cab_x1 - 0.005, -hw + 0.02, hw - 0.02, 0.45, 0.7, Part.TRIM))  # bumper
     gap = 0.35
     box_x1 = cab_x0 - (0.9 if trailer else gap)
-    box_z0 = 1.2 if trailer else 1.05
-    pieces.append(box(-hl + 0.02, box_x1, -hw, hw, box_z0, h, Part.CARGO))
-    pieces.append(box(-hl + 0.2, hl - 0.3, -0.45, 0.45, 0.5, box_z0 - 0.01, Part.UNDERBODY))  # chassis
+    box_z0 = 1.3 if trailer else 1.2
+    inset = 0.025  # the box's panels sit inside its aluminium frame
+    pieces.append(box(-hl + 0.02, box_x1, -hw + inset, hw - inset, box_z0, h - 0.06, Part.CARGO))
+    # the frame: bottom rail, roof rail, corner posts
+    pieces.append(box(-hl + 0.015, box_x1 + 0.005, -hw, hw, box_z0 - 0.02, box_z0 + 0.16, Part.CHROME))
+    pieces.append(box(-hl + 0.015, box_x1 + 0.005, -hw, hw, h - 0.1, h, Part.CHROME))
+    for x0, x1 in ((-hl + 0.015, -hl + 0.09), (box_x1 - 0.07, box_x1 + 0.005)):
+        for side in (-1.0, 1.0):
+            y0, y1 = sorted((side * (hw - 0.07), side * hw))
+            pieces.append(box(x0, x1, y0, y1, box_z0 + 0.16, h - 0.1, Part.CHROME))
+    # the operator's livery on both sides of the box, in the cab's colour
+    lx0, lx1 = -hl + 0.25 * (box_x1 + hl), box_x1 - 0.2 * (box_x1 + hl)
+    for side in (-1.0, 1.0):
+        y0, y1 = sorted((side * (hw - inset + 0.002), side * (hw - inset + 0.01)))
+        pieces.append(box(lx0, lx1, y0, y1, box_z0 + 0.45 * (h - box_z0), box_z0 + 0.8 * (h - box_z0), Part.PAINT))
+    pieces.append(box(-hl + 0.2, hl - 0.3, -0.45, 0.45, 0.5, box_z0 - 0.03, Part.UNDERBODY))  # chassis
     rear_axle = -hl + (1.3 if trailer else 1.8)
-    for side in (-1.0, 1.0):  # side guards between the wheels, rear lamps
+    front_axle = hl - 1.2
+    r = 0.52
+    for side in (-1.0, 1.0):  # side guards (two rails) between the wheels, rear lamps
         y0, y1 = sorted((side * (hw - 0.09), side * (hw - 0.05)))
-        guard_x0 = (-hl + 4.5) if trailer else rear_axle + 0.6
-        pieces.append(box(guard_x0, hl - 1.8, y0, y1, 0.5, box_z0 - 0.02, Part.TRIM))
+        guard_x0 = (-hl + 4.5) if trailer else rear_axle + r + 0.15
+        for z in (0.5, 0.78):
+            pieces.append(box(guard_x0, hl - 1.9, y0, y1, z, z + 0.12, Part.TRIM))
         t0, t1 = sorted((side * 0.7 * hw, side * 0.84 * hw))
         pieces.append(box(-hl, -hl + 0.05, t0, t1, box_z0 - 0.3, box_z0 - 0.12, Part.TAIL_LAMP))
         t0, t1 = sorted((side * (0.84 * hw + 0.01), side * 0.95 * hw))
         pieces.append(box(-hl, -hl + 0.05, t0, t1, box_z0 - 0.3, box_z0 - 0.12, Part.INDICATOR))
+        # mudguards over the rear wheels
+        g0, g1 = sorted((side * (hw - 0.36), side * (hw - 0.02)))
+        for x in [-hl + 1.3, -hl + 2.6, -hl + 3.9] if trailer else [rear_axle]:
+            pieces.append(box(x - r - 0.08, x + r + 0.08, g0, g1, 2 * r + 0.04, 2 * r + 0.1, Part.TRIM))
+    # the fuel tank on the left behind the cab, the battery box on the right
+    tank_x1 = front_axle - r - 0.25
+    pieces.append(box(tank_x1 - 1.1, tank_x1, 0.5, hw - 0.12, 0.42, 0.95, Part.CHROME))
+    pieces.append(box(tank_x1 - 0.8, tank_x1, -hw + 0.12, -0.5, 0.45, 0.95, Part.TRIM))
     pieces.append(box(-hl + 0.01, -hl + 0.06, -hw + 0.05, hw - 0.05, box_z0 - 0.35, box_z0 - 0.05, Part.TRIM))
     pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, box_z0 - 0.48, box_z0 - 0.36, Part.PLATE))
-    pieces += _rear_doors(-hl + 0.02, hw, box_z0, h)
+    pieces += _rear_doors(-hl + 0.02, hw, box_z0 + 0.17, h - 0.11)
     pieces.append(box(-hl + 0.12, -hl + 0.24, -hw + 0.2, hw - 0.2, 0.42, 0.56, Part.TRIM))  # underrun guard
-    r = 0.5
-    axles = [hl - 1.2]
-    axles += [-hl + 1.3, -hl + 2.6, -hl + 3.9] if trailer else [-hl + 1.8]
+    axles = [front_axle]
+    axles += [-hl + 1.3, -hl + 2.6, -hl + 3.9] if trailer else [rear_axle]
     if trailer:
         axles.append(cab_x0 - 0.3)
     for x in axles:
         for side in (-1.0, 1.0):
-            pieces += wheel(x, r, side * (hw - 0.32), side * (hw - 0.04))
+            pieces += wheel(x, r, side * (hw - 0.32), side * (hw - 0.04), rim_share=0.5)
     return merge(pieces)
 
 
