@@ -94,10 +94,12 @@ PRESETS: dict[str, Weather] = {
         haze_bgr=(40.0, 25.0, 20.0), sky_horizon_bgr=(45.0, 30.0, 25.0), sky_zenith_bgr=(20.0, 8.0, 5.0),
         exposure=1.0, noise_sigma=6.0,
     ),
+    # rain: haze_m 300 m puts the 5 % contrast visibility near 900 m, moderate rain's (WMO: 1-5 km
+    # light to moderate, under 1 km heavy); the camera's own spray and wet glass are not modelled
     "rain": Weather(
         "rain", lidar_range_scale=0.7, lidar_intensity_scale=0.8, lidar_extinction_per_m=0.004, lidar_dropout=0.08,
         lidar_range_noise_m=0.02, lidar_spurious_rate=0.004, lidar_spurious_max_m=6.0,
-        sun_gain=0.2, ambient=0.4, headlight_gain=0.3, haze_m=160.0, haze_bgr=(150.0, 145.0, 140.0),
+        sun_gain=0.2, ambient=0.4, headlight_gain=0.3, haze_m=300.0, haze_bgr=(150.0, 145.0, 140.0),
         sky_horizon_bgr=(160.0, 155.0, 150.0), sky_zenith_bgr=(120.0, 115.0, 110.0), exposure=0.8, noise_sigma=4.0,
     ),
     "fog": Weather(
