@@ -646,7 +646,8 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         motion = image_motion_px(sh.pinhole, dirs_cam, range_m, instances, sh.map_R_cam, sh.boxes,
                                  sh.ego_velocity_map_mps, sh.shutter_s)  # fmt: skip
         linear = motion_blur(linear.reshape(h, w, 3), motion.reshape(h, w, 2)).reshape(-1, 3)
-    linear = bloom(cv2.GaussianBlur(linear.reshape(h, w, 3), (0, 0), LENS_BLUR_PX)).reshape(-1, 3)
+    lens = np.asarray(cv2.GaussianBlur(linear.reshape(h, w, 3), (0, 0), LENS_BLUR_PX), np.float32)
+    linear = bloom(lens).reshape(-1, 3)
     linear *= vignette(h, w)[:, None]
     image = tone_map(linear, sh.weather.exposure)
     rng = np.random.default_rng(sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w))
