@@ -286,6 +286,17 @@ def test_street_people_walk_near_the_egos_route_in_groups_with_children_and_cycl
     assert min(heights) < 1.45 and max(heights) > 1.55  # children and adults
 
 
+@pytest.mark.parametrize("scene", ["town03_day", "town05_crowded"])
+def test_cyclists_are_near_the_ego_from_the_first_frames_of_an_urban_catalog_scene(scene):
+    """Issue #26: cyclists within 50 m of the ego in the first 200 frames (10 s) with the
+    catalog's seed, whether the ego stands in a queue (town03_day) or drives (town05_crowded):
+    some ride towards it, and those entering at once lie near and far (both scenes had none)."""
+    from cosim.motion import simulate
+
+    motion = simulate(load_scenario(scene, ["frames=200"]))
+    assert motion.near_per_frame.get("bicycle", 0.0) >= 0.15, motion.near_per_frame
+
+
 def test_the_ego_stands_no_longer_than_max_stopped_s_then_a_moving_car_takes_over():
     """``ego.max_stopped_s``: a queue or a red light holds the ego this long at most; then a
     car on the move is the ego (a scene cut)."""
