@@ -4,6 +4,7 @@ dataset: an ego, traffic in view, notices instead of errors, scene cuts where th
 
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -73,33 +74,40 @@ def drive(xodr: Path, out: Path, frames: int = 200) -> Path:
     return out
 
 
+@pytest.fixture(scope="module")
+def drives(maps, tmp_path_factory) -> Callable[[str], Path]:
+    """The 200-frame drive on each small network, made once for the tests that read it."""
+    root = tmp_path_factory.mktemp("small_drives")
+    done: dict[str, Path] = {}
+
+    def drive_on(name: str) -> Path:
+        if name not in done:
+            done[name] = drive(maps[name], root / name)
+        return done[name]
+
+    return drive_on
+
+
+def ego_xy(out: Path) -> np.ndarray:
+    return np.array([(m.transforms[0].translation.x, m.transforms[0].translation.y)
+                     for _, _, m in iter_messages(out / "run.mcap", ["/tf"])])  # fmt: skip
+
+
 @pytest.mark.parametrize("name", list(networks()))
-def test_a_small_network_makes_200_frames_with_traffic_in_view(name, maps, tmp_path):
-    out = drive(maps[name], tmp_path / name)
+def test_a_small_network_makes_200_frames_with_traffic_in_view(name, drives):
+    out = drives(name)
     labels = load_labels(out / "labels.csv")
     seen_vehicles = labels[(labels["seen"] == 1) & labels["type"].isin(VEHICLES)]
     frames_with_traffic = seen_vehicles["frame"].nunique()
     assert frames_with_traffic >= 0.6 * 200, f"{name}: another vehicle seen in {frames_with_traffic} of 200 frames"
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["frames"] == 200
-    ego = np.array(
-        [
-            (m.transforms[0].translation.x, m.transforms[0].translation.y)
-            for _, _, m in iter_messages(out / "run.mcap", ["/tf"])
-        ]
-    )
-    assert ego.shape == (200, 2)
+    assert ego_xy(out).shape == (200, 2)
 
 
 @pytest.mark.parametrize("name", ["straight", "crest", "lane_width_change", "left_hand"])
-def test_the_ego_drives_on_a_road_without_junctions(name, maps, tmp_path):
-    out = drive(maps[name], tmp_path / name, frames=100)
-    ego = np.array(
-        [
-            (m.transforms[0].translation.x, m.transforms[0].translation.y)
-            for _, _, m in iter_messages(out / "run.mcap", ["/tf"])
-        ]
-    )
+def test_the_ego_drives_on_a_road_without_junctions(name, drives):
+    ego = ego_xy(drives(name))[:100]  # the first 100 frames (5 s) of the drive
     assert np.linalg.norm(np.diff(ego, axis=0), axis=1).sum() > 20.0
 
 
@@ -109,8 +117,8 @@ def test_a_network_without_sidewalks_has_no_pedestrians_and_says_so(maps, tmp_pa
     assert not (load_labels(out / "labels.csv")["type"] == "pedestrian").any()
 
 
-def test_the_ego_at_a_dead_end_starts_again_and_the_frame_is_marked_as_a_scene_cut(maps, tmp_path):
-    out = drive(maps["dead_end"], tmp_path / "dead_end")
+def test_the_ego_at_a_dead_end_starts_again_and_the_frame_is_marked_as_a_scene_cut(drives):
+    out = drives("dead_end")
     cuts = json.loads((out / "manifest.json").read_text())["scene_cuts"]
     assert cuts, "the ego should run out of the 150 m road within 10 s"
     flagged = [m["frame"] for _, _, m in iter_messages(out / "run.mcap", ["/gt/labels"]) if m["scene_cut"]]
