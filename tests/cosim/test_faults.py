@@ -24,13 +24,16 @@ pytestmark = pytest.mark.slow
 DATA = Path(__file__).resolve().parents[1] / "data"
 TINY = str(DATA / "tiny.yaml")
 FRAMES = 40
+# The camera's look is not under test here: a small flat-shaded camera (every output still written).
+LIGHT_CAMERA = ["--set", "sensors.cameras=[{name: camera, shading: flat, width_px: 320, height_px: 180}]"]
 PARTIALS = ["kitti.partial", "labels.csv.partial", "lights_and_signs.csv.partial", "map.partial",
             "run.mcap.partial", "yolo.partial"]  # fmt: skip
 
 
 def command(out: Path, *extra: str, frames: int = FRAMES, progress: bool = False) -> list[str]:
     quiet = [] if progress else ["--no-progress"]
-    return [sys.executable, "-m", "cosim", "run", TINY, "--frames", str(frames), "--out", str(out), *quiet, *extra]
+    return [sys.executable, "-m", "cosim", "run", TINY, "--frames", str(frames), "--out", str(out), *quiet,
+            *LIGHT_CAMERA, *extra]  # fmt: skip
 
 
 def start(out: Path, *extra: str, frames: int = FRAMES) -> subprocess.Popen[str]:
@@ -234,7 +237,7 @@ def test_a_disk_that_fills_up_keeps_every_frame_written_and_a_resume_out_of_spac
 
 
 def sweep(out: Path, *extra: str) -> subprocess.Popen[str]:
-    cmd = [sys.executable, "-m", "cosim", "sweep", TINY, "--out", str(out), "--workers", "1", *extra]
+    cmd = [sys.executable, "-m", "cosim", "sweep", TINY, "--out", str(out), "--workers", "1", *LIGHT_CAMERA, *extra]
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 

@@ -22,8 +22,9 @@ TINY = str(DATA / "tiny.yaml")
 
 
 def start(out: Path, frames: int, *extra: str) -> subprocess.Popen[str]:
+    light_camera = "sensors.cameras=[{name: camera, shading: flat, width_px: 320, height_px: 180}]"  # look not tested
     cmd = [sys.executable, "-m", "cosim", "run", TINY, "--frames", str(frames), "--out", str(out), "--no-progress",
-           *extra]  # fmt: skip
+           "--set", light_camera, *extra]  # fmt: skip
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
