@@ -21,10 +21,14 @@ STATE_OF_LETTER = {"r": "red", "y": "yellow", "G": "green", "g": "green", "s": "
                    "o": "off", "O": "off"}  # fmt: skip
 
 
+LIGHT_LIDAR = "sensors.lidars=[{name: lidar, beams: 16, azimuth_steps: 256}]"
+
+
 @pytest.fixture(scope="module")
 def signalised_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[float, dict[str, str]]]:
     """400 frames on the skeleton grid (a signalised centre), with libsumo's states recorded
-    at every step, straight from libsumo, beside the run."""
+    at every step, straight from libsumo, beside the run. The states come from the traffic,
+    not the sensors: a light LiDAR alone."""
     out = tmp_path_factory.mktemp("lights")
     seen: dict[float, dict[str, str]] = {}
     step = traffic_module.Traffic.step
@@ -36,14 +40,21 @@ def signalised_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(traffic_module.Traffic, "step", recording_step)
-        overrides = [
-            "frames=400",
-            "outputs.yolo=false",
-            "outputs.mcap=false",  # a quarter of the pixels: faster
-            "sensors.cameras=[{name: camera, width_px: 640, height_px: 360}]",
-        ]
+        overrides = ["frames=400", "outputs.kitti=false", "outputs.yolo=false", "outputs.mcap=false",
+                     "sensors.cameras=[]", "sensors.radars=[]", LIGHT_LIDAR]  # fmt: skip
         run(load_scenario(str(DATA / "tiny.yaml"), overrides), out, progress=False, one_process=True)
     return out, seen
+
+
+@pytest.fixture(scope="module")
+def camera_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The first 30 frames of the same drive with the realistic camera (its lamps are under
+    test): the ego faces a signal head at the grid's centre in its first 25 frames."""
+    out = tmp_path_factory.mktemp("lamps")
+    camera = "sensors.cameras=[{name: camera, width_px: 640, height_px: 360}]"  # a quarter of the pixels: faster
+    overrides = ["frames=30", "outputs.yolo=false", "outputs.mcap=false", "sensors.radars=[]", LIGHT_LIDAR, camera]
+    run(load_scenario(str(DATA / "tiny.yaml"), overrides), out, progress=False)
+    return out
 
 
 def test_every_heads_state_is_libsumos_at_every_frame(signalised_run):
@@ -73,8 +84,8 @@ def test_every_heads_state_is_libsumos_at_every_frame(signalised_run):
 LAMP_BGR = {"red": (40, 40, 255), "yellow": (0, 200, 255), "green": (90, 255, 60)}
 
 
-def test_each_visible_head_shows_the_lamp_of_its_state(signalised_run):
-    out, _ = signalised_run
+def test_each_visible_head_shows_the_lamp_of_its_state(camera_run):
+    out = camera_run
     lights = pd.read_csv(out / "lights_and_signs.csv", keep_default_na=False)
     lights = lights[lights["type"] == "traffic_light"]
     labels = load_labels(out / "labels.csv").set_index(["frame", "id"])
@@ -93,4 +104,4 @@ def test_each_visible_head_shows_the_lamp_of_its_state(signalised_run):
         assert near[row.state] >= 2, (row.frame, row.id, row.state, near)
         assert all(n == 0 for s, n in near.items() if s != row.state), (row.frame, row.id, row.state, near)
         checked += 1
-    assert checked >= 20
+    assert checked >= 15  # 20 in these 30 frames
