@@ -3,6 +3,7 @@ not; zebra stripes, stop lines; a malformed record falls back with one notice.""
 
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -17,13 +18,20 @@ from networks.world import StaticWorld, build_world, load_net
 PAINT = (SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW)
 
 
+_SCENES: dict[int, tuple[StaticWorld, Any]] = {}  # each world's raycasting scene, built once
+
+
 def _down(world: StaticWorld, xy: np.ndarray, z0: float = 200.0) -> np.ndarray:
     """The class of the first surface straight below each point."""
     from sensors.o3d import RaycastingScene, o3c
 
     mesh = world.mesh
-    scene = RaycastingScene()
-    scene.add_triangles(o3c.Tensor.from_numpy(mesh.vertices_m), o3c.Tensor.from_numpy(mesh.triangles.astype(np.uint32)))
+    if id(world) not in _SCENES:
+        built = RaycastingScene()
+        built.add_triangles(o3c.Tensor.from_numpy(mesh.vertices_m),
+                            o3c.Tensor.from_numpy(mesh.triangles.astype(np.uint32)))  # fmt: skip
+        _SCENES[id(world)] = (world, built)  # the world is kept: its id is not reused
+    scene = _SCENES[id(world)][1]
     rays = np.zeros((len(xy), 6), np.float32)
     rays[:, :2], rays[:, 2], rays[:, 5] = xy, z0, -1.0
     result = scene.cast_rays(o3c.Tensor.from_numpy(rays))
