@@ -129,6 +129,7 @@ class Traffic:
         self._index = index_net(net)
         self._track_ids: dict[str, int] = {}
         self._serial = 0
+        self._demand_kind: dict[str, str] = {}  # SUMO id -> the kind each vehicle of the demand was added as
         self._statics: dict[str, tuple[int, float, float, float]] = {}
         self._lane_lengths: dict[str, float] = {}
         self._parking = find_parking_areas(net, lane_types(net_path)) if scenario.traffic.parked > 0 else []
@@ -149,6 +150,8 @@ class Traffic:
             reason = sumo_refusal(cmd[1:]) or str(err)
             raise TrafficError(f"{net_path}: SUMO could not load the network: {reason}") from err
         self._variants = self._define_types()
+        self._spec_of_type = {v.type_id: v.spec for variants in self._variants.values() for v in variants}
+        self._spec_of_type["ego_car"] = KINDS["car"]
         lights = scenario.street.traffic_lights
         self._signals: tuple[str, ...] = tuple(sorted(libsumo.trafficlight.getIDList())) if lights else ()
         traffic = scenario.traffic
@@ -169,9 +172,11 @@ class Traffic:
         if scenario.hazards:
             from cosim.hazards.plan import Sight
             from cosim.sumo.hazards import HazardController
+            from cosim.sumo.hazards.base import CHILD_TYPE
 
             shortest = min(self._variants.get("pedestrian", []), key=lambda v: v.height_m, default=None)
             cars = tuple(v.type_id for v in self._variants.get("car", []))
+            self._spec_of_type[CHILD_TYPE] = PEDESTRIAN  # the jaywalking children's type
             self._hazards = HazardController(scenario.hazards, scenario.seed, self._parked, self._index.walk_edges,
                                              Sight.of_rig(scenario.sensors),
                                              shortest.type_id if shortest is not None else "", cars)  # fmt: skip
@@ -298,6 +303,7 @@ class Traffic:
         libsumo.route.add(rid, edges)
         libsumo.vehicle.add(vid, rid, typeID=variant.type_id, depart="now", departLane="best",
                             departPos=depart_pos, departSpeed="max")  # fmt: skip
+        self._demand_kind[vid] = kind
         self._size(vid, KINDS[kind])
 
     def _size(self, vid: str, spec: KindSpec, max_length_m: float = np.inf) -> None:
@@ -334,7 +340,7 @@ class Traffic:
         """Bring every kind back to its target count (vehicles that arrived are replaced;
         vehicles waiting to enter count as present)."""
         present = [*libsumo.vehicle.getIDList(), *libsumo.simulation.getPendingVehicles()]
-        counts = Counter(v.rsplit("_", 1)[0] for v in present if v != self._ego and v not in self._parked)
+        counts = Counter(self._demand_kind.get(v, "") for v in present if v != self._ego and v not in self._parked)
         added = 0
         for kind in sorted(self._targets):
             for _ in range(min(self._targets[kind] - counts[kind], max_new - added)):
@@ -486,7 +492,7 @@ class Traffic:
         self._scene_cut = True
 
     def _pick_ego(self, start: str) -> None:
-        cars = sorted(v for v in libsumo.vehicle.getIDList() if v.startswith("car_"))
+        cars = sorted(v for v in libsumo.vehicle.getIDList() if self._demand_kind.get(v) == "car")
         if start != "any":
             matching = [v for v in cars if not libsumo.vehicle.getRoadID(v).startswith(":") and _fits(v, start)]
             if not matching:
@@ -522,7 +528,7 @@ class Traffic:
         Where no car moves, the ego stays and this is tried again a second later."""
         start = self._scenario.ego.start if self._scenario.ego.start in ("urban", "highway") else "any"
         d = libsumo.vehicle
-        cars = sorted(v for v in d.getIDList() if v.startswith("car_") and d.getSpeed(v) > EGO_MOVING_MPS
+        cars = sorted(v for v in d.getIDList() if self._demand_kind.get(v) == "car" and d.getSpeed(v) > EGO_MOVING_MPS
                       and not d.getRoadID(v).startswith(":") and (start == "any" or _fits(v, start)))  # fmt: skip
         if self._scenario.hazards:
             flowing = [v for v in cars if _flowing(v)]
@@ -762,17 +768,21 @@ class Traffic:
         return float(libsumo.simulation.getTime())
 
     def _static_attributes(self, sid: str, domain: object) -> tuple[int, float, float, float]:
+        """An agent's class (from the kind of its SUMO type) and its length, width and height."""
         cached = self._statics.get(sid)
         if cached is None:
-            type_id = domain.getTypeID(sid)  # type: ignore[attr-defined]
-            type_id = type_id.split("@", 1)[0]  # a vehicle sized alone has its own copy of its type: "car_2@car_17"
-            kind = "car" if type_id == "ego_car" else type_id.rsplit("_", 1)[0]
-            spec = {"pedestrian": PEDESTRIAN, "child": CHILD}.get(kind) or KINDS.get(kind, KINDS["car"])
+            spec = self._spec_of(domain.getTypeID(sid), domain is libsumo.person)  # type: ignore[attr-defined]
             cached = (int(spec.semantic_class), domain.getLength(sid), domain.getWidth(sid), domain.getHeight(sid))  # type: ignore[attr-defined]
             self._statics[sid] = cached
-            if kind == "truck_trailer":
+            if spec.kind == "truck_trailer":
                 self._trailers[sid] = Combination.of(cached[1])
         return cached
+
+    def _spec_of(self, type_id: str, person: bool) -> KindSpec:
+        """The kind of a SUMO type (one the traffic defined; else a car, or a pedestrian for a
+        person). A vehicle sized alone has its own copy of its type, named ``<type>@<vehicle>``."""
+        fallback = PEDESTRIAN if person else KINDS["car"]
+        return self._spec_of_type.get(type_id.split("@", 1)[0], fallback)
 
     @property
     def ego_id(self) -> str:
