@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from enum import Enum
 from pathlib import Path
 from xml.etree import ElementTree
 
@@ -48,10 +49,57 @@ POLE_OFF_ROAD_M = 0.8  # beyond the road's edge where there is no sidewalk
 BACK_FROM_LANE_END_M = 1.0
 SPEED_SIGN_INTO_ROAD_M = 5.0
 
-# SUMO signal state letters (libsumo.trafficlight.getRedYellowGreenState) -> the lamp shown.
-STATE_NAMES = {"r": "red", "y": "yellow", "G": "green", "g": "green", "s": "green", "u": "red_yellow",
-               "o": "off", "O": "off"}  # fmt: skip
+
+class SignalState(Enum):
+    """One letter of a SUMO traffic light's state string (one a controlled link, as
+    ``libsumo.trafficlight.getRedYellowGreenState`` and ``getNextTLS`` give it), decoded."""
+
+    GREEN_MAJOR = "G"  # green, with priority
+    GREEN_MINOR = "g"  # green, giving way to links with priority
+    GREEN_AFTER_STOP = "s"  # a green arrow after a stop (a right turn on red)
+    RED = "r"
+    YELLOW = "y"
+    YELLOW_MAJOR = "Y"
+    RED_YELLOW = "u"
+    OFF_BLINKING = "o"
+    OFF = "O"
+
+    @classmethod
+    def of(cls, letter: str) -> SignalState:
+        """The state of a letter (a letter SUMO does not define: off)."""
+        return _STATE_OF_LETTER.get(letter, cls.OFF)
+
+    @classmethod
+    def decode(cls, text: str) -> tuple[SignalState, ...]:
+        """A light's state string, one state a link."""
+        return tuple(cls.of(letter) for letter in text)
+
+    @property
+    def lamp(self) -> str:
+        """The lamp a head shows: one of :data:`STATES`."""
+        return _LAMPS[self]
+
+    @property
+    def is_green(self) -> bool:
+        """Green (``G``, ``g``): a vehicle may go (the arrow after a stop is not)."""
+        return self in (SignalState.GREEN_MAJOR, SignalState.GREEN_MINOR)
+
+    @property
+    def is_red(self) -> bool:
+        return self is SignalState.RED
+
+    @property
+    def is_yellow(self) -> bool:
+        return self in (SignalState.YELLOW, SignalState.YELLOW_MAJOR)
+
+
 STATES = ("red", "yellow", "green", "red_yellow", "off")
+_STATE_OF_LETTER = {s.value: s for s in SignalState}
+_LAMPS = {SignalState.GREEN_MAJOR: "green", SignalState.GREEN_MINOR: "green", SignalState.GREEN_AFTER_STOP: "green",
+          SignalState.RED: "red", SignalState.YELLOW: "yellow", SignalState.YELLOW_MAJOR: "yellow",
+          SignalState.RED_YELLOW: "red_yellow", SignalState.OFF_BLINKING: "off", SignalState.OFF: "off"}  # fmt: skip
+STATE_NAMES = {s.value: s.lamp for s in SignalState}
+"""SUMO's signal state letters -> the lamp shown."""
 _STOP_STATES = frozenset("sw")
 
 
