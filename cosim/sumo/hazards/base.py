@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from cosim.hazards.decisions import CATCH_UP_MPS
 from cosim.hazards.plan import Schedule, Sight
 from cosim.scenario import HazardConfig
 from cosim.sumo.hazards import roads
@@ -27,8 +28,6 @@ SPEED_FACTOR = 1.3  # of the speed limit: how fast a vehicle taken over wants to
 CAR_RADIUS_M, HIDDEN_MARGIN_M = 3.0, 5.0  # a vehicle is made this far beyond the rig's sight and labels
 LOST_S = 3.0  # a preparation ends this long after its actor is no longer where it needs it
 LATE_S = 10.0  # a preparation is given up this long after its event was due (another is tried)
-AHEAD_OF_TIME_S = 3.0  # a prepared vehicle is brought to its place this long before its event is due
-CATCH_UP_MPS = 10.0  # how much faster than the ego a vehicle drives while it catches up from far behind
 STRAIGHT_REACH_M = 30.0
 
 

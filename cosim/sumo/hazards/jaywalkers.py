@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cosim.scenario import HazardConfig
+from cosim.hazards.decisions import EGO_STOP_DECEL, JAYWALK_STEP_M, ego_stops_for_walker, jaywalk_reach, sumo_angle
 from cosim.sumo.hazards import roads
 from cosim.sumo.hazards.base import CHILD_TYPE, HIDDEN_MARGIN_M, STRAIGHT_REACH_M, Base, Event
 from networks.sumo_tools import sumo_home
@@ -13,9 +13,6 @@ from networks.sumo_tools import sumo_home
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
 
-EGO_STOP_DECEL = 7.5
-JAYWALK_PATH_M, JAYWALK_LOOK_M = 1.8, 40.0  # the ego's path: this far either side of its lane centre
-JAYWALK_STEP_M = 0.6  # the pedestrian starts this far beyond the kerb
 JAYWALK_HIDDEN_M = 0.5  # and this much farther when it starts in front of a parked car
 JAYWALK_LEAD_S = 20.0  # its place is chosen this long before it is due
 JAYWALK_LATE_S = 40.0  # and given up this long after (the ego may wait at a red light before it)
@@ -44,7 +41,7 @@ class Jaywalkers(Base):
         where the ego will be when the event is due."""
         limit = libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(ego))
         pace = max(libsumo.vehicle.getSpeed(ego), JAYWALK_PACE_SHARE * limit)
-        spot = self._open_spot(ego, _jaywalk_reach(event.config, pace, 2.0) + pace * max(event.due_s - now, 0.0))
+        spot = self._open_spot(ego, jaywalk_reach(event.config, pace, 2.0) + pace * max(event.due_s - now, 0.0))
         if spot is None:
             return False
         event.spot = spot
@@ -56,7 +53,7 @@ class Jaywalkers(Base):
         the time the event is due (at its speed, or 0.7 of the limit if slower)."""
         limit = libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(ego))
         pace = max(libsumo.vehicle.getSpeed(ego), JAYWALK_PACE_SHARE * limit)
-        reach = self._reach(event, ego, None) or _jaywalk_reach(event.config, pace, 2.0)
+        reach = self._reach(event, ego, None) or jaywalk_reach(event.config, pace, 2.0)
         best: tuple[float, str] | None = None
         for vid, ahead in self._parked_on_way(ego):
             if ahead >= reach - JAYWALK_CATCH_M:
@@ -131,7 +128,7 @@ class Jaywalkers(Base):
         kind = CHILD_TYPE if event.config.child else self._pedestrian_type or "DEFAULT_PEDTYPE"
         libsumo.person.add(person, self._walk_edges[0], 0.0, typeID=kind)
         libsumo.person.appendWaitingStage(person, 3600.0)
-        self._held[person] = (float(start[0]), float(start[1]), roads.sumo_angle(direction))
+        self._held[person] = (float(start[0]), float(start[1]), sumo_angle(direction))
         libsumo.person.moveToXY(person, "", *self._held[person], keepRoute=2)
         event.actors.append(person)
         event.restore.append(lambda: self._release(person))
@@ -177,7 +174,7 @@ class Jaywalkers(Base):
         if place is None or lane is None or speed < 2.0:
             return None
         lo, hi = event.config.distance_m
-        return float(np.clip(_jaywalk_reach(event.config, speed, place.to_lane_m(lane)), lo, hi))
+        return float(np.clip(jaywalk_reach(event.config, speed, place.to_lane_m(lane)), lo, hi))
 
     def _step_out(self, event: Event, ego: str, now: float, spot: tuple[str, float], parked: str) -> bool:
         """The jaywalker steps out at ``spot`` (in front of the ``parked`` car) if the ego is its
@@ -197,7 +194,7 @@ class Jaywalkers(Base):
             self._place_waiting(event, ego)  # hidden by the parked car
         event.actors = event.actors[-1:]
         self._held.pop(event.actors[0], None)  # it walks
-        libsumo.person.moveToXY(event.actors[0], "", float(start[0]), float(start[1]), roads.sumo_angle(direction),
+        libsumo.person.moveToXY(event.actors[0], "", float(start[0]), float(start[1]), sumo_angle(direction),
                                 keepRoute=2)  # fmt: skip
         event.path = (start, direction, length)
         decel = libsumo.vehicle.getDecel(ego)
@@ -217,15 +214,8 @@ class Jaywalkers(Base):
             if walked >= length:
                 return True
             x, y = start + direction * walked
-            libsumo.person.moveToXY(person, "", float(x), float(y), roads.sumo_angle(direction), keepRoute=2)
-            ex, ey = libsumo.vehicle.getPosition(ego)
-            fwd = roads.forward(ego)
-            rel = np.array([x - ex, y - ey])
-            along, across = float(rel @ fwd), float(rel @ np.array([-fwd[1], fwd[0]]))
-            speed = libsumo.vehicle.getSpeed(ego)
-            entering_s = max(0.0, (abs(across) - JAYWALK_PATH_M) / config.walk_mps)
-            coming = across < JAYWALK_PATH_M and entering_s <= speed / EGO_STOP_DECEL + 1.0
-            if -6.0 < along < JAYWALK_LOOK_M and coming:
+            libsumo.person.moveToXY(person, "", float(x), float(y), sumo_angle(direction), keepRoute=2)
+            if ego_stops_for_walker(roads.pose(ego), x, y, libsumo.vehicle.getSpeed(ego), config.walk_mps):
                 libsumo.vehicle.setSpeed(ego, 0.0)  # the ego stops for a pedestrian stepping into its path
             else:
                 libsumo.vehicle.setSpeed(ego, -1.0)
@@ -258,11 +248,3 @@ def _lane_on(ego: str, road: str) -> int | None:
         return int(libsumo.vehicle.getLaneIndex(ego))
     lane = next((lane for lane in roads.lane_ahead(ego) if lane.rsplit("_", 1)[0] == road), None)
     return None if lane is None else int(lane.rsplit("_", 1)[1])
-
-
-def _jaywalk_reach(hazard: HazardConfig, speed: float, kerb_m: float) -> float:
-    """How far ahead of the ego a jaywalker steps out: the ego's way (at 2 m/s faster, it may
-    speed up) while the pedestrian walks into its path, plus its braking distance and 5 m."""
-    fast = speed + 2.0
-    across_path = kerb_m + JAYWALK_STEP_M - JAYWALK_PATH_M
-    return fast * across_path / hazard.walk_mps + fast * fast / (2.0 * EGO_STOP_DECEL) + 5.0

@@ -8,18 +8,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from cosim.hazards.decisions import JUNCTION_M, RED_LIGHT_S, RED_MARGIN_S, phase_to_green, red_run
 from cosim.sumo.hazards import roads
 from cosim.sumo.hazards.base import CAR_RADIUS_M, HIDDEN_MARGIN_M, SPEED_DEFAULT, Base, Event, free
+from networks.street import SignalState
 from networks.sumo_tools import sumo_home
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
 
 IGNORE_RED_AND_RIGHT_OF_WAY = 7  # speed mode: safe speed, acceleration and deceleration limits only
-RED_LIGHT_S = 10.0
-RED_RUN_MPS = 9.0  # a red-light runner speeds up to at least this
-RED_MARGIN_S = 1.5  # it leaves the junction this long before the ego can reach it (or enters after)
-JUNCTION_M = 25.0  # the way through a junction
 RED_NEAR_M = 60.0  # a runner is within this of its stop line
 RED_LEAD_S, RED_LATE_S = 15.0, 30.0  # a red-light runner is prepared this long before it is due, given up after
 RED_EARLY_S = 2.0  # and may run this long before it is due
@@ -48,16 +46,16 @@ class RedLights(Base):
         within ``RED_PLAN_M``; with ``actuate``, a red one the ego would stop at is switched to
         green for it first (as a light that detects it coming would: the crossing direction's
         green ends at once, through its yellow)."""
-        ahead = libsumo.vehicle.getNextTLS(ego)
+        ahead = roads.next_lights(ego)
         if not ahead or ahead[0][2] > RED_PLAN_M:
             return None
         tls, link, dist, state = ahead[0]
-        if state in "Gg":
+        if state.is_green:
             return tls, link, dist
         lane = libsumo.vehicle.getLaneID(ego)
         speed = max(libsumo.vehicle.getSpeed(ego), 0.5 * libsumo.lane.getMaxSpeed(lane) if lane else 1.0)
         waiting = libsumo.vehicle.getSpeed(ego) < 1.0  # in the queue at the light: it may turn green at once
-        if actuate and state in "rR" and dist / speed <= RED_ACTUATE_S:
+        if actuate and state.is_red and dist / speed <= RED_ACTUATE_S:
             _green_for(tls, link, float("inf") if waiting else dist / speed)
         return None
 
@@ -66,9 +64,9 @@ class RedLights(Base):
         when the ego's has green), where no sensor sees it, routed across; none is made where a
         vehicle could run the red already. True: made (or not needed)."""
         links = libsumo.trafficlight.getControlledLinks(tls)
-        state = libsumo.trafficlight.getRedYellowGreenState(tls)
+        state = SignalState.decode(libsumo.trafficlight.getRedYellowGreenState(tls))
         ego_in = links[ego_link][0][0].rsplit("_", 1)[0] if links[ego_link] else ""
-        crossing = [i for i, link in enumerate(links) if link and state[i] in "rRyY"
+        crossing = [i for i, link in enumerate(links) if link and (state[i].is_red or state[i].is_yellow)
                     and link[0][0].rsplit("_", 1)[0] != ego_in
                     and "passenger" not in libsumo.lane.getDisallowed(link[0][0])]  # fmt: skip
         if not crossing or any(self._runners(tls, i, ego) for i in crossing):
@@ -102,29 +100,26 @@ class RedLights(Base):
         approach with red runs it, timed to clear the junction before the ego or to enter it
         after. True: it started."""
         lo, hi = event.config.distance_m
-        ahead = [t for t in libsumo.vehicle.getNextTLS(ego) if lo <= t[2] <= hi]
-        if not ahead or ahead[0][3] not in "Gg":
+        ahead = [t for t in roads.next_lights(ego) if lo <= t[2] <= hi]
+        if not ahead or not ahead[0][3].is_green:
             return False
         tls, ego_link, ego_dist, _ = ahead[0]
         ego_speed = max(libsumo.vehicle.getSpeed(ego), 1.0)
         ego_time = ego_dist / ego_speed  # until the ego reaches its stop line
         ego_clear = (ego_dist + JUNCTION_M) / ego_speed + RED_MARGIN_S  # until it has crossed, with a margin
-        state = libsumo.trafficlight.getRedYellowGreenState(tls)
+        state = SignalState.decode(libsumo.trafficlight.getRedYellowGreenState(tls))
         links = libsumo.trafficlight.getControlledLinks(tls)
         ego_in = links[ego_link][0][0] if links[ego_link] else ""
         candidates = []
         for index, link in enumerate(links):
-            if not link or state[index] not in "rR" or link[0][0].rsplit("_", 1)[0] == ego_in.rsplit("_", 1)[0]:
+            if not link or not state[index].is_red or link[0][0].rsplit("_", 1)[0] == ego_in.rsplit("_", 1)[0]:
                 continue
             lane = link[0][0]
             for vid in self._runners(tls, index, ego):
-                speed = libsumo.vehicle.getSpeed(vid)
                 dist = libsumo.lane.getLength(lane) - libsumo.vehicle.getLanePosition(vid)
-                run_speed = max(speed, RED_RUN_MPS)
-                if (dist + JUNCTION_M) / (0.5 * (speed + run_speed)) + RED_MARGIN_S <= ego_time:
-                    candidates.append((vid, run_speed, RED_LIGHT_S))  # through before the ego
-                elif dist / ego_clear >= 3.0:  # through behind the ego, at a speed that brings it there then
-                    candidates.append((vid, dist / ego_clear, ego_clear + JUNCTION_M / (dist / ego_clear) + 1.0))
+                run = red_run(dist, libsumo.vehicle.getSpeed(vid), ego_time, ego_clear)  # before or behind the ego
+                if run is not None:
+                    candidates.append((vid, *run))
         if not candidates:
             return False
         vid, speed, lasts_s = sorted(candidates)[int(self._rng.integers(0, len(candidates)))]
@@ -143,15 +138,9 @@ def _green_for(tls: str, link: int, eta_s: float) -> bool:
     own order allows it: a link green now is yellow or green then, or goes red next anyway)."""
     program = libsumo.trafficlight.getProgram(tls)
     phases = next(logic.phases for logic in libsumo.trafficlight.getAllProgramLogics(tls) if logic.programID == program)
-    now_at, count = libsumo.trafficlight.getPhase(tls), len(phases)
-    green = next(
-        ((now_at + k) % count for k in range(1, count) if phases[(now_at + k) % count].state[link] in "Gg"), None
-    )
-    if green is None or (green - 1) % count == now_at:
+    states = [SignalState.decode(phase.state) for phase in phases]
+    phase = phase_to_green(states, [p.duration for p in phases], libsumo.trafficlight.getPhase(tls), link, eta_s)
+    if phase is None:
         return False
-    yellow, here, after = phases[(green - 1) % count], phases[now_at].state, phases[(now_at + 1) % count].state
-    safe = all(c not in "Gg" or y in "GgyY" or a in "rR" for c, y, a in zip(here, yellow.state, after, strict=True))
-    if not safe or eta_s < yellow.duration + 1.0:
-        return False
-    libsumo.trafficlight.setPhase(tls, (green - 1) % count)
+    libsumo.trafficlight.setPhase(tls, phase)
     return True

@@ -4,40 +4,36 @@ the roads it came along (where vehicles are made out of its sight) and the kerb 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from cosim.kinematics import sumo_angle_to_yaw
+from cosim.hazards import decisions
+from cosim.hazards.decisions import Kerb, Pose, straight
+from networks.street import SignalState
 from networks.sumo_tools import sumo_home
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
 
-STRAIGHT_DEG = 6.0
-IN_LINE_M, IN_LINE_DEG = 1.0, 8.0
 INVALID = libsumo.constants.INVALID_DOUBLE_VALUE
 HISTORY = 40  # roads of the ego's way back kept
 
 
-def forward(vid: str) -> np.ndarray:
-    """A vehicle's unit heading in the map plane."""
-    yaw = float(sumo_angle_to_yaw(libsumo.vehicle.getAngle(vid)))
-    return np.array([math.cos(yaw), math.sin(yaw)])
-
-
-def sumo_angle(direction: np.ndarray) -> float:
-    """SUMO's angle of a direction in the map plane: degrees clockwise from north."""
-    return math.degrees(math.atan2(direction[0], direction[1])) % 360.0
+def pose(vid: str) -> Pose:
+    """A vehicle's front bumper, heading and length, decoded."""
+    d = libsumo.vehicle
+    return Pose.of_sumo(d.getPosition(vid), d.getAngle(vid), d.getLength(vid))
 
 
 def in_ego_frame(ego: str, xy_map_m: np.ndarray) -> np.ndarray:
     """A map point in the ego frame (x forward, y left, from the ego's footprint centre)."""
-    fwd = forward(ego)
-    centre = np.array(libsumo.vehicle.getPosition(ego)) - 0.5 * libsumo.vehicle.getLength(ego) * fwd
-    rel = np.asarray(xy_map_m, dtype=float) - centre
-    return np.array([float(rel @ fwd), float(rel @ np.array([-fwd[1], fwd[0]]))])
+    return decisions.in_ego_frame(pose(ego), xy_map_m)
+
+
+def next_lights(ego: str) -> list[tuple[str, int, float, SignalState]]:
+    """The lights on the ego's way: each one's id, the ego's link, its distance and state."""
+    return [(tls, link, dist, SignalState.of(letter)) for tls, link, dist, letter in libsumo.vehicle.getNextTLS(ego)]
 
 
 @dataclass(slots=True)
@@ -120,17 +116,9 @@ def car_lanes(road: str) -> list[str]:
 
 
 def beside_gap(ego: str, vid: str) -> float | None:
-    """A vehicle's gap ahead of the ego (its rear from the ego's front bumper, along the ego's
-    heading) while it drives in a lane beside the ego's (its centre 1.5 to 6 m to the side, its
-    heading within 20 degrees); None otherwise."""
-    fwd, their_forward = forward(ego), forward(vid)
-    length = libsumo.vehicle.getLength(vid)
-    rear = np.array(libsumo.vehicle.getPosition(vid)) - length * their_forward
-    offset = rear + 0.5 * length * their_forward - np.array(libsumo.vehicle.getPosition(ego))
-    across = abs(float(offset @ np.array([-fwd[1], fwd[0]])))
-    if not 1.5 <= across <= 6.0 or float(fwd @ their_forward) < math.cos(math.radians(20.0)):
-        return None
-    return float((rear - np.array(libsumo.vehicle.getPosition(ego))) @ fwd)
+    """A vehicle's gap ahead of the ego while it drives in a lane beside the ego's
+    (:func:`cosim.hazards.decisions.beside_gap`); None otherwise."""
+    return decisions.beside_gap(pose(ego), pose(vid))
 
 
 def same_way(ego: str, vid: str, road_m: float) -> bool:
@@ -217,9 +205,9 @@ def straight_ahead(ego: str, reach_m: float) -> bool:
         along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(shape, axis=0), axis=1))])
         path += list(shape[along > travelled])
         travelled = 0.0
-        if _length(np.array(path)) >= reach_m:
+        if decisions.polyline_length(np.array(path)) >= reach_m:
             break
-    return _straight(np.array(path), reach_m)
+    return straight(np.array(path), reach_m)
 
 
 def straight_lane(lane: str, start_m: float, end_m: float) -> bool:
@@ -227,43 +215,13 @@ def straight_lane(lane: str, start_m: float, end_m: float) -> bool:
     shape = np.array(libsumo.lane.getShape(lane), dtype=float)
     along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(shape, axis=0), axis=1))])
     inner = shape[(along > start_m) & (along < end_m)]
-    points = np.array([_at(shape, start_m), *inner, _at(shape, end_m)])
-    return _straight(points, end_m - start_m)
+    points = np.array([decisions.point_along(shape, start_m), *inner, decisions.point_along(shape, end_m)])
+    return straight(points, end_m - start_m)
 
 
 def in_line(ego: str, vid: str) -> bool:
-    """Whether a vehicle ahead is in line with the ego (a leader on a gentle bend): its centre
-    within ``IN_LINE_M`` of the ego's heading line, its heading within ``IN_LINE_DEG``; a time to
-    collision under constant velocity then still says how close a stop ahead comes."""
-    fwd, their_forward = forward(ego), forward(vid)
-    half = libsumo.vehicle.getLength(vid) / 2.0
-    centre = np.array(libsumo.vehicle.getPosition(vid)) - half * their_forward
-    offset = centre - np.array(libsumo.vehicle.getPosition(ego))
-    left = np.array([-fwd[1], fwd[0]])
-    across = abs(float(offset @ left))
-    turn = math.degrees(math.atan2(float(their_forward @ left), float(their_forward @ fwd)))
-    return across <= IN_LINE_M and abs(turn) <= IN_LINE_DEG
-
-
-@dataclass(frozen=True, slots=True)
-class Kerb:
-    """A road's driving lanes at a point: the point on the right kerb (the outer edge of the
-    rightmost lane open to cars), the road's unit direction there and unit left, and the
-    driving lanes' indices and widths (all of the road's lanes)."""
-
-    xy_m: np.ndarray
-    forward: np.ndarray
-    left: np.ndarray
-    driving: tuple[int, ...]
-    widths_m: tuple[float, ...]
-
-    def to_lane_m(self, index: int) -> float:
-        """From lane ``index``'s centre to the kerb."""
-        return self.widths_m[index] / 2.0 + sum(self.widths_m[min(self.driving) : index])
-
-    def across_m(self) -> float:
-        """The width of the driving lanes."""
-        return sum(self.widths_m[i] for i in self.driving)
+    """Whether a vehicle ahead is in line with the ego (:func:`cosim.hazards.decisions.in_line`)."""
+    return decisions.in_line(pose(ego), pose(vid))
 
 
 def kerb(road: str, position_m: float) -> Kerb | None:
@@ -281,21 +239,3 @@ def kerb(road: str, position_m: float) -> Kerb | None:
     left = np.array([-fwd[1], fwd[0]])
     centre = np.array(libsumo.simulation.convert2D(road, position_m, first))
     return Kerb(centre - left * widths[first] / 2.0, fwd, left, driving, widths)
-
-
-def _straight(points: np.ndarray, reach_m: float) -> bool:
-    if _length(points) < reach_m - 1e-6:
-        return False  # the route ends (or is not known) within reach
-    x0, x1, x2 = (_at(points, s) for s in (0.0, reach_m / 2.0, reach_m))
-    turn = math.atan2(*(x2 - x1)[::-1]) - math.atan2(*(x1 - x0)[::-1])
-    return abs(math.degrees(math.atan2(math.sin(turn), math.cos(turn)))) <= STRAIGHT_DEG
-
-
-def _length(points: np.ndarray) -> float:
-    return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()) if len(points) > 1 else 0.0
-
-
-def _at(points: np.ndarray, distance_m: float) -> np.ndarray:
-    """The point ``distance_m`` along a polyline."""
-    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
-    return np.array([np.interp(distance_m, along, points[:, 0]), np.interp(distance_m, along, points[:, 1])])

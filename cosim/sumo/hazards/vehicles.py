@@ -7,12 +7,21 @@ from collections.abc import Callable
 
 import numpy as np
 
-from cosim.scenario import HazardConfig
+from cosim.hazards.decisions import (
+    AHEAD_OF_TIME_S,
+    CATCH_UP_MPS,
+    CUT_IN_APPROACH_MPS,
+    CUT_IN_BEHIND_M,
+    CUT_IN_OVERTAKE_MPS,
+    approach_s,
+    closing_s,
+    cut_in_gaps,
+    leader_change,
+    pace,
+)
 from cosim.sumo.hazards import roads
 from cosim.sumo.hazards.base import (
-    AHEAD_OF_TIME_S,
     CAR_RADIUS_M,
-    CATCH_UP_MPS,
     HIDDEN_MARGIN_M,
     LOST_S,
     SPEED_FACTOR,
@@ -26,21 +35,16 @@ from networks.sumo_tools import sumo_home
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
 
-EGO_STOP_DECEL = 7.5
 CUT_IN_HOLD_S, CUT_IN_S = 4.0, 6.0
 CUT_IN_SPEED_SHARE, CUT_IN_BRAKE_S = 0.5, 2.0  # the cutting vehicle slows to half the ego's speed within 2 s
 REACTION_S = 0.6  # the ego's driver decides this often while surprised (SUMO's action step length)
 CUT_IN_LATERAL_MPS = 2.5  # the cutting vehicle's sideways speed
 CUT_IN_ROOM_M = 1.0  # free space it needs in front of it in the ego's lane (no one is cut into)
 CUT_IN_MAX_DECEL = 4.0  # m/s^2: the cutting vehicle brakes no harder than this (the ego can follow)
-CUT_IN_BEHIND_M = 30.0  # it may start up to this far behind the ego's front, and overtake
-CUT_IN_OVERTAKE_MPS = 6.0  # how much faster than the ego it overtakes
-CUT_IN_LOOK_M, CUT_IN_APPROACH_MPS = 40.0, 4.0  # it may start up to 40 m ahead, and drop back
+CUT_IN_LOOK_M = 40.0  # it may start up to 40 m ahead, and drop back
 CUT_IN_ROAD_M = 120.0  # or where the ego's road goes on this far: it drives beside the ego as long
 MAKE_LEAD_S = 20.0  # where no vehicle is beside the ego, one is made behind it this long before it is due
-LEADER_SLOWER_MPS, LEADER_FASTER_MPS = 10.0, 5.0  # a hard brake's leader is paced this much slower or faster
 LEADER_LEAD_S = 30.0  # one is made ahead of the ego up to this long before it is due
-LEADER_PACE_S = 20.0  # and the ego's leader is paced from at least this long before
 LEADER_SETTLE_S = 3.0  # and brakes no sooner than this after it became the ego's leader
 HOLD_S = 2.0
 
@@ -82,8 +86,8 @@ class Vehicles(Base):
                      and abs(lane - index) != 1 and -CUT_IN_BEHIND_M <= gap <= ahead_m]  # fmt: skip
         if not found:
             return None
-        vid, gap = min(found, key=lambda f: (_approach_s(f[1], wanted_m), f[0]))  # the one there soonest
-        return (vid, gap) if now >= due - _approach_s(gap, wanted_m) else None
+        vid, gap = min(found, key=lambda f: (approach_s(f[1], wanted_m), f[0]))  # the one there soonest
+        return (vid, gap) if now >= due - approach_s(gap, wanted_m) else None
 
     def _around(self, ego: str, ahead_m: float) -> dict[str, tuple[int, float]]:
         """The vehicles in the lanes open to cars of the ego's road and the roads just behind
@@ -146,7 +150,7 @@ class Vehicles(Base):
         ego_speed = libsumo.vehicle.getSpeed(ego)
         faster = CATCH_UP_MPS if far else CUT_IN_OVERTAKE_MPS
         fastest = max(SPEED_FACTOR * libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(vid)), ego_speed + faster)
-        libsumo.vehicle.setSpeed(vid, min(_pace(ego_speed, gap, wanted_m, left_s), fastest))
+        libsumo.vehicle.setSpeed(vid, min(pace(ego_speed, gap, wanted_m, left_s), fastest))
         road, lane = libsumo.vehicle.getRoadID(vid), libsumo.vehicle.getLaneIndex(vid)
         ego_lane = libsumo.vehicle.getLaneIndex(ego)
         if far and _blocked(vid, gap, wanted_m):  # far behind: it passes the slower one in another lane
@@ -162,7 +166,7 @@ class Vehicles(Base):
     # --- cut-ins -----------------------------------------------------------------------------
     def _make_cut_in(self, event: Event, ego: str, now: float) -> Event | None:
         ego_speed = libsumo.vehicle.getSpeed(ego)
-        near, far = _cut_in_gaps(event.config, ego_speed)
+        near, far = cut_in_gaps(event.config, ego_speed)
         if ego_speed < 3.0 or near >= far:
             return None  # no gap in metres is also one in seconds at this speed
         gap_m = float(self._rng.uniform(near, far))
@@ -176,7 +180,7 @@ class Vehicles(Base):
     def _cut_in_ready(self, event: Event, ego: str, now: float) -> bool:
         """A cut-in's vehicle paced to its gap; it cuts in once due and at the gap drawn."""
         vid, ego_speed = event.actors[0], libsumo.vehicle.getSpeed(ego)
-        near, far = _cut_in_gaps(event.config, ego_speed)
+        near, far = cut_in_gaps(event.config, ego_speed)
         wanted = float(np.clip(event.gap_m, near + 1.0, max(far, near + 1.0)))  # the gap drawn, at today's speed
         if self._bring_beside(event, ego, now, wanted - 0.5, event.due_s - now - AHEAD_OF_TIME_S) is None:
             return now - event.seen_s >= LOST_S  # gone from the ego's way: another candidate
@@ -225,11 +229,11 @@ class Vehicles(Base):
             vid, gap = leader
             if not self._movable(vid, ego):
                 return None  # one that cannot act (a bicycle): wait
-            if now < event.due_s - _closing_s(gap, event.gap_m) or not roads.follow(vid, ego):
+            if now < event.due_s - closing_s(gap, event.gap_m) or not roads.follow(vid, ego):
                 return None
             self._drive(event, vid, now, gap)
             return event
-        made = self._make_ahead(ego) if now >= event.due_s - _closing_s(self._ahead_m, event.gap_m) else None
+        made = self._make_ahead(ego) if now >= event.due_s - closing_s(self._ahead_m, event.gap_m) else None
         if made is None:
             return None
         self._drive(event, made, now, self._ahead_m)
@@ -269,7 +273,7 @@ class Vehicles(Base):
         event.seen_s = now
         left_s = max(event.due_s - now - AHEAD_OF_TIME_S, 1.0)
         cruise = libsumo.vehicle.getAllowedSpeed(ego)  # the ego's own free speed (no loop through its following)
-        libsumo.vehicle.setSpeed(vid, max(cruise + _leader_change(event.gap_m, gap, left_s), 1.0))
+        libsumo.vehicle.setSpeed(vid, max(cruise + leader_change(event.gap_m, gap, left_s), 1.0))
         if not leader or leader[0] != vid:
             return now >= event.ends_s
         if not event.leading:
@@ -316,39 +320,3 @@ def _react_late(ego: str) -> Callable[[], None]:
     step = libsumo.vehicle.getActionStepLength(ego)
     libsumo.vehicle.setActionStepLength(ego, REACTION_S, resetActionOffset=True)
     return lambda: libsumo.vehicle.setActionStepLength(ego, step, resetActionOffset=True)
-
-
-def _cut_in_gaps(hazard: HazardConfig, ego_speed: float) -> tuple[float, float]:
-    """The gaps a cut-in may leave at this speed: within ``distance_m`` and ``time_gap_s``."""
-    return (max(hazard.distance_m[0], hazard.time_gap_s[0] * ego_speed),
-            min(hazard.distance_m[1], hazard.time_gap_s[1] * ego_speed))  # fmt: skip
-
-
-def _leader_change(wanted_m: float, gap_m: float, left_s: float) -> float:
-    """How much slower or faster than the ego's free speed a leader drives to bring its gap to
-    the one wanted in ``left_s``."""
-    return float(np.clip((wanted_m - gap_m) / left_s, -LEADER_SLOWER_MPS, LEADER_FASTER_MPS))
-
-
-def _closing_s(gap_m: float, wanted_m: float) -> float:
-    """About how long a leader takes from a gap to the one wanted, with 3 s to spare (and at
-    least ``LEADER_PACE_S``)."""
-    rate = 0.75 * (LEADER_SLOWER_MPS if gap_m > wanted_m else LEADER_FASTER_MPS)
-    return max(LEADER_PACE_S, abs(gap_m - wanted_m) / rate + AHEAD_OF_TIME_S)
-
-
-def _approach_s(gap_m: float, wanted_m: float) -> float:
-    """About how long a vehicle beside the ego takes from a gap to the one wanted (from far
-    behind at 3/4 of ``CATCH_UP_MPS``), with 3 s to spare."""
-    far = max(-CUT_IN_BEHIND_M - gap_m, 0.0)
-    near = abs(wanted_m - max(gap_m, -CUT_IN_BEHIND_M))
-    return far / (0.75 * CATCH_UP_MPS) + near / (0.75 * CUT_IN_OVERTAKE_MPS) + 3.0
-
-
-def _pace(ego_speed: float, gap_m: float, wanted_m: float, left_s: float) -> float:
-    """A speed that brings a vehicle's gap ahead of the ego to ``wanted_m`` in ``left_s`` (at
-    least 1 s): up to 6 m/s faster than the ego (10 m/s while more than 30 m behind it), up to
-    4 m/s slower."""
-    fastest = CUT_IN_OVERTAKE_MPS if gap_m >= -CUT_IN_BEHIND_M else CATCH_UP_MPS
-    change = float(np.clip((wanted_m - gap_m) / max(left_s, 1.0), -CUT_IN_APPROACH_MPS, fastest))
-    return max(ego_speed + change, 1.0)
