@@ -18,14 +18,13 @@ import numpy as np
 import numpy.typing as npt
 
 from networks.geometry import SE3
-from networks.records import check_arrays
 from sensors.agents import Agents, EgoState
 from sensors.errors import SensorConfigError, SensorError
 from sensors.hits import RayHits
 from sensors.photo import SUBPIXEL_OFFSETS, AgentBoxes, Supersamples
 from sensors.pinhole import EGO_AXES_R_OPTICAL, NO_DISTORTION, Pinhole
 from sensors.rays import sensor_rays
-from sensors.shading import Shading
+from sensors.shading import CameraFrame, Shading
 from sensors.view import spheres_in_view
 from sensors.weather import Weather
 
@@ -105,27 +104,6 @@ class CameraSpec:
     def ego_SE3_sensor(self) -> SE3:
         """The optical frame (x right, y down, z forward) in the ego frame."""
         return self.ego_SE3_body.compose(SE3(EGO_AXES_R_OPTICAL, np.zeros(3)))
-
-
-@dataclass(frozen=True, slots=True)
-class CameraFrame:
-    """One rendered frame: ``depth_m: (H, W) float32`` z-depth along the optical axis (0: no
-    hit within range), ``instance_id: (H, W) uint32`` (0: static world or nothing),
-    ``semantic_class: (H, W) uint8`` (0: nothing), and what its colour image is shaded from
-    (:func:`sensors.shading.shade_frame`)."""
-
-    depth_m: npt.NDArray[np.float32]
-    instance_id: npt.NDArray[np.uint32]
-    semantic_class: npt.NDArray[np.uint8]
-    shading: Shading
-
-    def __post_init__(self) -> None:
-        check_arrays(self, depth_m=(np.float32, ("H", "W")), instance_id=(np.uint32, ("H", "W")),
-                     semantic_class=(np.uint8, ("H", "W")))  # fmt: skip
-
-    @property
-    def hit(self) -> npt.NDArray[np.bool_]:
-        return self.depth_m > 0
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,13 +15,13 @@ plus four sub-pixel rays where the pixel holds an edge):
 - haze with distance, a sky with clouds where nothing is hit.
 
 The labels never come from here: masks, depth and boxes use the centre rays only.
+:func:`sensors.shading.shade_photo` makes the image with these functions.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -40,9 +40,6 @@ from sensors.parts import (
 )
 from sensors.pinhole import Pinhole
 from sensors.weather import Weather, haze_fraction
-
-if TYPE_CHECKING:
-    from sensors.camera import CameraFrame
 
 F32 = npt.NDArray[np.float32]
 GAMMA = np.float32(2.2)
@@ -584,82 +581,6 @@ def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32]
         mean = num[at] / np.maximum(den[at], np.float32(1e-6))[:, None]
         grid[rows, cols][at] = mean / np.maximum(np.linalg.norm(mean, axis=-1, keepdims=True), np.float32(1e-6))
     return out
-
-
-def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
-    """The realistic ``(H, W, 3) uint8`` image of a rendered frame."""
-    import cv2
-
-    sh = frame.shading
-    assert sh.part is not None and sh.origin_map_m is not None and sh.sun_lit is not None
-    h, w = frame.depth_m.shape
-    dirs_cam = sh.pinhole.image_directions()
-    depth = frame.depth_m.ravel()
-    range_m = np.where(depth > 0, depth / dirs_cam[:, 2], np.float32(np.inf)).astype(np.float32)
-    dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
-    classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
-    normal = rounded_normals(sh.normal, dirs_map, frame.instance_id, frame.depth_m, sh.pinhole.focal_px)
-    sky_open = sky_light(dirs_map, range_m, classes, instances, sh.origin_map_m, sh.boxes)
-    lamp = lamp_rays(dirs_map, range_m, instances, sh.part, sh.origin_map_m, sh.boxes, sh.weather)
-    linear = np.empty((h * w, 3), np.float32)
-    for start in range(0, h * w, STRIPE_PX):
-        s = slice(start, start + STRIPE_PX)
-        linear[s] = radiance(
-            dirs_map[s],
-            range_m[s],
-            classes[s],
-            instances[s],
-            sh.part[s],
-            normal[s],
-            sh.sun_lit[s],
-            dirs_cam[s, 2],
-            sh.origin_map_m,
-            sh.weather,
-            sh.range_m,
-            sky_open[s],
-            lamp[s],
-        )
-    extra = sh.extra
-    if extra is not None and len(extra.pixel):
-        sub = len(extra.range_m) // len(extra.pixel)
-        sub_dirs = np.asarray(cv2.transform(extra.dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
-        sub_open = sky_light(
-            sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, sh.origin_map_m, sh.boxes
-        )
-        sub_lin = radiance(
-            sub_dirs,
-            extra.range_m,
-            extra.semantic_class,
-            extra.instance_id,
-            extra.part,
-            extra.normal,
-            extra.sun_lit,
-            extra.dirs_cam[:, 2],
-            sh.origin_map_m,
-            sh.weather,
-            sh.range_m,
-            sub_open,
-            lamp_rays(sub_dirs, extra.range_m, extra.instance_id, extra.part, sh.origin_map_m, sh.boxes, sh.weather),
-        )
-        linear[extra.pixel] = (linear[extra.pixel] + sub_lin.reshape(-1, sub, 3).sum(axis=1)) / np.float32(sub + 1)
-    if sh.shutter_s > 0 and sh.ego_velocity_map_mps is not None:
-        motion = image_motion_px(sh.pinhole, dirs_cam, range_m, instances, sh.map_R_cam, sh.boxes,
-                                 sh.ego_velocity_map_mps, sh.shutter_s)  # fmt: skip
-        linear = motion_blur(linear.reshape(h, w, 3), motion.reshape(h, w, 2)).reshape(-1, 3)
-    lens = np.asarray(cv2.GaussianBlur(linear.reshape(h, w, 3), (0, 0), LENS_BLUR_PX), np.float32)
-    linear = bloom(lens).reshape(-1, 3)
-    linear *= vignette(h, w)[:, None]
-    image = tone_map(linear, sh.weather.exposure)
-    rng = np.random.default_rng(sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w))
-    sigma = np.float32(np.hypot(READ_NOISE, sh.weather.noise_sigma))
-    image += rng.standard_normal((h * w, 1), dtype=np.float32) * sigma
-    out = np.asarray(np.clip(image + np.float32(0.5), 0.0, 255.0).astype(np.uint8))
-    if sh.faces is not None:
-        street = (classes == SemanticClass.TRAFFIC_LIGHT) | (classes == SemanticClass.TRAFFIC_SIGN)
-        pixels = np.flatnonzero(street & (depth > 0))
-        points = dirs_cam[pixels] * range_m[pixels, None]
-        sh.faces.paint(out, points, instances[pixels], pixels, sh.weather.exposure)
-    return out.reshape(h, w, 3)
 
 
 _ = Part  # the part enum documents the tables this module reads

@@ -19,11 +19,11 @@ from networks.classes import SemanticClass
 from networks.geometry import SE3
 from networks.mesh import ClassedMesh, flat_polygon, merge, prism
 from sensors.agents import Agents, EgoState
-from sensors.camera import Camera, CameraFrame, CameraSpec
+from sensors.camera import Camera, CameraSpec
 from sensors.errors import SensorError
 from sensors.materials import ALBEDO_BGR_BY_CLASS
 from sensors.scene import FrameScene
-from sensors.shading import shade_frame
+from sensors.shading import CameraFrame, shade_frame
 from sensors.weather import DAY, Weather, weather_preset
 
 

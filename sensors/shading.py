@@ -4,7 +4,7 @@ Albedo per class (vehicles painted by instance id) times Lambert lighting from a
 plus ambient (plus headlights at night), blended into haze with distance; misses show a sky
 gradient. No shadows, no textures.
 
-Shading is a step of its own: a :class:`~sensors.camera.CameraFrame` carries the
+Shading is a step of its own: a :class:`CameraFrame` carries the
 :class:`Shading` it is made from (normals per pixel, the camera's orientation, the weather,
 the seed of its noise), and :func:`shade_frame` makes the image where it is needed, in the
 writer process, while the next frame's rays are cast.
@@ -13,7 +13,6 @@ writer process, while the next frame's rays are cast.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -23,13 +22,23 @@ from networks.classes import SemanticClass
 from networks.records import check_arrays
 from sensors.hits import RayHits
 from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAINT_BGR
-from sensors.photo import AgentBoxes, Supersamples, shade_photo
+from sensors.photo import (
+    LENS_BLUR_PX,
+    READ_NOISE,
+    AgentBoxes,
+    Supersamples,
+    bloom,
+    image_motion_px,
+    lamp_rays,
+    motion_blur,
+    radiance,
+    rounded_normals,
+    sky_light,
+    tone_map,
+    vignette,
+)
 from sensors.pinhole import Pinhole
 from sensors.weather import Weather, haze_fraction, image_noise, sky_bgr
-
-if TYPE_CHECKING:
-    from sensors.camera import CameraFrame
-
 
 LAMP_BGR = np.array([[40, 40, 255], [0, 200, 255], [90, 255, 60]], np.float32)  # red, yellow, green: lit
 UNLIT_LAMP_BGR = np.array([35, 35, 35], np.float32)
@@ -123,9 +132,30 @@ class Shading:
         check_arrays(self, map_R_cam=(np.float32, (3, 3)), normal=(np.float32, (pixels, 3)))
 
 
+@dataclass(frozen=True, slots=True)
+class CameraFrame:
+    """One rendered frame: ``depth_m: (H, W) float32`` z-depth along the optical axis (0: no
+    hit within range), ``instance_id: (H, W) uint32`` (0: static world or nothing),
+    ``semantic_class: (H, W) uint8`` (0: nothing), and what its colour image is shaded from
+    (:func:`shade_frame`)."""
+
+    depth_m: npt.NDArray[np.float32]
+    instance_id: npt.NDArray[np.uint32]
+    semantic_class: npt.NDArray[np.uint8]
+    shading: Shading
+
+    def __post_init__(self) -> None:
+        check_arrays(self, depth_m=(np.float32, ("H", "W")), instance_id=(np.uint32, ("H", "W")),
+                     semantic_class=(np.uint8, ("H", "W")))  # fmt: skip
+
+    @property
+    def hit(self) -> npt.NDArray[np.bool_]:
+        return self.depth_m > 0
+
+
 def shade_frame(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     """The shaded ``(H, W, 3) uint8`` image of a rendered frame (see :class:`Shading`):
-    realistic (:func:`sensors.photo.shade_photo`) or flat."""
+    realistic (:func:`shade_photo`, with :mod:`sensors.photo`) or flat."""
     sh = frame.shading
     if sh.part is not None:
         return shade_photo(frame)
@@ -152,6 +182,81 @@ def shade_frame(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         points = dirs_cam[pixels] * range_m[pixels, None]
         sh.faces.paint(image, points, instances[pixels], pixels, sh.weather.exposure)
     return image.reshape(*frame.depth_m.shape, 3)
+
+
+def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
+    """The realistic ``(H, W, 3) uint8`` image of a rendered frame (materials, light and the
+    camera's optics as :mod:`sensors.photo` models them)."""
+    sh = frame.shading
+    assert sh.part is not None and sh.origin_map_m is not None and sh.sun_lit is not None
+    h, w = frame.depth_m.shape
+    dirs_cam = sh.pinhole.image_directions()
+    depth = frame.depth_m.ravel()
+    range_m = np.where(depth > 0, depth / dirs_cam[:, 2], np.float32(np.inf)).astype(np.float32)
+    dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
+    classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
+    normal = rounded_normals(sh.normal, dirs_map, frame.instance_id, frame.depth_m, sh.pinhole.focal_px)
+    sky_open = sky_light(dirs_map, range_m, classes, instances, sh.origin_map_m, sh.boxes)
+    lamp = lamp_rays(dirs_map, range_m, instances, sh.part, sh.origin_map_m, sh.boxes, sh.weather)
+    linear = np.empty((h * w, 3), np.float32)
+    for start in range(0, h * w, STRIPE_PX):
+        s = slice(start, start + STRIPE_PX)
+        linear[s] = radiance(
+            dirs_map[s],
+            range_m[s],
+            classes[s],
+            instances[s],
+            sh.part[s],
+            normal[s],
+            sh.sun_lit[s],
+            dirs_cam[s, 2],
+            sh.origin_map_m,
+            sh.weather,
+            sh.range_m,
+            sky_open[s],
+            lamp[s],
+        )
+    extra = sh.extra
+    if extra is not None and len(extra.pixel):
+        sub = len(extra.range_m) // len(extra.pixel)
+        sub_dirs = np.asarray(cv2.transform(extra.dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
+        sub_open = sky_light(
+            sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, sh.origin_map_m, sh.boxes
+        )
+        sub_lin = radiance(
+            sub_dirs,
+            extra.range_m,
+            extra.semantic_class,
+            extra.instance_id,
+            extra.part,
+            extra.normal,
+            extra.sun_lit,
+            extra.dirs_cam[:, 2],
+            sh.origin_map_m,
+            sh.weather,
+            sh.range_m,
+            sub_open,
+            lamp_rays(sub_dirs, extra.range_m, extra.instance_id, extra.part, sh.origin_map_m, sh.boxes, sh.weather),
+        )
+        linear[extra.pixel] = (linear[extra.pixel] + sub_lin.reshape(-1, sub, 3).sum(axis=1)) / np.float32(sub + 1)
+    if sh.shutter_s > 0 and sh.ego_velocity_map_mps is not None:
+        motion = image_motion_px(sh.pinhole, dirs_cam, range_m, instances, sh.map_R_cam, sh.boxes,
+                                 sh.ego_velocity_map_mps, sh.shutter_s)  # fmt: skip
+        linear = motion_blur(linear.reshape(h, w, 3), motion.reshape(h, w, 2)).reshape(-1, 3)
+    lens = np.asarray(cv2.GaussianBlur(linear.reshape(h, w, 3), (0, 0), LENS_BLUR_PX), np.float32)
+    linear = bloom(lens).reshape(-1, 3)
+    linear *= vignette(h, w)[:, None]
+    image = tone_map(linear, sh.weather.exposure)
+    rng = np.random.default_rng(sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w))
+    sigma = np.float32(np.hypot(READ_NOISE, sh.weather.noise_sigma))
+    image += rng.standard_normal((h * w, 1), dtype=np.float32) * sigma
+    out = np.asarray(np.clip(image + np.float32(0.5), 0.0, 255.0).astype(np.uint8))
+    if sh.faces is not None:
+        street = (classes == SemanticClass.TRAFFIC_LIGHT) | (classes == SemanticClass.TRAFFIC_SIGN)
+        pixels = np.flatnonzero(street & (depth > 0))
+        points = dirs_cam[pixels] * range_m[pixels, None]
+        sh.faces.paint(out, points, instances[pixels], pixels, sh.weather.exposure)
+    return out.reshape(h, w, 3)
 
 
 STRIPE_PX = 1 << 15

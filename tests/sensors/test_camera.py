@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 import sensors.shading as shading_module
 from networks.classes import SemanticClass
 from networks.geometry import SE3
-from sensors.camera import SHADOW_LIFT_M, Camera, CameraFrame, CameraSpec, depth_to_uint16, encode_depth_png
+from sensors.camera import SHADOW_LIFT_M, Camera, CameraSpec, depth_to_uint16, encode_depth_png
 from sensors.errors import SensorConfigError
 from sensors.pinhole import box_corners, project_points
-from sensors.shading import shade_frame
+from sensors.shading import CameraFrame, shade_frame
 from sensors.weather import DAY, weather_preset
 
 SMALL = CameraSpec(width_px=160, height_px=90)
