@@ -25,6 +25,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from gtgen.load import iter_messages, load_labels
+from gtgen.topics import TF
 
 RADIUS_M = 50.0
 STOPPED_MPS = 0.1
@@ -64,7 +65,7 @@ def seen_near(labels: pd.DataFrame, frames: int, radius_m: float = RADIUS_M) -> 
 def ego_speeds(mcap_path: Path, scene_cuts: list[int] | tuple[int, ...] = ()) -> npt.NDArray[np.float64]:
     """The ego's speed over the ground in each frame of a run (m/s), from its ``/tf``."""
     times, xyz = [], []
-    for _topic, log_time, msg in iter_messages(mcap_path, topics=["/tf"]):
+    for _topic, log_time, msg in iter_messages(mcap_path, topics=[TF]):
         for t in msg.transforms:
             if t.parent_frame_id == "map" and t.child_frame_id == "ego":
                 times.append(log_time * 1e-9)

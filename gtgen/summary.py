@@ -26,6 +26,7 @@ import pandas as pd
 from gtgen.bev import bev_image, map_bev_image
 from gtgen.content import write_content
 from gtgen.load import iter_messages, lidar_points, load_labels, load_map_frame, objects_from_table, topics
+from gtgen.topics import MAP, TF
 from networks.geometry import SE3, rotation_from_quaternion_xyzw
 
 matplotlib.use("Agg")
@@ -111,16 +112,16 @@ def frame_pictures(mcap_path: Path, labels: pd.DataFrame, frames: list[int], fol
     tf: dict[int, Any] = {}
     names = topics(mcap_path)
     camera = next((t for t in names if t.endswith("/image")), "/camera/image")  # the rig's first camera
-    clouds = [t for t in names if t.count("/") == 1 and t not in ("/tf", "/map")]  # LiDARs and radars
+    clouds = [t for t in names if t.count("/") == 1 and t not in (TF, MAP)]  # LiDARs and radars
     lidar = ""  # the first topic whose clouds have rings
-    for topic, log_time, msg in iter_messages(mcap_path, topics=["/tf", camera, *clouds]):
+    for topic, log_time, msg in iter_messages(mcap_path, topics=[TF, camera, *clouds]):
         if topic in clouds and not lidar and any(f.name == "ring" for f in msg.fields):
             lidar = topic
         frame = index_of_time.setdefault(log_time, len(index_of_time))
         if frame not in wanted:
             continue
         rows = labels[labels["frame"] == frame]
-        if topic == "/tf":
+        if topic == TF:
             tf[frame] = msg
         elif topic == lidar:
             pts = lidar_points(msg)

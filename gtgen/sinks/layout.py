@@ -24,6 +24,7 @@ from foxglove.layouts import (
     ThreeDeePanel,
 )
 
+from gtgen import topics
 from gtgen.frame import FrameRecord
 
 RADAR_COLOUR = "#ff40ff"
@@ -34,43 +35,43 @@ def foxglove_layout(
 ) -> str:
     """The layout as JSON, for a rig with these sensor names (topics as in ``run.mcap``); with
     ``occupancy``, the 3D view shows ``/occupancy`` too."""
-    topics: dict[str, BaseRendererTopicSettings] = {
-        f"/{name}": BaseRendererPointCloudTopicSettings(
+    settings: dict[str, BaseRendererTopicSettings] = {
+        topics.cloud(name): BaseRendererPointCloudTopicSettings(
             visible=True, color_mode="colormap", color_field="class", color_map="turbo", point_size=2.0
         )
         for name in lidars
     }
-    topics |= {
-        f"/{name}": BaseRendererPointCloudTopicSettings(
+    settings |= {
+        topics.cloud(name): BaseRendererPointCloudTopicSettings(
             visible=True, color_mode="flat", flat_color=RADAR_COLOUR, point_size=6.0
         )
         for name in radars
     }
-    topics |= {
-        "/gt/boxes": BaseRendererSceneUpdateTopicSettings(visible=True, show_outlines=True),
-        "/map": BaseRendererSceneUpdateTopicSettings(visible=True),
+    settings |= {
+        topics.BOXES: BaseRendererSceneUpdateTopicSettings(visible=True, show_outlines=True),
+        topics.MAP: BaseRendererSceneUpdateTopicSettings(visible=True),
     }
     if map_vectors:
-        topics["/map/vectors"] = BaseRendererSceneUpdateTopicSettings(visible=True)
+        settings[topics.MAP_VECTORS] = BaseRendererSceneUpdateTopicSettings(visible=True)
     if occupancy:
-        topics["/occupancy"] = BaseRendererSceneUpdateTopicSettings(visible=True)
+        settings[topics.OCCUPANCY] = BaseRendererSceneUpdateTopicSettings(visible=True)
     scene = ThreeDeePanel(
-        title="drive", config=ThreeDeeConfig(topics=topics, follow_tf="ego", follow_mode="follow-pose")
+        title="drive", config=ThreeDeeConfig(topics=settings, follow_tf="ego", follow_mode="follow-pose")
     )
     images = [
         ImagePanel(
             title=name,
             config=ImageConfig(
                 image_mode=ImageModeConfig(
-                    image_topic=f"/{name}/image",
-                    calibration_topic=f"/{name}/calibration",
-                    annotations={f"/{name}/annotations": ImageAnnotationSettings(visible=True)},
+                    image_topic=topics.camera(name, "image"),
+                    calibration_topic=topics.camera(name, "calibration"),
+                    annotations={topics.camera(name, "annotations"): ImageAnnotationSettings(visible=True)},
                 )
             ),
         )
         for name in cameras
     ]
-    table = RawMessagesPanel(title="labels", config=RawMessagesConfig(topic_path="/gt/labels"))
+    table = RawMessagesPanel(title="labels", config=RawMessagesConfig(topic_path=topics.LABELS))
     side = [*images, table]
     column = SplitContainer(direction="column", items=[SplitItem(proportion=1.0, content=p) for p in side])
     content = SplitContainer(

@@ -32,10 +32,11 @@ from typing import Any
 from websockets.asyncio.server import Server, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 
+from gtgen import topics
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.sinks.images import FrameImages
-from gtgen.sinks.mcap_sink import MAP_TOPIC, McapFrame, channel_schema, map_message, planned_topics, serialized_frame
+from gtgen.sinks.mcap_sink import McapFrame, channel_schema, map_message, planned_topics, serialized_frame
 from networks.errors import quoted
 
 DEFAULT_HOST = "127.0.0.1"
@@ -241,7 +242,7 @@ class LiveSink:
     def write(self, encoded: McapFrame) -> None:
         for message in encoded.messages:
             channel = self._channel(message.topic, message.proto)
-            self._server.publish(channel, encoded.timestamp_ns, message.data, latch=message.topic == MAP_TOPIC)
+            self._server.publish(channel, encoded.timestamp_ns, message.data, latch=message.topic == topics.MAP)
 
     def close(self) -> None:
         self._server.close()

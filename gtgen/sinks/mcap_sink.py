@@ -39,21 +39,19 @@ from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 from mcap_protobuf.schema import build_file_descriptor_set
 
+from gtgen import topics
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.signals import SIGNAL_COLUMNS, signal_table
 from gtgen.sinks import foxglove as fx
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.layout import layout_for
-from gtgen.sinks.occupancy_messages import OCCUPANCY_TOPIC, occupancy_update, with_flow
+from gtgen.sinks.occupancy_messages import occupancy_update, with_flow
 from gtgen.static_map import static_map_update
 from gtgen.table import COLUMNS, label_table
 from networks.world import read_world
 from sensors.sensor import SensorOutput
 
-MAP_TOPIC = "/map"
-LABELS_TOPIC = "/gt/labels"
-EVENTS_TOPIC = "/gt/events"  # hazard events under way (runs with hazards)
 EVENTS_SCHEMA = {
     "type": "object",
     "properties": {
@@ -65,7 +63,6 @@ EVENTS_SCHEMA = {
             "actors": {"type": "array", "items": {"type": "integer"}}, "ego": {"type": "integer"}}}},
     },
 }  # fmt: skip
-MAP_VECTORS_TOPIC = "/map/vectors"
 LAYOUT_FILE = "foxglove_layout.json"
 
 LABELS_SCHEMA = {
@@ -118,10 +115,10 @@ class ChannelSchema:
     message_encoding: str  # "protobuf" or "json"
 
 
-def channel_schema(proto: type | None, topic: str = LABELS_TOPIC) -> ChannelSchema:
+def channel_schema(proto: type | None, topic: str = topics.LABELS) -> ChannelSchema:
     """The schema of a topic's messages: its protobuf's file descriptors, or (``None``) the JSON
     schema of the labels (or of the events, on their topic)."""
-    if proto is None and topic == EVENTS_TOPIC:
+    if proto is None and topic == topics.EVENTS:
         return ChannelSchema("gt.HazardEvents", "jsonschema", json.dumps(EVENTS_SCHEMA).encode(), "json")
     if proto is None:
         return ChannelSchema("gt.FrameLabels", "jsonschema", json.dumps(LABELS_SCHEMA).encode(), "json")
@@ -142,7 +139,7 @@ def serialized_frame(record: FrameRecord, images: FrameImages) -> McapFrame:
 
 def map_message(world_path: Path, timestamp_ns: int) -> McapMessage:
     """The static world of a world file (:func:`networks.world.read_world`) on ``/map``."""
-    return _serialized(MAP_TOPIC, static_map_update(read_world(world_path).mesh, timestamp_ns))
+    return _serialized(topics.MAP, static_map_update(read_world(world_path).mesh, timestamp_ns))
 
 
 def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, Any]]:
@@ -151,31 +148,31 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
     transforms = [fx.frame_transform(ns, "map", "ego", record.map_SE3_ego)]
     sensors: tuple[SensorOutput, ...] = (*record.lidars, *record.radars, *record.cameras)
     transforms += [fx.frame_transform(ns, "ego", o.spec.name, o.spec.ego_SE3_sensor) for o in sensors]
-    out: list[tuple[str, Any]] = [("/tf", FrameTransforms(transforms=transforms))]
+    out: list[tuple[str, Any]] = [(topics.TF, FrameTransforms(transforms=transforms))]
     clouds = [fx.lidar_cloud(ns, lidar) for lidar in record.lidars]
     if record.occupancy is not None:  # each point's scene flow as three more fields
         clouds = [with_flow(c, f) for c, f in zip(clouds, record.occupancy.point_flow_m, strict=True)]
-    out += [(f"/{lidar.spec.name}", cloud) for lidar, cloud in zip(record.lidars, clouds, strict=True)]
-    out += [(f"/{lidar.spec.name}/deskewed", fx.lidar_cloud(ns, lidar, deskewed=True)) for lidar in record.lidars
+    out += [(topics.cloud(lidar.spec.name), cloud) for lidar, cloud in zip(record.lidars, clouds, strict=True)]
+    out += [(topics.deskewed(lidar.spec.name), fx.lidar_cloud(ns, lidar, deskewed=True)) for lidar in record.lidars
             if lidar.spec.deskew]  # fmt: skip
-    out += [(f"/{radar.spec.name}", fx.radar_cloud(ns, radar)) for radar in record.radars]
+    out += [(topics.cloud(radar.spec.name), fx.radar_cloud(ns, radar)) for radar in record.radars]
     for index, (camera, cam_labels) in enumerate(zip(record.cameras, record.labels.cameras, strict=True)):
-        base = f"/{camera.spec.name}"
-        out += [(f"{base}/{kind}", m) for kind, m in fx.camera_messages(ns, camera, images, index).items()]
-        out.append((f"{base}/calibration", fx.calibration(ns, camera)))
-        out.append((f"{base}/annotations", fx.image_annotations(ns, record.labels, cam_labels)))
-    out.append(("/gt/boxes", fx.box_update(ns, record.labels, record.signals.state_of())))
+        name = camera.spec.name
+        out += [(topics.camera(name, kind), m) for kind, m in fx.camera_messages(ns, camera, images, index).items()]
+        out.append((topics.camera(name, "calibration"), fx.calibration(ns, camera)))
+        out.append((topics.camera(name, "annotations"), fx.image_annotations(ns, record.labels, cam_labels)))
+    out.append((topics.BOXES, fx.box_update(ns, record.labels, record.signals.state_of())))
     if record.occupancy is not None:
-        out.append((OCCUPANCY_TOPIC, occupancy_update(ns, record.occupancy)))
+        out.append((topics.OCCUPANCY, occupancy_update(ns, record.occupancy)))
     if record.map is not None:
-        out.append((MAP_VECTORS_TOPIC, fx.map_lines(ns, record.map.vectors["elements"])))
+        out.append((topics.MAP_VECTORS, fx.map_lines(ns, record.map.vectors["elements"])))
     if record.hazards is not None:
         events = [
             {"name": h.name, "kind": h.kind, "actors": list(h.actor_ids), "ego": h.ego_id} for h in record.hazards
         ]
-        out.append((EVENTS_TOPIC, {"frame": record.frame_index, "timestamp_ns": ns, "ego_collided": record.ego_collided,
-                                   "events": events}))  # fmt: skip
-    out.append((LABELS_TOPIC, labels_json(record)))
+        out.append((topics.EVENTS, {"frame": record.frame_index, "timestamp_ns": ns,
+                                    "ego_collided": record.ego_collided, "events": events}))  # fmt: skip
+    out.append((topics.LABELS, labels_json(record)))
     return out
 
 
@@ -186,16 +183,17 @@ def planned_topics(
     first frame. ``sensors``: (kind, name) pairs of the rig; ``with_map_vectors``: the run writes
     map ground truth; ``with_events``: the run makes hazard events. The same topics as
     :func:`frame_messages`."""
-    topics: list[tuple[str, type | None]] = [(MAP_TOPIC, SceneUpdate)] if with_map else []
-    topics.append(("/tf", FrameTransforms))
-    topics += [(f"/{name}", PointCloud) for kind, name in sensors if kind == "lidar"]
-    topics += [(f"/{name}", PointCloud) for kind, name in sensors if kind == "radar"]
+    out: list[tuple[str, type | None]] = [(topics.MAP, SceneUpdate)] if with_map else []
+    out.append((topics.TF, FrameTransforms))
+    out += [(topics.cloud(name), PointCloud) for kind, name in sensors if kind == "lidar"]
+    out += [(topics.cloud(name), PointCloud) for kind, name in sensors if kind == "radar"]
     for name in (name for kind, name in sensors if kind == "camera"):
-        topics += [(f"/{name}/{k}", CompressedImage) for k in ("image", "depth", "instance", "class")]
-        topics += [(f"/{name}/calibration", CameraCalibration), (f"/{name}/annotations", ImageAnnotations)]
-    topics += [("/gt/boxes", SceneUpdate)] + ([(MAP_VECTORS_TOPIC, SceneUpdate)] if with_map_vectors else [])
-    topics += [(EVENTS_TOPIC, None)] if with_events else []
-    return [*topics, (LABELS_TOPIC, None)]
+        out += [(topics.camera(name, k), CompressedImage) for k in topics.CAMERA_IMAGES]
+        out += [(topics.camera(name, "calibration"), CameraCalibration),
+                (topics.camera(name, "annotations"), ImageAnnotations)]  # fmt: skip
+    out += [(topics.BOXES, SceneUpdate)] + ([(topics.MAP_VECTORS, SceneUpdate)] if with_map_vectors else [])
+    out += [(topics.EVENTS, None)] if with_events else []
+    return [*out, (topics.LABELS, None)]
 
 
 def _json_rows(table: dict[str, npt.NDArray[np.generic]]) -> list[dict[str, Any]]:
@@ -226,12 +224,12 @@ def readable_records(path: Path) -> Iterator[Schema | Channel | Message]:
 def complete_frames(path: Path) -> int:
     """How many frames an MCAP file written by :class:`McapSink` holds whole (a frame's label
     table is its last message)."""
-    topics: dict[int, str] = {}
+    topic_of: dict[int, str] = {}
     frames = 0
     for record in readable_records(path):
         if isinstance(record, Channel):
-            topics[record.id] = record.topic
-        elif isinstance(record, Message) and topics.get(record.channel_id) == LABELS_TOPIC:
+            topic_of[record.id] = record.topic
+        elif isinstance(record, Message) and topic_of.get(record.channel_id) == topics.LABELS:
             frames += 1
     return frames
 

@@ -23,7 +23,6 @@ from gtgen.occupancy import FREE_NATIVE, OccupancyFrame
 from gtgen.sinks.foxglove import LIDAR_POINT_DTYPE, timestamp
 from networks.classes import SemanticClass
 
-OCCUPANCY_TOPIC = "/occupancy"
 FLOW_FIELDS = ("flow_x", "flow_y", "flow_z")
 LIDAR_FLOW_DTYPE = np.dtype(LIDAR_POINT_DTYPE.descr + [(name, "<f4") for name in FLOW_FIELDS])
 _FLOW_OFFSET = LIDAR_POINT_DTYPE.itemsize  # the flow fields follow the LiDAR point's fields
