@@ -30,6 +30,7 @@ CATCH_UP_MPS = 10.0  # how much faster than the ego a vehicle drives while it ca
 CUT_IN_BEHIND_M = 30.0  # a cut-in's vehicle may start up to this far behind the ego's front, and overtake
 CUT_IN_OVERTAKE_MPS = 6.0  # how much faster than the ego it overtakes
 CUT_IN_APPROACH_MPS = 4.0  # how much slower than the ego it drops back
+CUT_IN_ROOM_M = 1.0  # free space it needs in front of it in the ego's lane (no one is cut into)
 LEADER_SLOWER_MPS, LEADER_FASTER_MPS = 10.0, 5.0  # a hard brake's leader is paced this much slower or faster
 LEADER_PACE_S = 20.0  # and the ego's leader is paced from at least this long before
 
@@ -195,6 +196,29 @@ def pace(ego_speed: float, gap_m: float, wanted_m: float, left_s: float) -> floa
     fastest = CUT_IN_OVERTAKE_MPS if gap_m >= -CUT_IN_BEHIND_M else CATCH_UP_MPS
     change = float(np.clip((wanted_m - gap_m) / max(left_s, 1.0), -CUT_IN_APPROACH_MPS, fastest))
     return max(ego_speed + change, 1.0)
+
+
+def cut_in_room(
+    gap_m: float, speed_mps: float, ego_speed_mps: float, length_m: float, leader_gap_m: float | None
+) -> bool:
+    """Whether a vehicle beside the ego, its rear ``gap_m`` ahead of the ego's front bumper, may
+    cut in now: at the ego's pace (from ``CUT_IN_APPROACH_MPS`` + 2 m/s slower, rammed, to 3 m/s
+    faster, pulling away), with room before the ego's leader (``leader_gap_m`` ahead of the
+    ego's front bumper; None: no leader) for its length and ``CUT_IN_ROOM_M``."""
+    on_pace = ego_speed_mps - CUT_IN_APPROACH_MPS - 2.0 <= speed_mps <= ego_speed_mps + 3.0
+    return on_pace and (leader_gap_m is None or leader_gap_m >= gap_m + length_m + CUT_IN_ROOM_M)
+
+
+def leader_brakes(gap_m: float, speed_mps: float, hazard: HazardConfig) -> bool:
+    """Whether a hard brake's leader, ``gap_m`` ahead of the ego, brakes now: within
+    ``distance_m`` and at least 4 m/s faster than the speed it brakes to."""
+    lo, hi = hazard.distance_m
+    return lo <= gap_m <= hi and speed_mps >= hazard.to_speed_mps + 4.0
+
+
+def braking_s(speed_mps: float, hazard: HazardConfig) -> float:
+    """How long a hard brake takes from ``speed_mps`` to its speed at its deceleration."""
+    return (speed_mps - hazard.to_speed_mps) / hazard.decel_mps2
 
 
 # --- jaywalkers ---------------------------------------------------------------------------------

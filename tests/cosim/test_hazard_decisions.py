@@ -20,11 +20,14 @@ from cosim.hazards.decisions import (
     Pose,
     approach_s,
     beside_gap,
+    braking_s,
     closing_s,
     cut_in_gaps,
+    cut_in_room,
     ego_stops_for_walker,
     in_ego_frame,
     in_line,
+    leader_brakes,
     pace,
     phase_to_green,
     red_run,
@@ -127,6 +130,22 @@ def test_pacing_closes_a_gap_from_behind_and_drops_back_from_ahead():
 def test_a_vehicle_farther_from_its_place_takes_longer_to_get_there():
     assert approach_s(-60.0, 10.0) > approach_s(-20.0, 10.0) > approach_s(5.0, 10.0)
     assert closing_s(300.0, 20.0) > closing_s(40.0, 20.0) == LEADER_PACE_S  # at least 20 s
+
+
+def test_a_vehicle_cuts_in_at_the_egos_pace_with_room_before_the_egos_leader():
+    assert cut_in_room(10.0, 20.0, 20.0, 4.5, None)  # no leader
+    assert cut_in_room(10.0, 20.0, 20.0, 4.5, 15.5)  # its length and 1 m before the leader
+    assert not cut_in_room(10.0, 20.0, 20.0, 4.5, 15.0)
+    assert not cut_in_room(10.0, 13.5, 20.0, 4.5, None)  # rammed: far slower than the ego
+    assert not cut_in_room(10.0, 23.5, 20.0, 4.5, None)  # pulling away
+
+
+def test_a_leader_brakes_within_its_distance_from_a_speed_it_can_lose():
+    hazard = HazardConfig("hard_brake", 6.0, distance_m=(5.0, 40.0), decel_mps2=7.0, to_speed_mps=2.0)
+    assert leader_brakes(20.0, 20.0, hazard)
+    assert not leader_brakes(45.0, 20.0, hazard) and not leader_brakes(4.0, 20.0, hazard)
+    assert not leader_brakes(20.0, 5.5, hazard)  # hardly faster than the speed it brakes to
+    assert braking_s(23.0, hazard) == pytest.approx(3.0)
 
 
 def test_the_ego_stops_for_a_walker_in_or_coming_into_its_path_ahead():

@@ -10,12 +10,14 @@ import numpy as np
 from cosim.hazards.decisions import (
     AHEAD_OF_TIME_S,
     CATCH_UP_MPS,
-    CUT_IN_APPROACH_MPS,
     CUT_IN_BEHIND_M,
     CUT_IN_OVERTAKE_MPS,
     approach_s,
+    braking_s,
     closing_s,
     cut_in_gaps,
+    cut_in_room,
+    leader_brakes,
     leader_change,
     pace,
 )
@@ -39,7 +41,6 @@ CUT_IN_HOLD_S, CUT_IN_S = 4.0, 6.0
 CUT_IN_SPEED_SHARE, CUT_IN_BRAKE_S = 0.5, 2.0  # the cutting vehicle slows to half the ego's speed within 2 s
 REACTION_S = 0.6  # the ego's driver decides this often while surprised (SUMO's action step length)
 CUT_IN_LATERAL_MPS = 2.5  # the cutting vehicle's sideways speed
-CUT_IN_ROOM_M = 1.0  # free space it needs in front of it in the ego's lane (no one is cut into)
 CUT_IN_MAX_DECEL = 4.0  # m/s^2: the cutting vehicle brakes no harder than this (the ego can follow)
 CUT_IN_LOOK_M = 40.0  # it may start up to 40 m ahead, and drop back
 CUT_IN_ROAD_M = 120.0  # or where the ego's road goes on this far: it drives beside the ego as long
@@ -189,12 +190,12 @@ class Vehicles(Base):
             return now >= event.ends_s
         if not near <= gap <= wanted:
             return now >= event.ends_s  # not yet at the gap drawn, or closer than the scenario allows
-        speed = libsumo.vehicle.getSpeed(vid)
-        off_pace = not ego_speed - CUT_IN_APPROACH_MPS - 2.0 <= speed <= ego_speed + 3.0  # rammed, or pulling away
         leader = libsumo.vehicle.getLeader(ego, gap + 40.0)
-        room = not leader or not leader[0] or leader[1] >= gap + libsumo.vehicle.getLength(vid) + CUT_IN_ROOM_M
+        leader_gap = leader[1] if leader and leader[0] else None
+        d = libsumo.vehicle
+        room = cut_in_room(gap, d.getSpeed(vid), ego_speed, d.getLength(vid), leader_gap)
         lane = roads.into_ego_lane(ego, vid)
-        if off_pace or not room or lane is None or not roads.straight_ahead(ego, STRAIGHT_REACH_M):
+        if not room or lane is None or not roads.straight_ahead(ego, STRAIGHT_REACH_M):
             return now >= event.ends_s
         self._cut(event, ego, vid, lane, ego_speed)
         self._turn_on(event, now, now + CUT_IN_S)
@@ -281,14 +282,13 @@ class Vehicles(Base):
         gap = leader[1]
         if now < max(event.due_s, event.led_s + LEADER_SETTLE_S) or self._under_way(event.index):
             return now >= event.ends_s
-        lo, hi = hazard.distance_m
         speed = libsumo.vehicle.getSpeed(vid)
-        if not lo <= gap <= hi or speed < hazard.to_speed_mps + 4.0:
+        if not leader_brakes(gap, speed, hazard):
             return now >= event.ends_s
         if not roads.straight_ahead(ego, gap + 10.0) and not roads.in_line(ego, vid):
             return now >= event.ends_s
-        braking_s = self._brake(event, vid, speed)
-        self._turn_on(event, now, now + braking_s + HOLD_S)
+        brake_s = self._brake(event, vid, speed)
+        self._turn_on(event, now, now + brake_s + HOLD_S)
         return False
 
     @staticmethod
@@ -297,12 +297,12 @@ class Vehicles(Base):
         decel, emergency = libsumo.vehicle.getDecel(vid), libsumo.vehicle.getEmergencyDecel(vid)
         libsumo.vehicle.setEmergencyDecel(vid, max(emergency, hazard.decel_mps2))
         libsumo.vehicle.setDecel(vid, hazard.decel_mps2)
-        braking_s = (speed - hazard.to_speed_mps) / hazard.decel_mps2
-        libsumo.vehicle.slowDown(vid, hazard.to_speed_mps, braking_s)
+        brake_s = braking_s(speed, hazard)
+        libsumo.vehicle.slowDown(vid, hazard.to_speed_mps, brake_s)
         libsumo.vehicle.setSpeed(vid, hazard.to_speed_mps)
         event.restore += [lambda: libsumo.vehicle.setDecel(vid, decel),
                           lambda: libsumo.vehicle.setEmergencyDecel(vid, emergency)]  # fmt: skip
-        return braking_s
+        return brake_s
 
 
 def _blocked(vid: str, gap_m: float, wanted_m: float) -> bool:
