@@ -37,6 +37,7 @@ LEADER_PACE_S = 20.0  # and the ego's leader is paced from at least this long be
 EGO_STOP_DECEL = 7.5  # the ego brakes at up to this for a jaywalker
 JAYWALK_PATH_M, JAYWALK_LOOK_M = 1.8, 40.0  # the ego's path: this far either side of its lane centre
 JAYWALK_STEP_M = 0.6  # the pedestrian starts this far beyond the kerb
+JAYWALK_CATCH_M = 4.0  # it steps out when the ego is its reach or up to this much less away
 
 RED_RUN_MPS = 9.0  # a red-light runner speeds up to at least this
 RED_MARGIN_S = 1.5  # it leaves the junction this long before the ego can reach it (or enters after)
@@ -228,6 +229,18 @@ def jaywalk_reach(hazard: HazardConfig, speed: float, kerb_m: float) -> float:
     fast = speed + 2.0
     across_path = kerb_m + JAYWALK_STEP_M - JAYWALK_PATH_M
     return fast * across_path / hazard.walk_mps + fast * fast / (2.0 * EGO_STOP_DECEL) + 5.0
+
+
+def parked_in_time(parked: Sequence[tuple[str, float]], reach_m: float, pace_mps: float, left_s: float) -> str | None:
+    """Of the parked cars on the ego's way (each with how far ahead of the ego its front is),
+    the one the ego, at ``pace_mps``, comes to ``reach_m`` from nearest ``left_s`` from now (the
+    first of equals; None: none is that far ahead, less ``JAYWALK_CATCH_M``)."""
+    best: tuple[float, str] | None = None
+    for vid, ahead in parked:
+        if ahead >= reach_m - JAYWALK_CATCH_M:
+            off_s = abs((ahead - reach_m) / pace_mps - left_s)
+            best = (off_s, vid) if best is None or off_s < best[0] else best
+    return None if best is None else best[1]
 
 
 def ego_stops_for_walker(ego: Pose, x: float, y: float, ego_speed: float, walk_mps: float) -> bool:

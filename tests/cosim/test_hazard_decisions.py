@@ -29,6 +29,7 @@ from cosim.hazards.decisions import (
     in_line,
     leader_brakes,
     pace,
+    parked_in_time,
     phase_to_green,
     red_run,
     straight,
@@ -146,6 +147,15 @@ def test_a_leader_brakes_within_its_distance_from_a_speed_it_can_lose():
     assert not leader_brakes(45.0, 20.0, hazard) and not leader_brakes(4.0, 20.0, hazard)
     assert not leader_brakes(20.0, 5.5, hazard)  # hardly faster than the speed it brakes to
     assert braking_s(23.0, hazard) == pytest.approx(3.0)
+
+
+def test_a_jaywalker_steps_out_at_the_parked_car_the_ego_reaches_nearest_the_time_due():
+    parked = [("near", 30.0), ("mid", 100.0), ("far", 200.0), ("passed", 10.0)]
+    # reach 25 m, 10 m/s: the ego comes within reach of near in 0.5 s, mid in 7.5 s, far in 17.5 s
+    assert parked_in_time(parked, 25.0, 10.0, 8.0) == "mid"
+    assert parked_in_time(parked, 25.0, 10.0, 0.0) == "near"
+    assert parked_in_time(parked, 25.0, 10.0, 60.0) == "far"
+    assert parked_in_time([("passed", 10.0)], 25.0, 10.0, 8.0) is None  # nearer than the reach
 
 
 def test_the_ego_stops_for_a_walker_in_or_coming_into_its_path_ahead():

@@ -5,7 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from cosim.hazards.decisions import EGO_STOP_DECEL, JAYWALK_STEP_M, ego_stops_for_walker, jaywalk_reach, sumo_angle
+from cosim.hazards.decisions import (
+    EGO_STOP_DECEL,
+    JAYWALK_CATCH_M,
+    JAYWALK_STEP_M,
+    ego_stops_for_walker,
+    jaywalk_reach,
+    parked_in_time,
+    sumo_angle,
+)
 from cosim.sumo.hazards import roads
 from cosim.sumo.hazards.base import CHILD_TYPE, HIDDEN_MARGIN_M, STRAIGHT_REACH_M, Base, Event
 from networks.sumo_tools import sumo_home
@@ -19,7 +27,6 @@ JAYWALK_LATE_S = 40.0  # and given up this long after (the ego may wait at a red
 JAYWALK_PACE_SHARE = 0.7  # of the speed limit: the ego's pace, to tell where it will be when it is due
 JAYWALK_ROAD_M = 25.0  # it steps out at least this far along its road, and 10 m before the road's end
 JAYWALK_PARKED_WAIT_S = 10.0  # a jaywalker due waits this long for the ego to come to a parked car
-JAYWALK_CATCH_M = 4.0  # it steps out when the ego is its reach or up to this much less away
 
 
 class Jaywalkers(Base):
@@ -54,12 +61,7 @@ class Jaywalkers(Base):
         limit = libsumo.lane.getMaxSpeed(libsumo.vehicle.getLaneID(ego))
         pace = max(libsumo.vehicle.getSpeed(ego), JAYWALK_PACE_SHARE * limit)
         reach = self._reach(event, ego, None) or jaywalk_reach(event.config, pace, 2.0)
-        best: tuple[float, str] | None = None
-        for vid, ahead in self._parked_on_way(ego):
-            if ahead >= reach - JAYWALK_CATCH_M:
-                off_s = abs((ahead - reach) / pace - (event.due_s - now))
-                best = (off_s, vid) if best is None or off_s < best[0] else best
-        return None if best is None else best[1]
+        return parked_in_time(self._parked_on_way(ego), reach, pace, event.due_s - now)
 
     def _parked_on_way(self, ego: str) -> list[tuple[str, float]]:
         """The parked cars at the kerb on the ego's side of its way, on straight stretches, not
