@@ -2,6 +2,7 @@
 counts, at module level, under ``TYPE_CHECKING`` and inside functions."""
 
 import ast
+from functools import cache
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -9,6 +10,7 @@ LAYERS = ("networks", "sensors", "gtgen", "cosim")  # a package imports only pac
 SUMO_MODULES = ("libsumo", "traci")
 
 
+@cache
 def _modules() -> dict[str, Path]:
     out = {}
     for package in LAYERS:
@@ -18,6 +20,7 @@ def _modules() -> dict[str, Path]:
     return out
 
 
+@cache
 def _imported(path: Path) -> list[str]:
     """Every module name an import statement of the file names (``from a import b``: a and a.b)."""
     names = []
@@ -29,6 +32,7 @@ def _imported(path: Path) -> list[str]:
     return names
 
 
+@cache
 def _graph() -> dict[str, set[str]]:
     """Module -> the project's modules it imports (not its own parent packages)."""
     modules = _modules()
