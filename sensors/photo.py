@@ -244,23 +244,31 @@ LAMP_BGR = np.zeros((256, 3), np.float32)
 LAMP_BGR[Part.HEADLAMP] = (0.85, 0.93, 1.0)  # linear colours of the light lamps send out
 LAMP_BGR[Part.TAIL_LAMP] = (0.02, 0.02, 1.0)
 LAMP_BGR[Part.INDICATOR] = (0.0, 0.32, 1.0)
+LAMP_BGR[Part.GLASS] = (0.75, 0.9, 1.0)  # a bus's lit interior seen through its windows
 HEADLAMP_DAY, HEADLAMP_NIGHT = np.float32(0.5), np.float32(5.0)  # daytime running lamps; dipped beams
 TAIL_NIGHT, BRAKE_DAY, BRAKE_NIGHT = np.float32(0.6), np.float32(1.8), np.float32(2.5)
 INDICATOR_DAY, INDICATOR_NIGHT = np.float32(1.8), np.float32(2.5)
+CABIN_NIGHT = np.float32(0.3)
+"""A bus in service keeps its interior lit after dark: its windows glow (buses only; cars'
+and trucks' cabins stay dark)."""
 
 
 def lamp_light(
     points: F32, instance: npt.NDArray[np.uint32], part: npt.NDArray[np.uint8], boxes: AgentBoxes | None,
-    night: float,
+    night: float, cls: npt.NDArray[np.uint8] | None = None,
 ) -> F32:  # fmt: skip
     """``(N,)`` light each hit on a vehicle's lamp sends out (times its colour,
     :data:`LAMP_BGR`), from its vehicle's :class:`sensors.agents.Lamp` bits: head and tail lamps when its lights are on
     (headlamps dimly by day), brake lamps by day and night, an indicator when its side flashes
-    and is lit (left and right from the hit's side of its box). Zero elsewhere."""
+    and is lit (left and right from the hit's side of its box); by night a bus's windows
+    (:data:`CABIN_NIGHT`, where ``cls`` gives the hits' classes). Zero elsewhere."""
     from sensors.agents import Lamp
 
     gain = np.zeros(len(part), np.float32)
-    at = np.flatnonzero(EMISSIVE_BY_PART[part] > 0)
+    emits = EMISSIVE_BY_PART[part] > 0
+    if cls is not None and night > 0:
+        emits |= (part == Part.GLASS) & (cls == SemanticClass.BUS)
+    at = np.flatnonzero(emits)
     if len(at) == 0:
         return gain
     if boxes is None:
@@ -274,6 +282,7 @@ def lamp_light(
     gain[at[head]] += HEADLAMP_DAY + nt * HEADLAMP_NIGHT
     tail = pt == Part.TAIL_LAMP
     gain[at[tail & on]] += nt * TAIL_NIGHT
+    gain[at[(pt == Part.GLASS) & on]] += nt * CABIN_NIGHT
     gain[at[tail & ((lamps & Lamp.BRAKE) > 0)]] += BRAKE_DAY + nt * BRAKE_NIGHT
     ind = np.flatnonzero((pt == Part.INDICATOR) & ((lamps & Lamp.FLASH) > 0))
     if len(ind):
@@ -289,12 +298,17 @@ def lamp_light(
 def lamp_rays(
     dirs_map: F32, range_m: F32, instance: npt.NDArray[np.uint32], part: npt.NDArray[np.uint8],
     origin_map_m: npt.NDArray[np.float64], boxes: AgentBoxes | None, weather: Weather,
+    cls: npt.NDArray[np.uint8] | None = None,
 ) -> F32:  # fmt: skip
     """``(N,)`` :func:`lamp_light` at each ray's hit (0 for misses) over a whole frame."""
     out = np.zeros(len(part), np.float32)
-    at = np.flatnonzero(np.isfinite(range_m) & (EMISSIVE_BY_PART[part] > 0))
+    night = night_of(weather)
+    emits = EMISSIVE_BY_PART[part] > 0
+    if cls is not None and night > 0:
+        emits |= (part == Part.GLASS) & (cls == SemanticClass.BUS)
+    at = np.flatnonzero(np.isfinite(range_m) & emits)
     points = (origin_map_m.astype(np.float32) + dirs_map[at] * range_m[at, None]).astype(np.float32)
-    out[at] = lamp_light(points, instance[at], part[at], boxes, night_of(weather))
+    out[at] = lamp_light(points, instance[at], part[at], boxes, night, None if cls is None else cls[at])
     return out
 
 

@@ -197,7 +197,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
     normal = rounded_normals(sh.normal, dirs_map, frame.instance_id, frame.depth_m, sh.pinhole.focal_px)
     sky_open = sky_light(dirs_map, range_m, classes, instances, sh.origin_map_m, sh.boxes)
-    lamp = lamp_rays(dirs_map, range_m, instances, sh.part, sh.origin_map_m, sh.boxes, sh.weather)
+    lamp = lamp_rays(dirs_map, range_m, instances, sh.part, sh.origin_map_m, sh.boxes, sh.weather, classes)
     linear = np.empty((h * w, 3), np.float32)
     for start in range(0, h * w, STRIPE_PX):
         s = slice(start, start + STRIPE_PX)
@@ -236,7 +236,16 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
             sh.weather,
             sh.range_m,
             sub_open,
-            lamp_rays(sub_dirs, extra.range_m, extra.instance_id, extra.part, sh.origin_map_m, sh.boxes, sh.weather),
+            lamp_rays(
+                sub_dirs,
+                extra.range_m,
+                extra.instance_id,
+                extra.part,
+                sh.origin_map_m,
+                sh.boxes,
+                sh.weather,
+                extra.semantic_class,
+            ),
         )
         linear[extra.pixel] = (linear[extra.pixel] + sub_lin.reshape(-1, sub, 3).sum(axis=1)) / np.float32(sub + 1)
     if sh.shutter_s > 0 and sh.ego_velocity_map_mps is not None:

@@ -235,3 +235,28 @@ def test_lamps_light_as_the_traffic_sets_them(synth: SimpleNamespace, weather: s
     assert left[on_left].mean() > off[on_left].mean() + 15
     np.testing.assert_allclose(left[on_right].mean(), off[on_right].mean(), atol=2.0)
     np.testing.assert_allclose(dimmed[indicator].mean(), off[indicator].mean(), atol=2.0)
+
+
+def test_a_bus_in_service_shows_lit_windows_at_night_and_a_parked_one_dark(synth: SimpleNamespace) -> None:
+    from sensors.agents import Agents, Lamp
+    from sensors.parts import Part
+
+    def render(weather: str, lamps: int, cls: SemanticClass = SemanticClass.BUS) -> tuple[np.ndarray, np.ndarray]:
+        bus = synth.agents([(5, cls, 8.0, 0.0, 1.55, 12.0, 2.55, 3.1, np.pi / 2)])  # side on, across the view
+        bus = Agents(*(getattr(bus, f) for f in Agents.__dataclass_fields__ if f != "lamps"), np.array([lamps]))
+        frame = (
+            Camera(CameraSpec(width_px=320, height_px=180))
+            .sense(synth.scene([synth.ground()], bus), synth.EGO, weather_preset(weather), np.random.default_rng(0))
+            .frame
+        )
+        assert frame.shading.part is not None
+        return shade_frame(frame).reshape(-1, 3).astype(np.float64), frame.shading.part
+
+    lit, part = render("night", int(Lamp.LIGHTS))
+    glass = part == Part.GLASS
+    assert glass.sum() > 200  # the test means something: the windows are in view
+    parked, _ = render("night", 0)
+    assert lit[glass].mean() > parked[glass].mean() + 40
+    day_on, _ = render("day", int(Lamp.LIGHTS))
+    day_off, _ = render("day", 0)
+    np.testing.assert_allclose(day_on[glass].mean(), day_off[glass].mean(), atol=1.0)  # by day nothing shows
