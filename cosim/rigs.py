@@ -153,7 +153,7 @@ PRESETS: dict[str, dict[str, Any]] = {
                     "vertical_min_deg": HDL64E_ELEVATIONS_DEG[0], "vertical_max_deg": HDL64E_ELEVATIONS_DEG[-1],
                     "azimuth_steps": 2048, "range_m": 120.0, "rate_hz": 10.0, "mount_xyz_m": [0.0, 0.0, 1.73],
                     "sweep": "timed", "firing": "hdl64e", "reference": "middle",
-                    "range_10pct_m": HDL64E_RANGE_10PCT_M}],
+                    "range_10pct_m": HDL64E_RANGE_10PCT_M, "intensity": "kitti"}],
         "cameras": [
             {"name": "cam2", "width_px": KITTI_IMAGE[0], "height_px": KITTI_IMAGE[1], "hfov_deg": KITTI_HFOV_DEG,
              "mount_xyz_m": [0.27, 0.06, 1.65], "rate_hz": 10.0},
