@@ -11,7 +11,8 @@ own ``sensors`` keys are laid over the preset, so any part of it can still be ch
   pixels with a focal length of 721.5 px (81.4 deg across); no radar. The preset also sets
   ``step_s: 0.1`` (KITTI's 10 Hz) unless the scenario sets it. The LiDAR sweeps in time
   (``sweep: timed``, HDL-64E firing, :mod:`sensors.sweep`); the frame's time and its boxes are at
-  the sweep's middle, when the laser faces forward and KITTI's cameras fire.
+  the sweep's middle, when the laser faces forward and KITTI's cameras fire. Its intensity reads
+  as KITTI's does (``intensity: kitti``, fitted to real KITTI scans: ``sensors.lidar``).
 - ``nuscenes``: the nuScenes car (Caesar et al., "nuScenes: A multimodal dataset for
   autonomous driving", CVPR 2020, table 1 and figure 4), mounts and focal lengths from the
   published calibration (v1.0-mini ``calibrated_sensor.json``, log n015,
