@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from gtgen.frame import ActiveHazard
+from networks.street import SignalState
 from sensors.agents import Agents, EgoState
 
 
@@ -15,7 +16,7 @@ class WorldState:
     """``agents``: every agent but the ego (instance id = track id, stable over the scene);
     ``scene_cut``: the ego is a new one, put at the start of a route when the last one ran out
     of road (what came before is another scene); ``signal_states``: each traffic light's
-    state string at this step (libsumo's, one letter per controlled link); ``ego_lane``: the
+    state at this step, one per controlled link (SUMO's letters decoded); ``ego_lane``: the
     SUMO lane the ego drives on; ``ego_route_ahead``: the edges of its route from the one it is on;
     ``hazards``: the hazard events under way."""
 
@@ -23,7 +24,7 @@ class WorldState:
     agents: Agents
     ego: EgoState
     scene_cut: bool = False
-    signal_states: dict[str, str] = field(default_factory=dict)
+    signal_states: dict[str, tuple[SignalState, ...]] = field(default_factory=dict)
     ego_lane: str = ""
     ego_route_ahead: tuple[str, ...] = ()
     hazards: tuple[ActiveHazard, ...] = ()

@@ -23,6 +23,7 @@ the network.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
 from pathlib import Path
@@ -98,8 +99,6 @@ _STATE_OF_LETTER = {s.value: s for s in SignalState}
 _LAMPS = {SignalState.GREEN_MAJOR: "green", SignalState.GREEN_MINOR: "green", SignalState.GREEN_AFTER_STOP: "green",
           SignalState.RED: "red", SignalState.YELLOW: "yellow", SignalState.YELLOW_MAJOR: "yellow",
           SignalState.RED_YELLOW: "red_yellow", SignalState.OFF_BLINKING: "off", SignalState.OFF: "off"}  # fmt: skip
-STATE_NAMES = {s.value: s.lamp for s in SignalState}
-"""SUMO's signal state letters -> the lamp shown."""
 _STOP_STATES = frozenset("sw")
 
 
@@ -126,13 +125,13 @@ class StreetObject:
     def is_light(self) -> bool:
         return self.semantic_class == SemanticClass.TRAFFIC_LIGHT
 
-    def state(self, signal_states: dict[str, str]) -> str:
-        """The lamp a head shows, from its traffic light's state string ('off' if unknown; ''
-        for a sign)."""
+    def state(self, signal_states: Mapping[str, Sequence[SignalState]]) -> str:
+        """The lamp a head shows, from its traffic light's states ('off' if unknown; '' for a
+        sign)."""
         if not self.is_light:
             return ""
-        text = signal_states.get(self.tls_id, "")
-        return STATE_NAMES.get(text[self.shown_link], "off") if 0 <= self.shown_link < len(text) else "off"
+        states = signal_states.get(self.tls_id, ())
+        return states[self.shown_link].lamp if 0 <= self.shown_link < len(states) else "off"
 
 
 def street_objects(

@@ -46,6 +46,7 @@ from gtgen.content import STOPPED_MPS
 from networks.cache import cache_dir, digest, intact, seal, take_notices
 from networks.classes import SemanticClass
 from networks.errors import clipped, quoted
+from networks.street import SignalState
 from networks.sumo_tools import sumo_binary, sumo_home, sumo_refusal
 from sensors.agents import Agents, EgoState
 
@@ -700,7 +701,7 @@ class Traffic:
             raise TrafficError(f"the ego vehicle {self._ego!r} is not among the agents read at t={self._time():.2f} s")
         e = int(np.flatnonzero(is_ego)[0])
         ego = EgoState(center[e], lwh[e], float(yaw[e]), float(pitch[e]), velocity[e])
-        signals = {tls: libsumo.trafficlight.getRedYellowGreenState(tls) for tls in self._signals}
+        signals = {tls: SignalState.decode(libsumo.trafficlight.getRedYellowGreenState(tls)) for tls in self._signals}
         lane = str(libsumo.vehicle.getLaneID(self._ego))
         route = libsumo.vehicle.getRoute(self._ego)
         ahead = tuple(route[max(int(libsumo.vehicle.getRouteIndex(self._ego)), 0) :])

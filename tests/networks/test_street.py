@@ -9,7 +9,7 @@ import pytest
 
 from networks.convert import import_opendrive
 from networks.markings import is_left_hand
-from networks.street import SIGN_CENTRE_HEIGHT_M, read_signs, street_objects
+from networks.street import SIGN_CENTRE_HEIGHT_M, SignalState, read_signs, street_objects
 from networks.towns import town_opendrive
 from networks.world import build_world, load_net
 
@@ -37,7 +37,7 @@ def test_every_signalised_approach_has_one_head_facing_its_traffic_on_the_right(
         to_head = np.asarray(head.centre_map_m[:2]) - shape[-1]
         assert heading[0] * to_head[1] - heading[1] * to_head[0] < -1.0  # right of the lane (right-hand traffic)
         assert abs(to_head @ heading) < 3.0  # by the stop line
-        assert head.state({head.tls_id: "r" * 64}) == "red" and head.state({}) == "off"
+        assert head.state({head.tls_id: SignalState.decode("r" * 64)}) == "red" and head.state({}) == "off"
 
 
 def test_village_roads_get_give_way_signs_and_speed_limits_from_the_rules():
