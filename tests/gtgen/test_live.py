@@ -24,6 +24,14 @@ MESSAGE_DATA = 1  # binary opcode: subscription id (uint32), log time (uint64), 
 RIG = (("lidar", "lidar"), ("camera", "camera"), ("radar", "radar"))
 
 
+def _until_subscribed(live: LiveSink, count: int) -> None:
+    """Wait (up to 10 s) until the server holds ``count`` subscriptions of one viewer: a loaded
+    machine may take longer than any fixed sleep to read the viewer's subscribe message."""
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and not any(len(v.subscription_of) >= count for v in list(live._server._viewers)):
+        time.sleep(0.01)
+
+
 @pytest.fixture
 def world_file(tmp_path) -> Path:
     """A static world file (one ground quad) for the /map channel."""
@@ -68,7 +76,7 @@ def test_a_viewer_connected_before_the_run_gets_frame_0_on_every_topic_and_the_m
             by_subscription = dict(enumerate(topics))
             subscriptions = [{"id": i, "channelId": topics[t]["id"]} for i, t in by_subscription.items()]
             ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
-            time.sleep(0.3)  # the subscription reaches the server before the run's first frame
+            _until_subscribed(live, len(topics))  # the subscriptions reach the server before the first frame
             for record in records:
                 mcap.write(record)
                 live.write(live.encode(record, FrameImages(record.cameras)))
@@ -110,7 +118,7 @@ def test_a_viewer_that_never_reads_does_not_hold_the_run_up(record_maker):
         topics = _advertised(ws, count=len(planned_topics(RIG, with_map=False)))
         subscriptions = [{"id": i, "channelId": c["id"]} for i, c in enumerate(topics.values())]
         ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
-        time.sleep(0.3)
+        _until_subscribed(live, len(subscriptions))
         start = time.monotonic()
         encoded = live.encode(big, FrameImages(big.cameras))
         for _ in range(200):  # about 1 GB the viewer never takes
@@ -133,7 +141,7 @@ def test_frames_go_out_uncompressed_whatever_the_viewer_offers(records):
             ws.send(
                 json.dumps({"op": "subscribe", "subscriptions": [{"id": 1, "channelId": topics["/gt/labels"]["id"]}]})
             )
-            time.sleep(0.3)
+            _until_subscribed(live, 1)
             live.write(live.encode(records[0], FrameImages(records[0].cameras)))
             data = ws.recv(timeout=5)
             assert isinstance(data, bytes) and data[0] == MESSAGE_DATA
@@ -179,7 +187,7 @@ def test_a_viewer_that_reads_gets_the_last_frame_on_every_topic_when_the_run_clo
         by_subscription = dict(enumerate(topics))
         subscriptions = [{"id": i, "channelId": topics[t]["id"]} for i, t in by_subscription.items()]
         ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
-        time.sleep(0.3)
+        _until_subscribed(live, len(topics))
 
         def read() -> None:
             with contextlib.suppress(Exception):  # the server closes the connection at the end
