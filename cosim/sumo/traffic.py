@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -436,13 +437,7 @@ class Traffic:
         longest (a motorway ego does not leave the motorway at the next exit)."""
         route = list(libsumo.vehicle.getRoute(self._ego))
         best = (_fast_ahead_m(self._ego), route[-1])
-        edges = self._ego_targets()
-        for _ in range(20):
-            target = edges[int(self._rng.integers(0, len(edges)))]
-            try:
-                libsumo.vehicle.changeTarget(self._ego, target)
-            except libsumo.TraCIException:
-                continue
+        for target in self._ego_sent_to(self._ego_targets()):
             best = max(best, (_fast_ahead_m(self._ego), target))
         libsumo.vehicle.changeTarget(self._ego, best[1])
 
@@ -574,14 +569,20 @@ class Traffic:
     def _retarget_ego(self, edges: list[str]) -> None:
         """Send the ego on to a road drawn from ``edges`` (its route then goes on for more than
         three roads)."""
-        for _ in range(20):
+        for _ in self._ego_sent_to(edges):
+            if len(libsumo.vehicle.getRoute(self._ego)) - libsumo.vehicle.getRouteIndex(self._ego) > 3:
+                return
+
+    def _ego_sent_to(self, edges: list[str], draws: int = 20) -> Iterator[str]:
+        """Draw ``draws`` roads from ``edges`` and send the ego to each SUMO can route it to,
+        yielding each such road while the ego is headed there."""
+        for _ in range(draws):
             target = edges[int(self._rng.integers(0, len(edges)))]
             try:
                 libsumo.vehicle.changeTarget(self._ego, target)
             except libsumo.TraCIException:
                 continue
-            if len(libsumo.vehicle.getRoute(self._ego)) - libsumo.vehicle.getRouteIndex(self._ego) > 3:
-                return
+            yield target
 
     def _advance(self) -> None:
         libsumo.simulationStep()
