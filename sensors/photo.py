@@ -253,6 +253,14 @@ CABIN_NIGHT = np.float32(0.3)
 and trucks' cabins stay dark)."""
 
 
+def _emits(part: npt.NDArray[np.uint8], cls: npt.NDArray[np.uint8] | None, night: float) -> npt.NDArray[np.bool_]:
+    """Hits that may send out light: lamps, and by night a bus's windows (where ``cls`` is given)."""
+    emits = EMISSIVE_BY_PART[part] > 0
+    if cls is not None and night > 0:
+        emits |= (part == Part.GLASS) & (cls == SemanticClass.BUS)
+    return np.asarray(emits, np.bool_)
+
+
 def lamp_light(
     points: F32, instance: npt.NDArray[np.uint32], part: npt.NDArray[np.uint8], boxes: AgentBoxes | None,
     night: float, cls: npt.NDArray[np.uint8] | None = None,
@@ -265,10 +273,7 @@ def lamp_light(
     from sensors.agents import Lamp
 
     gain = np.zeros(len(part), np.float32)
-    emits = EMISSIVE_BY_PART[part] > 0
-    if cls is not None and night > 0:
-        emits |= (part == Part.GLASS) & (cls == SemanticClass.BUS)
-    at = np.flatnonzero(emits)
+    at = np.flatnonzero(_emits(part, cls, night))
     if len(at) == 0:
         return gain
     if boxes is None:
@@ -303,10 +308,7 @@ def lamp_rays(
     """``(N,)`` :func:`lamp_light` at each ray's hit (0 for misses) over a whole frame."""
     out = np.zeros(len(part), np.float32)
     night = night_of(weather)
-    emits = EMISSIVE_BY_PART[part] > 0
-    if cls is not None and night > 0:
-        emits |= (part == Part.GLASS) & (cls == SemanticClass.BUS)
-    at = np.flatnonzero(np.isfinite(range_m) & emits)
+    at = np.flatnonzero(np.isfinite(range_m) & _emits(part, cls, night))
     points = (origin_map_m.astype(np.float32) + dirs_map[at] * range_m[at, None]).astype(np.float32)
     out[at] = lamp_light(points, instance[at], part[at], boxes, night, None if cls is None else cls[at])
     return out
