@@ -156,7 +156,7 @@ def blob(
 
 def wheel(x: float, r: float, y_in: float, y_out: float, sides: int = 14, rim_share: float = 0.62) -> list[Piece]:
     """A tyre with a rim on its outer face (``y_out`` is the outer face, either side);
-    ``rim_share`` is the rim's radius as a share of the tyre's (about 0.5 on trucks' and buses' tall tyres)."""
+    ``rim_share`` is the rim's radius as a share of the tyre's (0.5 on trucks' tall tyres)."""
     width = abs(y_out - y_in)
     sign = 1.0 if y_out > y_in else -1.0
     # outwards, each face a few millimetres beyond the last (no two parts share a plane)
@@ -435,6 +435,7 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
         pieces.append(box(lx0, lx1, y0, y1, box_z0 + 0.45 * (h - box_z0), box_z0 + 0.8 * (h - box_z0), Part.PAINT))
     pieces.append(box(-hl + 0.2, hl - 0.3, -0.45, 0.45, 0.5, box_z0 - 0.03, Part.UNDERBODY))  # chassis
     rear_axle = -hl + (1.3 if trailer else 1.8)
+    rear_axles = [-hl + 1.3, -hl + 2.6, -hl + 3.9] if trailer else [rear_axle]
     front_axle = hl - 1.2
     r = 0.52
     for side in (-1.0, 1.0):  # side guards (two rails) between the wheels, rear lamps
@@ -448,7 +449,7 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
         pieces.append(box(-hl, -hl + 0.05, t0, t1, box_z0 - 0.3, box_z0 - 0.12, Part.INDICATOR))
         # mudguards over the rear wheels
         g0, g1 = sorted((side * (hw - 0.36), side * (hw - 0.02)))
-        for x in [-hl + 1.3, -hl + 2.6, -hl + 3.9] if trailer else [rear_axle]:
+        for x in rear_axles:
             pieces.append(box(x - r - 0.08, x + r + 0.08, g0, g1, 2 * r + 0.04, 2 * r + 0.1, Part.TRIM))
     # the fuel tank on the left behind the cab, the battery box on the right
     tank_x1 = front_axle - r - 0.25
@@ -458,8 +459,7 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
     pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, box_z0 - 0.48, box_z0 - 0.36, Part.PLATE))
     pieces += _rear_doors(-hl + 0.02, hw, box_z0 + 0.17, h - 0.11)
     pieces.append(box(-hl + 0.12, -hl + 0.24, -hw + 0.2, hw - 0.2, 0.42, 0.56, Part.TRIM))  # underrun guard
-    axles = [front_axle]
-    axles += [-hl + 1.3, -hl + 2.6, -hl + 3.9] if trailer else [rear_axle]
+    axles = [front_axle, *rear_axles]
     if trailer:
         axles.append(cab_x0 - 0.3)
     for x in axles:
