@@ -22,6 +22,7 @@ import numpy.typing as npt
 
 from cosim.demand import TypeVariant
 from cosim.net_index import NetIndex
+from networks.geometry import arc_lengths
 from networks.sumo_tools import sumo_home
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
@@ -60,8 +61,7 @@ def _points(index: NetIndex, edges: list[str], clear_end_m: float = 0.0) -> _Poi
     xy, names, pos, weight = [], [], [], []
     for edge in edges:
         shape = index.edge_shape_xy[edge]
-        seg = np.linalg.norm(np.diff(shape, axis=0), axis=1)
-        along = np.concatenate([[0.0], np.cumsum(seg)])
+        along = arc_lengths(shape)
         total = float(along[-1])
         length = index.edge_length_m[edge]
         if total <= 1.0 or length <= 2.0:
