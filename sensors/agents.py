@@ -36,6 +36,8 @@ class Lamp(IntFlag):
 
 NO_LAMPS = np.zeros(0, np.uint8)
 """The default of :attr:`Agents.lamps`: every lamp off."""
+NOT_TURNING = np.zeros(0, np.float64)
+"""The default of :attr:`Agents.yaw_rate_rad_s`: every heading kept."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -47,7 +49,8 @@ class Agents:
     float64`` box centres, ``lwh_m: (N, 3) float64``, ``yaw_map_rad: (N,) float64`` about +z,
     ``pitch_rad: (N,) float64`` nose-up positive, ``velocity_map_mps: (N, 3) float64``,
     ``parked: (N,) bool`` (standing in a parking space for the whole scene), ``lamps: (N,)
-    uint8`` :class:`Lamp` bits (all off where not given).
+    uint8`` :class:`Lamp` bits (all off where not given), ``yaw_rate_rad_s: (N,) float64`` the
+    heading's rate of turn, counter-clockwise positive (0 where not given).
     """
 
     instance_id: npt.NDArray[np.uint32]
@@ -59,15 +62,18 @@ class Agents:
     velocity_map_mps: npt.NDArray[np.float64]
     parked: npt.NDArray[np.bool_]
     lamps: npt.NDArray[np.uint8] = field(default_factory=lambda: NO_LAMPS)
+    yaw_rate_rad_s: npt.NDArray[np.float64] = field(default_factory=lambda: NOT_TURNING)
 
     def __post_init__(self) -> None:
         if self.lamps is NO_LAMPS:
             object.__setattr__(self, "lamps", np.zeros(self.instance_id.shape[0], np.uint8))
+        if self.yaw_rate_rad_s is NOT_TURNING:
+            object.__setattr__(self, "yaw_rate_rad_s", np.zeros(self.instance_id.shape[0]))
         check_arrays(
             self, instance_id=(np.uint32, ("N",)), semantic_class=(np.uint8, ("N",)),
             center_map_m=(np.float64, ("N", 3)), lwh_m=(np.float64, ("N", 3)), yaw_map_rad=(np.float64, ("N",)),
             pitch_rad=(np.float64, ("N",)), velocity_map_mps=(np.float64, ("N", 3)), parked=(np.bool_, ("N",)),
-            lamps=(np.uint8, ("N",)),
+            lamps=(np.uint8, ("N",)), yaw_rate_rad_s=(np.float64, ("N",)),
         )  # fmt: skip
         if len(self) and int(self.instance_id.min()) == 0:
             raise ValueError("Agents.instance_id: 0 is reserved for the static world")
@@ -96,7 +102,7 @@ class Agents:
         return Agents(
             self.instance_id[mask], self.semantic_class[mask], self.center_map_m[mask], self.lwh_m[mask],
             self.yaw_map_rad[mask], self.pitch_rad[mask], self.velocity_map_mps[mask], self.parked[mask],
-            self.lamps[mask],
+            self.lamps[mask], self.yaw_rate_rad_s[mask],
         )  # fmt: skip
 
     def joined(self, other: Agents) -> Agents:
@@ -120,21 +126,47 @@ class Agents:
         return out
 
 
+def motion_over(
+    velocity_map_mps: npt.ArrayLike, yaw_rate_rad_s: npt.ArrayLike, dt_s: npt.ArrayLike
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:  # fmt: skip
+    """``(..., 3)`` shift of a box's centre and ``(...)`` turn of its heading (radians) over ``dt_s``
+    for a body moving at ``velocity_map_mps`` (at ``dt_s`` 0) whose heading turns at
+    ``yaw_rate_rad_s``: speed and rate of turn kept, so the centre runs along a circular arc
+    (``velocity * dt`` exactly where the rate is 0). Arguments broadcast against each other
+    (velocity with a last axis of 3)."""
+    velocity = np.asarray(velocity_map_mps, np.float64)
+    dt = np.asarray(dt_s, np.float64)
+    turn = np.asarray(yaw_rate_rad_s, np.float64) * dt
+    along = dt * np.sinc(turn / np.pi)  # sin(turn) / rate
+    across = dt * (0.5 * turn) * np.sinc(turn / (2.0 * np.pi)) ** 2  # (1 - cos(turn)) / rate
+    vx, vy, vz = velocity[..., 0], velocity[..., 1], velocity[..., 2]
+    shift = np.stack(np.broadcast_arrays(along * vx - across * vy, along * vy + across * vx, dt * vz), axis=-1)
+    return shift, turn
+
+
+def turned_about_z(vectors: npt.NDArray[np.float64], turn_rad: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """``(..., 3)`` vectors turned by ``turn_rad`` about the map's +z (counter-clockwise)."""
+    c, s = np.cos(turn_rad), np.sin(turn_rad)
+    x, y = vectors[..., 0], vectors[..., 1]
+    return np.stack(np.broadcast_arrays(c * x - s * y, s * x + c * y, vectors[..., 2]), axis=-1)
+
+
 AGENT_FIELDS = ("instance_id", "semantic_class", "center_map_m", "lwh_m", "yaw_map_rad", "pitch_rad",
-                "velocity_map_mps", "parked", "lamps")  # fmt: skip
+                "velocity_map_mps", "parked", "lamps", "yaw_rate_rad_s")  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
 class EgoState:
     """The ego in the map frame: ``center_map_m: (3,) float64`` box centre, ``lwh_m: (3,)
     float64``, ``yaw_map_rad`` and ``pitch_rad`` (nose-up positive), ``velocity_map_mps: (3,)
-    float64``."""
+    float64``, ``yaw_rate_rad_s`` (counter-clockwise positive)."""
 
     center_map_m: npt.NDArray[np.float64]
     lwh_m: npt.NDArray[np.float64]
     yaw_map_rad: float
     pitch_rad: float
     velocity_map_mps: npt.NDArray[np.float64]
+    yaw_rate_rad_s: float = 0.0
 
     def __post_init__(self) -> None:
         check_arrays(self, center_map_m=(np.float64, (3,)), lwh_m=(np.float64, (3,)),

@@ -56,8 +56,8 @@ class Scene(Protocol):
         agent_index: npt.NDArray[np.intp],
     ) -> PairHits:  # fmt: skip
         """Ray ``ray_index[k]`` at ``dt_s[ray_index[k]]`` seconds from the scene's time against agent
-        ``agent_index[k]`` (a row of :attr:`agents`) alone, moved by its velocity over that time;
-        glass lets the ray through (see :func:`sensors.scene.cast_agents_moving`)."""
+        ``agent_index[k]`` (a row of :attr:`agents`) alone, moved by its velocity and rate of turn
+        over that time; glass lets the ray through (see :func:`sensors.scene.cast_agents_moving`)."""
         ...
 
     def cast_raw(self, rays: npt.NDArray[np.float32]) -> Any:

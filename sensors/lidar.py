@@ -24,12 +24,12 @@ import numpy.typing as npt
 
 from networks.geometry import SE3
 from networks.records import check_arrays
-from sensors.agents import EgoState
+from sensors.agents import EgoState, turned_about_z
 from sensors.errors import SensorConfigError
 from sensors.hits import RayHits
 from sensors.parts import Part, lidar_reflectance
 from sensors.rays import sensor_rays
-from sensors.sweep import deskewed, near_pairs, nearest, ray_times_s, reference_s
+from sensors.sweep import deskewed, near_pairs, nearest, ray_times_s, reference_s, sensor_origins
 from sensors.view import spheres_in_view
 from sensors.weather import (
     Weather,
@@ -214,8 +214,7 @@ class Lidar:
         t_s = self._t32[idx] if timed else np.zeros(idx.shape[0], np.float32)
         still = np.zeros((0, 3), np.float32)
         if self.spec.deskew:
-            velocity_lidar = map_SE3_lidar.rotation.T @ ego.velocity_map_mps
-            still = deskewed(xyz, t_s, self._t_ref_s, velocity_lidar) if timed else xyz.copy()
+            still = deskewed(xyz, t_s, self._t_ref_s, ego, map_SE3_lidar) if timed else xyz.copy()
         scan = LidarScan(xyz, intensity.astype(np.float32, copy=False), self._ring[idx], cls, hits.instance_id[idx],
                          t_s, still)  # fmt: skip
         return LidarOutput(self.spec, scan)
@@ -285,15 +284,20 @@ class Lidar:
         return rays, through_glass(scene, rays, hits)
 
     def _cast_timed(self, scene: Scene, ego: EgoState, map_SE3_lidar: SE3, rays: npt.NDArray[np.float32]) -> RayHits:
-        """Each ray from where the sensor is at its time, against the static world and against
-        each agent near its line of sight where that agent is then (rays' origins move in place)."""
+        """Each ray from where the sensor is at its time and turned as the ego has turned then,
+        against the static world and against each agent near its line of sight where that agent
+        is then (rays move in place)."""
         dt_s = self._t_s - self._t_ref_s
-        rays[:, :3] += (dt_s[:, None] * ego.velocity_map_mps[None, :]).astype(np.float32)
+        if ego.yaw_rate_rad_s == 0.0:
+            rays[:, :3] += (dt_s[:, None] * ego.velocity_map_mps[None, :]).astype(np.float32)
+        else:
+            origins, turn = sensor_origins(ego, map_SE3_lidar.translation, dt_s)
+            rays[:, :3] = origins.astype(np.float32)
+            rays[:, 3:6] = turned_about_z(rays[:, 3:6].astype(np.float64), turn).astype(np.float32)
         static = scene.cast_static(rays)
         agents = scene.agents
-        relative = agents.velocity_map_mps - ego.velocity_map_mps
         dt_range = (-self._t_ref_s, self.spec.period_s - self._t_ref_s)
-        ray_i, agent_i = near_pairs(agents, map_SE3_lidar.inverse(), relative, dt_range, self.spec.azimuth_steps,
+        ray_i, agent_i = near_pairs(agents, ego, map_SE3_lidar, dt_range, self.spec.azimuth_steps,
                                     self._elevation_rad)  # fmt: skip
         return nearest(static, agents, ray_i, agent_i, scene.cast_agents_moving(rays, dt_s, ray_i, agent_i))
 

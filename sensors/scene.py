@@ -16,7 +16,16 @@ import numpy.typing as npt
 
 from networks.geometry import SE3
 from networks.mesh import ClassedMesh
-from sensors.agents import AGENT_LIFT_M, AgentMeshes, Agents, agent_meshes, body_keys, template_of
+from sensors.agents import (
+    AGENT_LIFT_M,
+    AgentMeshes,
+    Agents,
+    agent_meshes,
+    body_keys,
+    motion_over,
+    template_of,
+    turned_about_z,
+)
 from sensors.hits import PairHits, RayHits
 from sensors.o3d import INVALID_ID, RaycastingScene, o3c
 from sensors.parts import Part
@@ -250,10 +259,10 @@ def cast_agents_moving(
 ) -> PairHits:  # fmt: skip
     """Ray ``ray_index[k]`` cast at ``dt_s`` from the frame's time against agent ``agent_index[k]``
     alone (pairs grouped by agent, ``agent_index`` ascending), the agent moved by its velocity
-    over ``dt_s`` (its heading kept). Each agent's body is cast in its type's unit mesh (scaled and
-    posed as :func:`sensors.agents.agent_meshes` does), the ray taken into that mesh's frame: no
-    mesh is built per frame. A ray passes through glass (:attr:`Part.GLASS`): its hit is the next
-    surface of the agent behind the glass, or none."""
+    and rate of turn over ``dt_s`` (:func:`sensors.agents.motion_over`). Each agent's body is cast
+    in its type's unit mesh (scaled and posed as :func:`sensors.agents.agent_meshes` does), the
+    ray taken into that mesh's frame: no mesh is built per frame. A ray passes through glass
+    (:attr:`Part.GLASS`): its hit is the next surface of the agent behind the glass, or none."""
     m = ray_index.shape[0]
     out = PairHits(np.full(m, np.inf, np.float32), np.zeros((m, 3), np.float32), np.zeros(m, np.uint8))
     if m == 0:
@@ -264,12 +273,21 @@ def cast_agents_moving(
     starts = np.searchsorted(agent_index, np.arange(len(agents) + 1))
     present = np.flatnonzero(np.diff(starts))
     unit = np.empty((m, 6), np.float32)  # each pair's ray in its agent's unit mesh frame
+    turns: dict[int, npt.NDArray[np.float64]] = {}  # each turning agent's turn at each of its pairs' times
     for k in present.tolist():
         a, b = int(starts[k]), int(starts[k + 1])
         mine = ray_index[a:b]
-        moved = rays[mine, :3] - (centre[k] + dt_s[mine, None] * agents.velocity_map_mps[k])
+        if agents.yaw_rate_rad_s[k] == 0.0:
+            moved = rays[mine, :3] - (centre[k] + dt_s[mine, None] * agents.velocity_map_mps[k])
+            direction = rays[mine, 3:6].astype(np.float64)
+        else:  # the ray taken back by the agent's turn about its centre, into its frame at the reference time
+            shift, turn = motion_over(agents.velocity_map_mps[k], agents.yaw_rate_rad_s[k], dt_s[mine])
+            box_centre = agents.center_map_m[k] + shift
+            moved = turned_about_z(rays[mine, :3] - box_centre, -turn) - (centre[k] - agents.center_map_m[k])
+            direction = turned_about_z(rays[mine, 3:6].astype(np.float64), -turn)
+            turns[k] = turn
         unit[a:b, :3] = (moved @ rotations[k]) / lwh[k]  # x @ R is R^T x
-        unit[a:b, 3:] = (rays[mine, 3:6].astype(np.float64) @ rotations[k]) / lwh[k]
+        unit[a:b, 3:] = (direction @ rotations[k]) / lwh[k]
     keys = body_keys(agents.select(present))
     groups, group_of = np.unique(keys, axis=0, return_inverse=True)
     normal_unit = np.zeros((m, 3), np.float32)
@@ -281,6 +299,8 @@ def cast_agents_moving(
     for k in present.tolist():
         a, b = int(starts[k]), int(starts[k + 1])
         world = (normal_unit[a:b] / lwh[k]) @ rotations[k].T
+        if k in turns:
+            world = turned_about_z(world, turns[k])
         length = np.linalg.norm(world, axis=1, keepdims=True)
         out.normal[a:b] = world / np.where(length > 0, length, 1.0)
     return out

@@ -10,8 +10,10 @@ its middle. Each column of the ray grid fires at its azimuth's share of the peri
 The frame's state (the traffic's step) stands at the sweep's reference time ``t_ref`` (start,
 middle or end of the sweep, as the imitated dataset stamps it: KITTI's camera fires when the
 laser faces forward, its boxes are at the middle; nuScenes stamps a sweep when its rotation
-ends). A ray fired at ``t`` is cast with the ego and every agent moved by their velocities over
-``t - t_ref`` (headings kept): the static world from the moved sensor origin, each agent near
+ends). A ray fired at ``t`` is cast with the ego and every agent moved over ``t - t_ref`` by
+their velocities and rates of turn (:func:`sensors.agents.motion_over`: along an arc, the
+heading turning; the traffic gives each rate from its heading's change since the last step):
+the static world from the moved and turned sensor, each agent near
 the ray's line of sight alone with its own motion (:meth:`sensors.engine.Scene.cast_agents_moving`),
 and the nearest hit wins. Points stay in the sensor's frame at their own time, as a real
 sensor reports them (a car passing the other way is squeezed, one overtaking stretched);
@@ -24,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from networks.geometry import SE3
-from sensors.agents import Agents
+from sensors.agents import Agents, EgoState, motion_over, turned_about_z
 from sensors.errors import SensorConfigError
 from sensors.hits import PairHits, RayHits
 
@@ -83,23 +85,36 @@ def reference_s(reference: str, period_s: float) -> float:
     return {"start": 0.0, "middle": 0.5 * period_s, "end": period_s}[reference]
 
 
+SWEPT_SAMPLES = 5  # times over the sweep at which an agent's box is placed to bound the rays near it
+
+
 def near_pairs(
-    agents: Agents, lidar_SE3_map: SE3, relative_velocity_map_mps: npt.NDArray[np.float64],
-    dt_range_s: tuple[float, float], azimuth_steps: int, elevation_rad: npt.NDArray[np.float64],
+    agents: Agents, ego: EgoState, map_SE3_lidar: SE3, dt_range_s: tuple[float, float], azimuth_steps: int,
+    elevation_rad: npt.NDArray[np.float64],
 ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:  # fmt: skip
     """``(ray, agent)`` pairs, grouped by agent in ascending order, whose ray may meet the agent's
-    box swept by its motion relative to the ego over ``dt_range_s``, on the grid of a LiDAR whose
-    ray ``ring * azimuth_steps + column`` points at azimuth ``column * 2 pi / steps`` and elevation
-    ``elevation_rad[ring]`` in the LiDAR frame: the columns between the swept box's corners'
-    azimuths and the rings between its lowest and highest elevation (taken at its nearest
-    horizontal distance), each widened by half a column."""
+    box as both it and the ego move (:func:`sensors.agents.motion_over`) over ``dt_range_s``, on
+    the grid of a LiDAR (at ``map_SE3_lidar`` at the reference time) whose ray ``ring *
+    azimuth_steps + column`` points at azimuth ``column * 2 pi / steps`` and elevation
+    ``elevation_rad[ring]`` in the LiDAR frame: the columns between the corners' azimuths of the
+    box placed at :data:`SWEPT_SAMPLES` times, seen from the LiDAR at those times, and the rings
+    between its lowest and highest elevation (taken at its nearest horizontal distance), each
+    widened by half a column. (A box moving straight relative to a sensor that does not turn is
+    covered exactly by its two ends; turns bend the path by well under half a column between
+    samples.)"""
     if len(agents) == 0:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
     corners_box = np.stack(np.meshgrid([-0.5, 0.5], [-0.5, 0.5], [-0.5, 0.5], indexing="ij"), -1).reshape(-1, 3)
-    corners = np.einsum("kij,kcj->kci", agents.rotations(), corners_box[None] * agents.lwh_m[:, None, :])
-    corners = corners + agents.center_map_m[:, None, :]
-    swept = np.concatenate([corners + relative_velocity_map_mps[:, None, :] * dt for dt in dt_range_s], axis=1)
-    local = lidar_SE3_map.transform_from(swept.reshape(-1, 3)).reshape(swept.shape)
+    arms = np.einsum("kij,kcj->kci", agents.rotations(), corners_box[None] * agents.lwh_m[:, None, :])
+    still = not agents.yaw_rate_rad_s.any() and ego.yaw_rate_rad_s == 0.0
+    times = dt_range_s if still else tuple(np.linspace(dt_range_s[0], dt_range_s[1], SWEPT_SAMPLES).tolist())
+    seen = []
+    for dt in times:
+        shift, turn = motion_over(agents.velocity_map_mps, agents.yaw_rate_rad_s, np.full(len(agents), dt))
+        corners = agents.center_map_m[:, None, :] + shift[:, None, :] + turned_about_z(arms, turn[:, None])
+        lidar_SE3_map = sensor_pose_at(ego, map_SE3_lidar, dt).inverse()
+        seen.append(lidar_SE3_map.transform_from(corners.reshape(-1, 3)).reshape(corners.shape))
+    local = np.concatenate(seen, axis=1)
     step = 2.0 * np.pi / azimuth_steps
     pad = 0.5 * step + 1e-3
     rays, owners = [], []
@@ -111,6 +126,26 @@ def near_pairs(
     if not rays:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
     return np.concatenate(rays).astype(np.intp), np.concatenate(owners)
+
+
+def sensor_pose_at(ego: EgoState, map_SE3_sensor: SE3, dt_s: float) -> SE3:
+    """Where a sensor fixed to the ego (at ``map_SE3_sensor`` at the reference time) is ``dt_s``
+    seconds later, the ego moving by :func:`sensors.agents.motion_over`."""
+    origins, turn = sensor_origins(ego, map_SE3_sensor.translation, np.array([dt_s]))
+    c, s = np.cos(turn[0]), np.sin(turn[0])
+    turn_R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return SE3(turn_R @ map_SE3_sensor.rotation, origins[0])
+
+
+def sensor_origins(
+    ego: EgoState, origin_map_m: npt.NDArray[np.float64], dt_s: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:  # fmt: skip
+    """``(N, 3)`` where a point fixed to the ego (at ``origin_map_m`` at the reference time) is at
+    each of ``dt_s`` and ``(N,)`` how far the ego has turned then (radians, counter-clockwise)."""
+    shift, turn = motion_over(ego.velocity_map_mps, np.float64(ego.yaw_rate_rad_s), dt_s[:, None])
+    arm = np.asarray(origin_map_m, np.float64) - ego.center_map_m
+    turned = turned_about_z(np.broadcast_to(arm, shift[:, 0].shape), turn[:, 0])
+    return ego.center_map_m + shift[:, 0] + turned, turn[:, 0]
 
 
 def _pairs_of(
@@ -159,10 +194,16 @@ def nearest(static: RayHits, agents: Agents, ray_index: npt.NDArray[np.intp], ag
 
 
 def deskewed(
-    xyz_lidar_m: npt.NDArray[np.float32], t_s: npt.NDArray[np.float32], t_ref_s: float,
-    velocity_lidar_mps: npt.NDArray[np.float64],
+    xyz_lidar_m: npt.NDArray[np.float32], t_s: npt.NDArray[np.float32], t_ref_s: float, ego: EgoState,
+    map_SE3_lidar: SE3,
 ) -> npt.NDArray[np.float32]:  # fmt: skip
-    """Points taken from the sensor's frame at their own time to its frame at ``t_ref_s``, by the
-    ego's velocity (in the LiDAR frame; heading kept over the sweep), as motion compensation does."""
-    shift = (t_s.astype(np.float64) - t_ref_s)[:, None] * velocity_lidar_mps[None, :]
-    return (xyz_lidar_m + shift).astype(np.float32)
+    """Points taken from the sensor's frame at their own time to its frame at ``t_ref_s`` (where
+    it is at ``map_SE3_lidar``), by the ego's motion (its velocity and rate of turn), as motion
+    compensation does."""
+    dt = t_s.astype(np.float64) - t_ref_s
+    if ego.yaw_rate_rad_s == 0.0:  # heading kept: a shift along the velocity
+        velocity_lidar = map_SE3_lidar.rotation.T @ ego.velocity_map_mps
+        return (xyz_lidar_m + dt[:, None] * velocity_lidar[None, :]).astype(np.float32)
+    origins, turn = sensor_origins(ego, map_SE3_lidar.translation, dt)
+    in_map = turned_about_z(xyz_lidar_m.astype(np.float64) @ map_SE3_lidar.rotation.T, turn) + origins
+    return map_SE3_lidar.inverse().transform_from(in_map).astype(np.float32)

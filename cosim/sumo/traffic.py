@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 from collections import Counter
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -191,6 +191,7 @@ class Traffic:
         self._ego_collided = False
         self._trailers: dict[str, Combination] = {}  # SUMO id -> lengths, for trucks with a trailer
         self._axles: dict[str, tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64]]] = {}
+        self._headings: tuple[float, dict[int, float]] = (-np.inf, {})  # the last read's time and yaw by track id
         self._works = self._close_lane(net) if scenario.construction.edge else Agents.empty()
         self._stood_s = 0.0  # how long the ego has stood (below STOPPED_MPS) without a break
 
@@ -697,11 +698,12 @@ class Traffic:
         agents = agents.joined(self._trailers_of([ids[i] for i in pulling], agents.select(np.asarray(pulling, np.intp)),
                                                  front[pulling]))  # fmt: skip
         agents = agents.joined(self._works_now())
+        agents = replace(agents, yaw_rate_rad_s=self._yaw_rates(agents.instance_id, agents.yaw_map_rad))
         is_ego = np.concatenate([is_ego, np.zeros(len(agents) - n, np.bool_)])
         if not is_ego.any():
             raise TrafficError(f"the ego vehicle {self._ego!r} is not among the agents read at t={self._time():.2f} s")
         e = int(np.flatnonzero(is_ego)[0])
-        ego = EgoState(center[e], lwh[e], float(yaw[e]), float(pitch[e]), velocity[e])
+        ego = EgoState(center[e], lwh[e], float(yaw[e]), float(pitch[e]), velocity[e], float(agents.yaw_rate_rad_s[e]))
         signals = {tls: SignalState.decode(libsumo.trafficlight.getRedYellowGreenState(tls)) for tls in self._signals}
         lane = str(libsumo.vehicle.getLaneID(self._ego))
         route = libsumo.vehicle.getRoute(self._ego)
@@ -709,6 +711,21 @@ class Traffic:
         hazards = () if self._hazards is None else self._hazards.active(self._track_id, self._ego)
         return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut, signals, lane, ahead, hazards,
                           self._ego_collided)  # fmt: skip
+
+    def _yaw_rates(self, track: npt.NDArray[np.uint32], yaw: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """Each agent's rate of turn: its heading's change since the last read (wrapped to +-pi)
+        over the time between; 0 for agents not read then. Read every step, so a timed LiDAR
+        sweep turns a body between its last step and this one as SUMO turned it."""
+        now = self._time()
+        then, last = self._headings
+        rates = np.zeros(track.shape[0])
+        if now > then:
+            for i, tid in enumerate(track.tolist()):
+                before = last.get(tid)
+                if before is not None:
+                    rates[i] = float(np.angle(np.exp(1j * (yaw[i] - before)))) / (now - then)
+        self._headings = (now, dict(zip(track.tolist(), yaw.tolist(), strict=True)))
+        return rates
 
     def _trailers_of(self, sids: list[str], trucks: Agents, front: npt.NDArray[np.float64]) -> Agents:
         """The trailers of the trucks ``sids`` (``trucks``: their boxes, ``front``: their front

@@ -37,25 +37,28 @@ def wall_at_x(x_m: float, half_m: float = 200.0, cls: SemanticClass = SemanticCl
 def agents(
     rows: Sequence[tuple[int, SemanticClass, float, float, float, float, float, float, float]],
     velocity_map_mps: Sequence[Sequence[float]] | None = None,
+    yaw_rate_rad_s: Sequence[float] | None = None,
 ) -> Agents:
     """Rows of (id, class, x, y, z_centre, l, w, h, yaw); level, not parked, standing still
-    unless ``velocity_map_mps`` gives each one's velocity."""
+    unless ``velocity_map_mps`` gives each one's velocity (and ``yaw_rate_rad_s`` its rate of turn)."""
     if not rows:
         return Agents.empty()
     a = np.array([r[2:] for r in rows], dtype=np.float64)
     n = len(rows)
     velocity = np.zeros((n, 3)) if velocity_map_mps is None else np.asarray(velocity_map_mps, np.float64)
+    turning = np.zeros(n) if yaw_rate_rad_s is None else np.asarray(yaw_rate_rad_s, np.float64)
     return Agents(np.array([r[0] for r in rows]), np.array([int(r[1]) for r in rows]), a[:, 0:3], a[:, 3:6], a[:, 6],
-                  np.zeros(n), velocity, np.zeros(n, bool))  # fmt: skip
+                  np.zeros(n), velocity, np.zeros(n, bool), yaw_rate_rad_s=turning)  # fmt: skip
 
 
 def scene(static: Sequence[ClassedMesh], boxes: Agents | None = None) -> FrameScene:
     return FrameScene(merge(list(static)), Agents.empty() if boxes is None else boxes)
 
 
-def ego(velocity_map_mps: Sequence[float] = (0.0, 0.0, 0.0)) -> EgoState:
-    """The ego at the map origin, facing +x, driving at ``velocity_map_mps``."""
-    return EgoState(EGO.center_map_m, EGO.lwh_m, 0.0, 0.0, np.asarray(velocity_map_mps, np.float64))
+def ego(velocity_map_mps: Sequence[float] = (0.0, 0.0, 0.0), yaw_rate_rad_s: float = 0.0) -> EgoState:
+    """The ego at the map origin, facing +x, driving at ``velocity_map_mps`` and turning at
+    ``yaw_rate_rad_s``."""
+    return EgoState(EGO.center_map_m, EGO.lwh_m, 0.0, 0.0, np.asarray(velocity_map_mps, np.float64), yaw_rate_rad_s)
 
 
 @pytest.fixture

@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from types import SimpleNamespace
 
 import cv2
@@ -207,12 +208,12 @@ def test_sun_shadow_rays_match_a_brute_force_check(synth: SimpleNamespace) -> No
 @pytest.mark.parametrize("weather", ["day", "night"])
 def test_lamps_light_as_the_traffic_sets_them(synth: SimpleNamespace, weather: str) -> None:
     # a car seen from behind: its brake lamps, and one indicator flashing on its own side
-    from sensors.agents import Agents, Lamp
+    from sensors.agents import Lamp
     from sensors.parts import Part
 
     def render(lamps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         car = synth.agents([(7, SemanticClass.CAR, 9.0, 0.0, 0.75, 4.5, 1.8, 1.5, 0.0)])
-        car = Agents(*(getattr(car, f) for f in Agents.__dataclass_fields__ if f != "lamps"), np.array([lamps]))
+        car = replace(car, lamps=np.array([lamps], np.uint8))
         scene = synth.scene([synth.ground()], car)
         frame = (
             Camera(CameraSpec(width_px=320, height_px=180))
@@ -238,12 +239,12 @@ def test_lamps_light_as_the_traffic_sets_them(synth: SimpleNamespace, weather: s
 
 
 def test_a_bus_in_service_shows_lit_windows_at_night_and_a_parked_one_dark(synth: SimpleNamespace) -> None:
-    from sensors.agents import Agents, Lamp
+    from sensors.agents import Lamp
     from sensors.parts import Part
 
     def render(weather: str, lamps: int, cls: SemanticClass = SemanticClass.BUS) -> tuple[np.ndarray, np.ndarray]:
         bus = synth.agents([(5, cls, 8.0, 0.0, 1.55, 12.0, 2.55, 3.1, np.pi / 2)])  # side on, across the view
-        bus = Agents(*(getattr(bus, f) for f in Agents.__dataclass_fields__ if f != "lamps"), np.array([lamps]))
+        bus = replace(bus, lamps=np.array([lamps], np.uint8))
         frame = (
             Camera(CameraSpec(width_px=320, height_px=180))
             .sense(synth.scene([synth.ground()], bus), synth.EGO, weather_preset(weather), np.random.default_rng(0))

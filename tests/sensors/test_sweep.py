@@ -157,6 +157,67 @@ def test_object_points_moved_back_to_the_reference_time_lie_in_their_boxes(
     assert points_back_in_boxes(lidar, ego, agents, scan, t_ref + 0.05).max() > 0.1  # a wrong time fails
 
 
+def on_circle(centre: np.ndarray, heading: np.ndarray, speed: np.ndarray, rate: np.ndarray, dt: np.ndarray) -> tuple:
+    """Where a body moving at ``speed`` along ``heading`` and turning at ``rate`` is after ``dt``
+    (a circle's arc), and its heading then."""
+    turned = heading + rate * dt
+    x = centre[..., 0] + speed / rate * (np.sin(turned) - np.sin(heading))
+    y = centre[..., 1] - speed / rate * (np.cos(turned) - np.cos(heading))
+    return np.stack([x, y, centre[..., 2] + 0 * dt], -1), turned
+
+
+def rot_z(angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.zeros((*np.shape(angle), 3, 3))
+    out[..., 0, 0], out[..., 0, 1], out[..., 1, 0], out[..., 1, 1], out[..., 2, 2] = c, -s, s, c, 1.0
+    return out
+
+
+@pytest.mark.parametrize("reference", ["middle", "end"])
+def test_points_on_turning_cars_from_a_turning_ego_moved_back_along_their_arcs_lie_in_their_boxes(
+    synth: SimpleNamespace, reference: str
+) -> None:  # fmt: skip
+    # a car behind on the left turning at 1.2 rad/s (10 m/s round a 8.3 m radius), a bus behind turning at -0.9 rad/s,
+    # seen from an ego turning at 0.6 rad/s
+    rows = [(3, SemanticClass.CAR, -6.0, 7.0, 0.75, 4.5, 1.8, 1.5, 0.4),
+            (4, SemanticClass.BUS, -14.0, -2.0, 1.6, 12.0, 2.5, 3.2, 1.4)]  # fmt: skip
+    speed, heading, rate = np.array([10.0, 8.0]), np.array([0.4, 1.4]), np.array([1.2, -0.9])
+    velocity = np.stack([speed * np.cos(heading), speed * np.sin(heading), 0 * speed], -1)
+    agents = synth.agents(rows, velocity, rate)
+    ego_speed, ego_rate = 9.0, 0.6
+    ego = synth.ego((ego_speed, 0.0, 0.0), ego_rate)
+    lidar = kitti_lidar(reference=reference, deskew=True)
+    scan = lidar.sense(synth.scene([synth.ground()], agents), ego, DAY, np.random.default_rng(3)).scan
+    t_ref = {"middle": 0.05, "end": 0.1}[reference]
+    dt = scan.t_s.astype(np.float64) - t_ref
+    # each point in the map where the sensor was when it fired: the ego on its own arc
+    map_SE3_lidar = ego.map_SE3_ego().compose(lidar.spec.ego_SE3_sensor)
+    ego_at, ego_turned = on_circle(ego.center_map_m, np.zeros_like(dt), ego_speed, ego_rate, dt)
+    arm = map_SE3_lidar.translation - ego.center_map_m
+    origin = ego_at + np.einsum("kij,j->ki", rot_z(ego_turned), arm)
+    xyz = origin + np.einsum("kij,kj->ki", rot_z(ego_turned) @ map_SE3_lidar.rotation, scan.xyz_lidar_m)
+    counted = 0
+    for k, tid in enumerate((3, 4)):
+        on = scan.instance_id == tid
+        assert on.sum() > 300
+        counted += 1
+        box_at, box_heading = on_circle(agents.center_map_m[k], heading[k], speed[k], rate[k], dt[on])
+        local = np.einsum("kji,kj->ki", rot_z(box_heading), xyz[on] - box_at)
+        assert np.max(np.abs(local) - agents.lwh_m[k] / 2.0) <= 0.02
+        # the same points moved back by the velocity alone (the heading kept) leave the box
+        moved_straight = xyz[on] - agents.center_map_m[k] - velocity[k] * dt[on, None]
+        straight = np.einsum("ji,kj->ki", rot_z(heading[k]), moved_straight)
+        assert np.max(np.abs(straight) - agents.lwh_m[k] / 2.0) > 0.05
+    assert counted == 2
+    # the deskewed copy: every ground point in the sensor's frame at the reference time lies on the ground
+    ground = scan.semantic_class == SemanticClass.ROAD
+    still = map_SE3_lidar.transform_from(scan.xyz_deskewed_lidar_m[ground].astype(np.float64))
+    assert np.abs(still[:, 2]).max() <= 0.02
+    raw = map_SE3_lidar.transform_from(scan.xyz_lidar_m.astype(np.float64))
+    np.testing.assert_allclose(still, xyz[ground], atol=0.02)
+    assert np.abs(raw[ground] - xyz[ground]).max() > 0.3
+
+
 def test_glass_gives_no_return_from_its_surface(synth: SimpleNamespace) -> None:
     car = synth.agents([(5, SemanticClass.CAR, 8.0, 0.0, 0.75, 4.5, 1.8, 1.5, np.pi / 2)])
     world = synth.scene([synth.ground(), synth.wall_at_x(20.0)], car)
