@@ -201,11 +201,7 @@ class Lidar:
         cos_inc = np.abs(np.einsum("ij,ij->i", rays[idx, 3:6], hits.normal[idx]))
         cls = hits.semantic_class[idx]
         reflectance, retro = lidar_reflectance(cls, hits.part[idx], hits.instance_id[idx])
-        if self.spec.intensity == "physical":
-            facing = np.where(retro, np.float32(1.0), cos_inc)
-            intensity = np.minimum(reflectance * facing * np.exp(rng_m * np.float32(-1.0 / 200.0)), np.float32(1.0))
-        else:
-            intensity = self._read_intensity(reflectance, retro, cos_inc, rng_m, hits.part[idx], self._ring[idx], rng)
+        intensity = self._read_intensity(reflectance, retro, cos_inc, rng_m, hits.part[idx], self._ring[idx], rng)
         if w.lidar_spurious_rate > 0 or w.lidar_intensity_scale != 1.0 or w.lidar_extinction_per_m > 0:
             intensity = intensity * lidar_intensity_factor(w, rng_m)
             intensity = np.where(spurious[idx], w.lidar_spurious_intensity, intensity)
