@@ -101,3 +101,23 @@ def test_out_of_range_radar_specs_are_rejected() -> None:
         RadarSpec(hfov_deg=0.0)
     with pytest.raises(SensorConfigError):
         RadarSpec(points_per_frame=0)
+
+
+def test_cross_section_comes_from_the_material_table_metal_strong_people_weak(
+    synth: SimpleNamespace, rng: np.random.Generator
+) -> None:  # fmt: skip
+    from sensors.parts import Part, radar_reflectivity
+
+    metal = [Part.PAINT, Part.RIM, Part.CHROME, Part.CARGO, Part.FRAME, Part.LIVERY, Part.SAFETY_YELLOW]
+    people = [Part.SKIN, Part.HAIR, Part.TOP, Part.TROUSERS, Part.SHOES]
+    table = radar_reflectivity(np.full(len(metal + people), int(SemanticClass.CAR), np.uint8),
+                               np.array(metal + people, np.uint8))  # fmt: skip
+    assert table[: len(metal)].min() >= 0.8 and table[len(metal) :].max() <= 0.15
+    # a car and a pedestrian side by side, 15 m ahead: the car's returns are about 8 times stronger
+    rows = [(CAR_ID, SemanticClass.CAR, 15.0, -2.0, 0.75, 4.5, 1.8, 1.5, np.pi / 2),
+            (9, SemanticClass.PEDESTRIAN, 15.0, 2.0, 0.9, 0.5, 0.6, 1.8, np.pi)]  # fmt: skip
+    world = synth.scene([synth.ground(), synth.wall_at_x(120.0)], synth.agents(rows))
+    returns = scan(Radar(RadarSpec(points_per_frame=400)), world, synth, rng)
+    car, person = (returns.strength_db[returns.instance_id == k] for k in (CAR_ID, 9))
+    assert car.size > 5 and person.size > 0
+    assert np.median(car) > np.median(person) + 6.0  # paint 1.0 against clothes and skin 0.1-0.15: 8-10 dB
