@@ -49,6 +49,14 @@ HDL64E_ELEVATIONS_DEG = tuple(round(e, 3) for e in sorted(_UPPER + _LOWER))
 # reflectivity given (HDL-32E data sheet); taken as 100 m for 80 %, so 35 m for 10 %.
 HDL64E_RANGE_10PCT_M = 50.0
 HDL32E_RANGE_10PCT_M = 35.0
+# The HDL-32E's spot: "approximately 4 inches wide by 2 inches tall at 100 feet" (HDL-32E user's
+# manual, appendix D, laser spot size): 3.3 x 1.7 mrad. The sensor has strongest, last and dual
+# return modes (same manual); nuScenes's sweeps hold one return a shot. A scenario may set
+# LIDAR_TOP's beam_divergence_mrad to this (mixed returns at depth edges, sensors.beam) and
+# returns: dual; the preset does not, since an edge's echo reaches out beyond its surface by half
+# a spot (0.8 cm at 10 m, 5.8 cm at 70 m) and labels' boxes would no longer hold every object
+# point within 2 cm. The HDL-64E S2 of the kitti preset reports one return a shot.
+HDL32E_SPOT_MRAD = (3.3, 1.7)
 KITTI_FOCAL_PX = 721.5377
 KITTI_IMAGE = (1242, 375)
 KITTI_HFOV_DEG = round(math.degrees(2.0 * math.atan(KITTI_IMAGE[0] / 2.0 / KITTI_FOCAL_PX)), 3)

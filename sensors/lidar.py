@@ -25,6 +25,7 @@ import numpy.typing as npt
 from networks.geometry import SE3
 from networks.records import check_arrays
 from sensors.agents import EgoState, turned_about_z
+from sensors.beam import SLICES, BeamEchoes, beam_echoes, edge_shots, spot_directions
 from sensors.errors import SensorConfigError
 from sensors.hits import RayHits
 from sensors.parts import Part, lidar_reflectance
@@ -66,6 +67,10 @@ class LidarSpec:
     # target returns half the time (0: every hit within range returns).
     range_10pct_m: float = 0.0
     intensity: Literal["physical", "kitti"] = "physical"  # the intensity's scale (INTENSITY_RESPONSES)
+    # Each beam's spot widens by this much (horizontal, vertical; 0: a thin ray): spots straddling
+    # depth edges give mixed returns (sensors.beam).
+    beam_divergence_mrad: tuple[float, float] = (0.0, 0.0)
+    returns: Literal["strongest", "dual"] = "strongest"  # dual: the strongest and the last echo of each shot
 
     def __post_init__(self) -> None:
         if self.elevations_deg:
@@ -85,10 +90,25 @@ class LidarSpec:
             raise SensorConfigError(f"lidar {self.name}: need range_noise_m >= 0 and 0 <= dropout < 1")
         if not 0.0 <= self.range_10pct_m <= self.range_m:
             raise SensorConfigError(f"lidar {self.name}: range_10pct_m must be in 0..range_m, got {self.range_10pct_m}")
-        if (self.firing, self.beams) in {("hdl64e", 64), ("hdl32e", 32)} or self.firing == "even":
-            return
-        raise SensorConfigError(f"lidar {self.name}: firing {self.firing} needs "
-                                f"{64 if self.firing == 'hdl64e' else 32} beams, got {self.beams}")  # fmt: skip
+        if (self.firing, self.beams) not in {("hdl64e", 64), ("hdl32e", 32)} and self.firing != "even":
+            raise SensorConfigError(f"lidar {self.name}: firing {self.firing} needs "
+                                    f"{64 if self.firing == 'hdl64e' else 32} beams, got {self.beams}")  # fmt: skip
+        self._check_beam()
+
+    def _check_beam(self) -> None:
+        h, v = self.beam_divergence_mrad
+        column_mrad = 2000.0 * np.pi / self.azimuth_steps
+        ring_mrad = 1000.0 * float(np.diff(self.elevations_rad()).min()) if self.beams > 1 else np.inf
+        if not (0.0 <= h < column_mrad and 0.0 <= v < min(ring_mrad, column_mrad)):
+            raise SensorConfigError(f"lidar {self.name}: beam_divergence_mrad must be >= 0 and narrower than the "
+                                    f"grid's spacing ({column_mrad:.2f} mrad across, {ring_mrad:.2f} mrad up), "
+                                    f"got {list(self.beam_divergence_mrad)}")  # fmt: skip
+        if self.returns == "dual" and self.firing == "hdl64e":
+            raise SensorConfigError(f"lidar {self.name}: returns dual: the HDL-64E S2 (firing hdl64e) reports "
+                                    "one return per shot")  # fmt: skip
+        if self.returns == "dual" and not h > 0 and not v > 0:
+            raise SensorConfigError(f"lidar {self.name}: returns dual needs beam_divergence_mrad (second echoes "
+                                    "come from beams straddling edges)")  # fmt: skip
 
     @property
     def ego_SE3_sensor(self) -> SE3:
@@ -184,38 +204,102 @@ class Lidar:
         weakens returns and adds near spurious ones (class NONE, instance 0)."""
         w = weather
         map_SE3_lidar = ego.map_SE3_ego().compose(self.spec.ego_SE3_sensor)
-        rays, cast = self.cast(scene, ego)
-        hits, spurious = add_spurious_returns(cast, rays, w, rng)
+        swept = self._cast(scene, ego)
+        rays = swept.rays
+        hits, spurious = add_spurious_returns(swept.hits, rays, w, rng)
+        share = None  # each echo's share of its shot's power (a beam at an edge), where beams are wide
+        ray_of = np.arange(rays.shape[0])  # the shot of each echo
+        if any(d > 0 for d in self.spec.beam_divergence_mrad):
+            echoes = self._beam_echoes(scene, ego, swept, hits, spurious)
+            hits, ray_of, share = echoes.hits, echoes.ray, echoes.share
+            rays, spurious = rays[ray_of], spurious[ray_of]
         keep = hits.range_m <= lidar_max_range_m(w, self.spec.range_m)
         dropout = lidar_dropout(w, self.spec.dropout) if w.lidar_dropout > 0 else self.spec.dropout
         if dropout > 0:
             keep &= rng.random(keep.shape[0]) >= dropout
         if self.spec.range_10pct_m > 0:
-            keep = self._detected(hits, rays, keep & ~spurious, rng) | (keep & spurious)
+            keep = self._detected(hits, rays, keep & ~spurious, rng, share) | (keep & spurious)
         idx = np.flatnonzero(keep)
+        shot = ray_of[idx]
         rng_m = hits.range_m[idx]
         noise_m = lidar_range_noise_m(w, self.spec.range_noise_m)
         if noise_m > 0:
             rng_m = (rng_m + rng.normal(0.0, noise_m, rng_m.shape[0])).astype(np.float32)
-        xyz = self._dirs32[idx] * rng_m[:, None]
+        xyz = self._dirs32[shot] * rng_m[:, None]
         cos_inc = np.abs(np.einsum("ij,ij->i", rays[idx, 3:6], hits.normal[idx]))
         cls = hits.semantic_class[idx]
         reflectance, retro = lidar_reflectance(cls, hits.part[idx], hits.instance_id[idx])
-        intensity = self._read_intensity(reflectance, retro, cos_inc, rng_m, hits.part[idx], self._ring[idx], rng)
+        if share is not None:
+            reflectance = (reflectance * share[idx]).astype(np.float32)
+        intensity: npt.NDArray[np.floating] = self._read_intensity(
+            reflectance, retro, cos_inc, rng_m, hits.part[idx], self._ring[shot], rng
+        )
         if w.lidar_spurious_rate > 0 or w.lidar_intensity_scale != 1.0 or w.lidar_extinction_per_m > 0:
             intensity = intensity * lidar_intensity_factor(w, rng_m)
             intensity = np.where(spurious[idx], w.lidar_spurious_intensity, intensity)
         xyz = xyz.astype(np.float32, copy=False)
         timed = self.spec.sweep == "timed"
-        t_s = self._t32[idx] if timed else np.zeros(idx.shape[0], np.float32)
+        t_s = self._t32[shot] if timed else np.zeros(idx.shape[0], np.float32)
         still = np.zeros((0, 3), np.float32)
         if self.spec.deskew:
             still = deskewed(xyz, t_s, self._t_ref_s, ego, map_SE3_lidar) if timed else xyz.copy()
-        scan = LidarScan(xyz, intensity.astype(np.float32, copy=False), self._ring[idx], cls, hits.instance_id[idx],
+        scan = LidarScan(xyz, intensity.astype(np.float32, copy=False), self._ring[shot], cls, hits.instance_id[idx],
                          t_s, still)  # fmt: skip
         return LidarOutput(self.spec, scan)
 
-    def detection_probability(self, hits: RayHits, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.float64]:
+    def _beam_echoes(self, scene: Scene, ego: EgoState, cast: CastSweep, hits: RayHits,
+                     left_out: npt.NDArray[np.bool_]) -> BeamEchoes:  # fmt: skip
+        """The echoes of wide beams (:mod:`sensors.beam`): the shots next to edges looked at
+        across their spots, with rays cast at their shots' times."""
+        spec = self.spec
+        spots = []
+        for axis, shots in enumerate(edge_shots(hits, spec.beams, spec.azimuth_steps, left_out)):
+            width = spec.beam_divergence_mrad[axis] / 1000.0
+            if width <= 0 or shots.size == 0:
+                spots.append((shots[:0], _rows(hits, shots[:0])))
+                continue
+            dirs = spot_directions(self._dirs_lidar[shots], axis, width)
+            spots.append((shots, self._cast_beside(scene, ego, cast, np.repeat(shots, SLICES), dirs)))
+        return beam_echoes(hits, spots, self._spot_power, spec.returns == "dual")
+
+    @staticmethod
+    def _spot_power(hits: RayHits) -> npt.NDArray[np.float64]:
+        """``(N,)`` received power of a whole spot on each hit: reflectance (times RETRO_GAIN on
+        retro-reflectors) / range^2; 0 where nothing was met."""
+        reflectance, retro = lidar_reflectance(hits.semantic_class, hits.part, hits.instance_id)
+        r = np.where(hits.hit, hits.range_m, 1.0).astype(np.float64)
+        return np.asarray(np.where(hits.hit, reflectance * np.where(retro, RETRO_GAIN, 1.0) / np.maximum(r, 0.1) ** 2,
+                                   0.0))  # fmt: skip
+
+    def _cast_beside(
+        self, scene: Scene, ego: EgoState, cast: CastSweep, shot: npt.NDArray[np.intp],
+        dirs_lidar: npt.NDArray[np.float64],
+    ) -> RayHits:  # fmt: skip
+        """Rays along ``dirs_lidar`` (LiDAR frame) from the sensor where it is at each ``shot``'s
+        time, against the world as it is then (an agent paired with the shot, for timed sweeps)."""
+        dirs = dirs_lidar @ cast.map_SE3_lidar.rotation.T
+        if cast.turn is not None:
+            dirs = turned_about_z(dirs, cast.turn[shot])
+        rays = np.concatenate([cast.rays[shot, :3].astype(np.float64), dirs], axis=1).astype(np.float32)
+        if cast.pairs is None:
+            return through_glass(scene, rays, scene.cast(rays))
+        ray_i, agent_i = cast.pairs
+        order = np.argsort(ray_i, kind="stable")
+        lo = np.searchsorted(ray_i[order], shot, side="left")
+        hi = np.searchsorted(ray_i[order], shot, side="right")
+        count = hi - lo
+        within = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+        agent = agent_i[order][np.repeat(lo, count) + within]
+        sub = np.repeat(np.arange(shot.shape[0]), count)
+        by_agent = np.argsort(agent, kind="stable")
+        sub, agent = sub[by_agent], agent[by_agent]
+        dt_s = self._t_s[shot] - self._t_ref_s
+        return nearest(scene.cast_static(rays), scene.agents, sub, agent, scene.cast_agents_moving(rays, dt_s, sub,
+                                                                                                  agent))  # fmt: skip
+
+    def detection_probability(
+        self, hits: RayHits, rays: npt.NDArray[np.float32], share: npt.NDArray[np.float64] | None = None
+    ) -> npt.NDArray[np.float64]:  # fmt: skip
         """``(N,)`` chance that each hit's echo rises above the sensor's noise floor: received
         power ``reflectance / range^2`` against that of a 10 % target at ``range_10pct_m``, which
         returns half the time; a logistic in log power (it falls from 0.9 to 0.1 as the power
@@ -223,8 +307,11 @@ class Lidar:
         2-3 deg from grazing, returns on 96-100 % of the rays out to 35-40 m and on half of them at
         about 48 m, as the HDL-64E S2 data sheet's 50 m for 10 % pavement says for a target faced
         (README, "LiDAR against real KITTI scans"). Retro-reflective surfaces
-        (plates, signs, road paint) return RETRO_GAIN times brighter."""
+        (plates, signs, road paint) return RETRO_GAIN times brighter; ``share``: each echo's share of
+        its beam's power (a beam straddling an edge)."""
         reflectance, retro = lidar_reflectance(hits.semantic_class, hits.part, hits.instance_id)
+        if share is not None:
+            reflectance = (reflectance * share).astype(np.float32)
         return _logistic(self._power_ratio(reflectance, retro, hits.range_m))
 
     def _power_ratio(
@@ -260,11 +347,12 @@ class Lidar:
         return np.asarray(value, np.float32)
 
     def _detected(
-        self, hits: RayHits, rays: npt.NDArray[np.float32], candidates: npt.NDArray[np.bool_], rng: np.random.Generator
+        self, hits: RayHits, rays: npt.NDArray[np.float32], candidates: npt.NDArray[np.bool_], rng: np.random.Generator,
+        share: npt.NDArray[np.float64] | None = None,
     ) -> npt.NDArray[np.bool_]:  # fmt: skip
         """Which ``candidates`` return: each with its :meth:`detection_probability` (one draw each)."""
         at = np.flatnonzero(candidates)
-        chance = self.detection_probability(_rows(hits, at), rays[at])
+        chance = self.detection_probability(_rows(hits, at), rays[at], None if share is None else share[at])
         out = np.zeros_like(candidates)
         out[at] = rng.random(at.shape[0]) < chance
         return out
@@ -272,18 +360,23 @@ class Lidar:
     def cast(self, scene: Scene, ego: EgoState) -> tuple[npt.NDArray[np.float32], RayHits]:
         """Every ray of the sweep (map frame; each from where the sensor is at its time) and what
         it hits first, looking through glass."""
+        swept = self._cast(scene, ego)
+        return swept.rays, swept.hits
+
+    def _cast(self, scene: Scene, ego: EgoState) -> CastSweep:
         map_SE3_lidar = ego.map_SE3_ego().compose(self.spec.ego_SE3_sensor)
         rays = sensor_rays(map_SE3_lidar, self._dirs32)
         if self.spec.sweep == "timed":
-            return rays, self._cast_timed(scene, ego, map_SE3_lidar, rays)
+            return self._cast_timed(scene, ego, map_SE3_lidar, rays)
         hits = scene.cast_from(map_SE3_lidar.translation, map_SE3_lidar.rotation, self._dirs32)
-        return rays, through_glass(scene, rays, hits)
+        return CastSweep(rays, through_glass(scene, rays, hits), map_SE3_lidar, None, None)
 
-    def _cast_timed(self, scene: Scene, ego: EgoState, map_SE3_lidar: SE3, rays: npt.NDArray[np.float32]) -> RayHits:
+    def _cast_timed(self, scene: Scene, ego: EgoState, map_SE3_lidar: SE3, rays: npt.NDArray[np.float32]) -> CastSweep:
         """Each ray from where the sensor is at its time and turned as the ego has turned then,
         against the static world and against each agent near its line of sight where that agent
         is then (rays move in place)."""
         dt_s = self._t_s - self._t_ref_s
+        turn = None
         if ego.yaw_rate_rad_s == 0.0:
             rays[:, :3] += (dt_s[:, None] * ego.velocity_map_mps[None, :]).astype(np.float32)
         else:
@@ -295,7 +388,21 @@ class Lidar:
         dt_range = (-self._t_ref_s, self.spec.period_s - self._t_ref_s)
         ray_i, agent_i = near_pairs(agents, ego, map_SE3_lidar, dt_range, self.spec.azimuth_steps,
                                     self._elevation_rad)  # fmt: skip
-        return nearest(static, agents, ray_i, agent_i, scene.cast_agents_moving(rays, dt_s, ray_i, agent_i))
+        hits = nearest(static, agents, ray_i, agent_i, scene.cast_agents_moving(rays, dt_s, ray_i, agent_i))
+        return CastSweep(rays, hits, map_SE3_lidar, (ray_i, agent_i), turn)
+
+
+@dataclass(frozen=True, slots=True)
+class CastSweep:
+    """A sweep's cast: its rays (map frame, each where it was fired), their hits, the LiDAR's
+    pose at the reference time, and for a timed sweep the ``(ray, agent)`` pairs cast and how far
+    the ego had turned at each ray's time (None: not at all)."""
+
+    rays: npt.NDArray[np.float32]
+    hits: RayHits
+    map_SE3_lidar: SE3
+    pairs: tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]] | None
+    turn: npt.NDArray[np.float64] | None
 
 
 RETRO_GAIN = 10.0  # a retro-reflector's echo against a white diffuse surface of the same reflectivity
