@@ -109,6 +109,7 @@ SEMANTIC_KITTI_IDS = {
     SemanticClass.FENCE: 51,
     SemanticClass.OTHER_OBJECT: 99,
 }
+INSTANCE_MASK = np.uint32(0x7FFF)  # SemanticKITTI instance ids: the track id modulo 32,768
 SEMANTIC_KITTI_LUT = np.zeros(256, np.uint32)  # 0 "unlabeled" for any class not listed
 for _cls, _id in SEMANTIC_KITTI_IDS.items():
     SEMANTIC_KITTI_LUT[int(_cls)] = _id
@@ -117,8 +118,10 @@ for _cls, _id in SEMANTIC_KITTI_IDS.items():
 def semantic_kitti_labels(
     semantic_class: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32]
 ) -> npt.NDArray[np.uint32]:
-    """``(N,) uint32`` SemanticKITTI point labels: label id | (instance & 0xFFFF) << 16."""
-    return np.asarray(SEMANTIC_KITTI_LUT[semantic_class] | ((instance_id.astype(np.uint32) & 0xFFFF) << 16))
+    """``(N,) uint32`` SemanticKITTI point labels: label id | (instance mod 32,768) << 16. The
+    instance stays under 2^15: SemanticKITTI's panoptic evaluation (semantic-kitti-api,
+    ``auxiliary/eval_np.py``) multiplies a label by 2^32 in int64 and overflows from 2^31 on."""
+    return np.asarray(SEMANTIC_KITTI_LUT[semantic_class] | ((instance_id.astype(np.uint32) & INSTANCE_MASK) << 16))
 
 
 def _matrix_line(name: str, m: np.ndarray) -> str:

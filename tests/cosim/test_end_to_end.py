@@ -243,7 +243,7 @@ def test_semantic_kitti_point_labels_match_the_point_cloud_and_poses_follow_the_
         cloud = clouds[index]
         assert len(labels) == len(velo) == len(cloud)
         np.testing.assert_array_equal(labels & 0xFFFF, SEMANTIC_KITTI_LUT[cloud["class"]])
-        np.testing.assert_array_equal(labels >> 16, cloud["instance"] & 0xFFFF)
+        np.testing.assert_array_equal(labels >> 16, cloud["instance"] & 0x7FFF)
         assert set(np.unique(labels & 0xFFFF)) <= {1, 10, 11, 13, 15, 18, 30, 40, 48, 50, 51, 60, 70, 72, 80, 81, 99}
         assert {10, 40, 50, 60} <= set(np.unique(labels & 0xFFFF))
     poses = np.loadtxt(kitti / "poses.txt").reshape(-1, 3, 4)
@@ -331,7 +331,7 @@ def test_kitti_boxes_hold_exactly_each_objects_lidar_points_under_a_strict_test(
             c, s = np.cos(np.pi / 2 + ry), np.sin(np.pi / 2 + ry)  # rotation by -heading
             dx, dy = c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]
             inside = (np.abs(d[:, 2]) <= h / 2) & (np.abs(dx) < length / 2) & (np.abs(dy) < w / 2)
-            own = inside & (instance == int(row["id"]) % 65536)
+            own = inside & (instance == int(row["id"]) % 32768)
             assert int(own.sum()) == row["lidar_points"], (frame, row["id"], row["type"])
             assert np.all(instance[inside] > 0), (frame, row["id"], row["type"])  # no static point in a box
             compared += 1

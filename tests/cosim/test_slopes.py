@@ -112,7 +112,7 @@ def test_kitti_boxes_are_upright_and_hold_each_objects_points(drive):
             v = line.split()
             h, w, length, ry = float(v[8]), float(v[9]), float(v[10]), float(v[14])
             centre = (cam_to_velo @ [float(v[11]), float(v[12]), float(v[13]), 1.0])[:3] + np.array([0.0, 0.0, h / 2])
-            d = scan[ids == (int(row["id"]) & 0xFFFF), :3] - centre
+            d = scan[ids == (int(row["id"]) & 0x7FFF), :3] - centre
             c, s = np.cos(np.pi / 2 + ry), np.sin(np.pi / 2 + ry)
             dx, dy = c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]
             assert np.all((np.abs(d[:, 2]) <= h / 2) & (np.abs(dx) <= length / 2) & (np.abs(dy) <= w / 2))

@@ -332,3 +332,14 @@ def test_police_cars_and_ambulances_are_nuscenes_emergency_vehicles_boxes_and_po
     pan = panoptic_labels(cls, ids, {4: 1, 7: 2}, special)
     s = seg.astype(int)
     assert pan.tolist() == [s[0] * 1000 + 1, s[1] * 1000 + 2, s[2] * 1000 + 2, s[3] * 1000]
+
+
+def test_semantic_kitti_instance_ids_stay_under_2_to_the_15() -> None:
+    # SemanticKITTI's panoptic evaluation multiplies a label by 2^32 in int64: labels must stay under 2^31
+    from gtgen.sinks.kitti_sink import semantic_kitti_labels
+
+    ids = np.array([1, 32767, 32768, 61496, 4_000_000_000], np.uint32)
+    labels = semantic_kitti_labels(np.full(5, int(SemanticClass.CAR), np.uint8), ids)
+    assert labels.max() < 2**31
+    np.testing.assert_array_equal(labels >> 16, ids % 32768)
+    assert np.all(labels & 0xFFFF == 10)
