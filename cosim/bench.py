@@ -40,6 +40,7 @@ from typing import Any
 
 from gtgen.timing import StageTimes
 from networks.geometry import SE3
+from networks.vocabulary import SensorKind
 from sensors.engine import Scene
 
 SPAWN = multiprocessing.get_context("spawn")
@@ -186,7 +187,7 @@ def pure_cast_ms(scenes: list[tuple[Scene, SE3]], rig: Any) -> dict[str, float]:
     (best of a few repeats)."""
     per_sensor: dict[str, list[float]] = {}
     for scene, map_SE3_ego in scenes:
-        for kind in ("lidar", "camera", "radar"):
+        for kind in SensorKind:
             sensors = rig.of_kind(kind)
             if not sensors:
                 continue
@@ -288,7 +289,7 @@ def table(results: dict[str, dict[str, Any]]) -> str:
     for n in ok:
         stages += [s for s in results[n]["stages_ms"] if s not in stages]
     rows += [[f"  {s}", *[_fmt(results[n].get("stages_ms", {}).get(s)) for n in names]] for s in stages]
-    for kind in ("lidar", "camera", "radar"):
+    for kind in SensorKind:
         rows.append([f"engine's own cast {kind}", *[_fmt(results[n].get("pure_cast_ms", {}).get(kind)) for n in names]])
     rows.append(["frame / pure cast", *[_fmt(results[n].get("frame_over_cast"), ".2f") for n in names]])
     for who in ("main", "helpers"):

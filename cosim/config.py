@@ -11,6 +11,7 @@ import dataclasses
 import math
 import types
 import typing
+from enum import StrEnum
 from pathlib import Path
 from typing import Any, Literal, TypeVar, get_args, get_origin, get_type_hints
 
@@ -46,6 +47,8 @@ def build(cls: type[T], data: Any, source: str, key: str = "") -> T:
 def _type_name(tp: Any) -> str:
     if get_origin(tp) is Literal:
         return "one of " + ", ".join(repr(a) for a in get_args(tp))
+    if isinstance(tp, type) and issubclass(tp, StrEnum):
+        return "one of " + ", ".join(repr(m.value) for m in tp)
     return getattr(tp, "__name__", str(tp))
 
 
@@ -116,6 +119,10 @@ def _scalar(tp: Any, value: Any, source: str, key: str) -> Any:
         if not isinstance(value, str):
             raise _fail(source, key, "a string", value)
         return value
+    if isinstance(tp, type) and issubclass(tp, StrEnum):  # a word of a closed set (networks.vocabulary)
+        if not isinstance(value, str) or value not in tp._value2member_map_:
+            raise _fail(source, key, _type_name(tp), value)
+        return tp(value)
     raise _fail(source, key, _type_name(tp), value)
 
 

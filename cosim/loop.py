@@ -47,6 +47,7 @@ from networks.geometry import SE3
 from networks.hdmap import MAP_VERSION, HdMap, build_map
 from networks.markings import is_left_hand
 from networks.street import street_objects
+from networks.vocabulary import SensorKind
 from sensors.camera import CameraSpec
 from sensors.engine import Scene
 from sensors.lidar import LidarSpec
@@ -232,11 +233,11 @@ def kitti_image_3(scenario: Scenario) -> bool:
     return len(cameras) > 1 and cameras[1].rate_hz * scenario.step_s >= 1 - 1e-9
 
 
-def rig_specs(scenario: Scenario) -> list[tuple[str, LidarSpec | CameraSpec | RadarSpec]]:
+def rig_specs(scenario: Scenario) -> list[tuple[SensorKind, LidarSpec | CameraSpec | RadarSpec]]:
     """The rig's sensor specs with their kind, in rig order (LiDARs, cameras, radars)."""
     rig = scenario.sensors
-    return [(kind, spec) for kind, specs in (("lidar", rig.lidars), ("camera", rig.cameras), ("radar", rig.radars))
-            for spec in specs]  # fmt: skip
+    by_kind = ((SensorKind.LIDAR, rig.lidars), (SensorKind.CAMERA, rig.cameras), (SensorKind.RADAR, rig.radars))
+    return [(kind, spec) for kind, specs in by_kind for spec in specs]
 
 
 def nuscenes_setup(scenario: Scenario, out_dir: Path, map_json: Path | None) -> NuscenesSetup | None:

@@ -12,6 +12,7 @@ import sumolib
 from cosim.demand import KINDS
 from cosim.errors import CosimError
 from cosim.scenario import HazardConfig
+from networks.vocabulary import HazardKind
 
 
 @dataclass(frozen=True, slots=True)
@@ -111,7 +112,7 @@ def _fringe(net: sumolib.net.Net, by_class: dict[str, list[str]]) -> tuple[dict[
 def check_hazards(hazards: tuple[HazardConfig, ...], net: sumolib.net.Net) -> None:
     """Refuse, before frame 0, a hazard kind the network cannot have."""
     kinds = {h.kind for h in hazards}
-    if "cut_in" in kinds:
+    if HazardKind.CUT_IN in kinds:
         wide = any(
             sum(1 for lane in edge.getLanes() if lane.allows("passenger")) >= 2
             for edge in net.getEdges()
@@ -119,9 +120,9 @@ def check_hazards(hazards: tuple[HazardConfig, ...], net: sumolib.net.Net) -> No
         )
         if not wide:
             raise CosimError("hazards: cut_in needs a road with two lanes in one direction; this network has none")
-    if "red_light" in kinds and not net.getTrafficLights():
+    if HazardKind.RED_LIGHT in kinds and not net.getTrafficLights():
         raise CosimError("hazards: red_light needs signalised junctions; this network has no traffic lights")
-    if "jaywalker" in kinds and not any(
+    if HazardKind.JAYWALKER in kinds and not any(
         lane.allows("pedestrian") for edge in net.getEdges() for lane in edge.getLanes()
     ):
         raise CosimError("hazards: jaywalker needs a footpath or sidewalk to start from; this network has none")

@@ -9,6 +9,7 @@ import numpy as np
 from cosim.scenario import Scenario
 from gtgen.timing import NO_CLOCK, StageClock
 from networks.geometry import SE3
+from networks.vocabulary import SensorKind
 from sensors.agents import Agents, EgoState
 from sensors.camera import Camera
 from sensors.engine import Engine, Scene, open_engine
@@ -37,9 +38,9 @@ class Rig:
 
     @property
     def camera_names(self) -> tuple[str, ...]:
-        return tuple(s.spec.name for s in self.of_kind("camera"))
+        return tuple(s.spec.name for s in self.of_kind(SensorKind.CAMERA))
 
-    def of_kind(self, kind: str) -> tuple[Sensor, ...]:
+    def of_kind(self, kind: SensorKind) -> tuple[Sensor, ...]:
         return tuple(s for s in self.sensors if s.kind == kind)
 
     @property
@@ -50,7 +51,7 @@ class Rig:
     @property
     def label_range_m(self) -> float:
         """Objects within this distance are labelled even when no ray hit them."""
-        return max((s.spec.range_m for s in self.of_kind("lidar")), default=self.reach_m)
+        return max((s.spec.range_m for s in self.of_kind(SensorKind.LIDAR)), default=self.reach_m)
 
     def agents_in_view(self, agents: Agents, map_SE3_ego: SE3, sensors: tuple[Sensor, ...] | None = None) -> Agents:
         """The agents the rays of ``sensors`` (default: all) may reach; the others cannot

@@ -19,6 +19,7 @@ from cosim.rigs import NUSCENES_CAMERAS, NUSCENES_IMAGE, nuscenes_hfov_deg, with
 from gtgen.sinks.live import LiveAddress, parse_live_address
 from gtgen.voxels import PRESETS, OccupancyGrid
 from networks.errors import quoted
+from networks.vocabulary import HazardKind
 from sensors.camera import CameraSpec
 from sensors.lidar import LidarSpec
 from sensors.radar import RadarSpec
@@ -58,9 +59,6 @@ class TrafficConfig:
         _check(sum(self.mix.values()) > 0, "mix", "at least one share > 0", self.mix)
 
 
-HAZARD_KINDS = ("cut_in", "hard_brake", "jaywalker", "red_light")
-
-
 @dataclass(frozen=True, slots=True)
 class HazardConfig:
     """One kind of hazard made near the ego about ``per_minute`` times a simulated minute (an
@@ -74,7 +72,7 @@ class HazardConfig:
     stands there; ``child``: the jaywalker is a child 1.15 m tall (the size of Euro NCAP's
     child target), hidden by a parked car's roof, rather than the scene's shortest adult."""
 
-    kind: Literal["cut_in", "hard_brake", "jaywalker", "red_light"]
+    kind: HazardKind
     per_minute: float = 1.0
     distance_m: tuple[float, float] = (5.0, 30.0)
     time_gap_s: tuple[float, float] = (0.3, 1.5)

@@ -15,6 +15,7 @@ from gtgen.signals import SignalLabels
 from networks.classes import SemanticClass
 from networks.geometry import SE3
 from networks.street import STREET_ID_BASE, StreetObject
+from networks.vocabulary import Lamp, sign_kind
 from sensors.agents import Agents
 from sensors.camera import CameraOutput
 from sensors.sensor import SensorOutput
@@ -75,9 +76,9 @@ class StreetObjects:
         sign = np.full(len(objects), -1, np.int8)
         for k, obj in enumerate(objects):
             if obj.is_light:
-                lit[k, list(LIT_LAMPS[obj.state(state.signal_states)])] = True
+                lit[k, list(LIT_LAMPS[Lamp(obj.state(state.signal_states))])] = True
             else:
-                sign[k] = SIGN_KINDS.index("speed_limit" if obj.subtype.startswith("speed_limit") else obj.subtype)
+                sign[k] = SIGN_KINDS.index(sign_kind(obj.subtype))
         yaw = agents.yaw_map_rad[mine]
         front_map = np.column_stack([np.cos(yaw), np.sin(yaw), np.zeros_like(yaw)])
         size = agents.lwh_m[mine].astype(np.float32)

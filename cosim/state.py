@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from gtgen.frame import ActiveHazard
-from networks.street import SignalState
+from networks.vocabulary import SignalState
 from sensors.agents import Agents, EgoState
 
 

@@ -13,6 +13,7 @@ from gtgen.mapgt import MapFrame
 from gtgen.occupancy import OccupancyFrame
 from gtgen.signals import SignalLabels
 from networks.geometry import SE3
+from networks.vocabulary import HazardKind
 from sensors.camera import CameraOutput
 from sensors.lidar import LidarOutput
 from sensors.radar import RadarOutput
@@ -25,7 +26,7 @@ class ActiveHazard:
     kind and the run's event number), the track ids of its actors and of the ego."""
 
     name: str
-    kind: str
+    kind: HazardKind
     actor_ids: tuple[int, ...]
     ego_id: int
 

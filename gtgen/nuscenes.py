@@ -63,6 +63,7 @@ from gtgen.nuscenes_versions import (
 from gtgen.splits import split_units
 from networks.classes import SemanticClass
 from networks.geometry import quaternion_xyzw_from_rotation
+from networks.vocabulary import SensorKind
 from sensors.radar import RadarScan
 
 __all__ = ["DAY_US", "TEST_VERSION", "VERSION", "NuscenesError"]
@@ -115,9 +116,9 @@ def token(*parts: object) -> str:
     return hashlib.md5(":".join(str(p) for p in parts).encode()).hexdigest()
 
 
-def channel_of(kind: str, name: str, first: bool = False) -> str:
+def channel_of(kind: SensorKind, name: str, first: bool = False) -> str:
     """The nuScenes channel of a sensor: the rig's first LiDAR is LIDAR_TOP, others by name."""
-    return "LIDAR_TOP" if kind == "lidar" and first else name.upper()
+    return "LIDAR_TOP" if kind == SensorKind.LIDAR and first else name.upper()
 
 
 def category_of(semantic_class: int, subtype: str = "") -> str | None:
@@ -309,7 +310,7 @@ def write_tables(root: Path, name: str, location: str, map_json: Path | None, li
             tables["sample_data"].append(record)
 
     radar_counts = {r["frame"]: r["radar_counts"] for r in rows}
-    radar_channels = sorted(c for c, cal in calibration.items() if cal["modality"] == "radar")
+    radar_channels = sorted(c for c, cal in calibration.items() if cal["modality"] == SensorKind.RADAR)
     instances: dict[tuple[int, int], list[dict[str, Any]]] = defaultdict(list)
     category_of_instance: dict[tuple[int, int], str] = {}
     for f in sample_frames:

@@ -19,6 +19,7 @@ from typing import Any
 
 from gtgen.nuscenes import token
 from gtgen.nuscenes_versions import TEST_VERSION, VERSION, read_versions
+from networks.vocabulary import SensorKind
 
 
 def _link(source: Path, target: Path) -> None:
@@ -78,10 +79,10 @@ def _frame(
     for d in data:
         cal = calibrated[d["calibrated_sensor_token"]]
         channel = sensor[cal["sensor_token"]]
-        if channel["modality"] == "camera":
+        if channel["modality"] == SensorKind.CAMERA:
             view = {"img_path": d["filename"], "intrinsic": cal["camera_intrinsic"], "extrinsic": _pose(cal)}
             cameras[channel["channel"]] = {**view, "ego_pose": _pose(ego_pose[d["ego_pose_token"]])}
-        elif channel["modality"] == "lidar" and pose is None:
+        elif channel["modality"] == SensorKind.LIDAR and pose is None:
             pose = _pose(ego_pose[d["ego_pose_token"]])
     gt_path = f"gts/{scene}/{s['token']}/labels.npz"
     _link(occupancy / f"{frame:06d}" / "labels.npz", root / gt_path)

@@ -14,6 +14,7 @@ import numpy.typing as npt
 from gtgen.labels import FrameLabels
 from gtgen.table import CLASS_NAMES
 from networks.records import check_arrays
+from networks.vocabulary import Lamp
 
 SIGNAL_COLUMNS = [
     "frame", "timestamp", "id", "type", "subtype", "junction", "state", "governs_ego_lane", "lanes", "distance",
@@ -21,8 +22,8 @@ SIGNAL_COLUMNS = [
 ]  # fmt: skip
 
 # Box colours by state (RGB 0..1), in /gt/boxes and the summary pictures.
-STATE_RGB = {"red": (1.0, 0.1, 0.1), "yellow": (1.0, 0.85, 0.0), "green": (0.1, 1.0, 0.3),
-             "red_yellow": (1.0, 0.5, 0.0), "off": (0.5, 0.5, 0.5)}  # fmt: skip
+STATE_RGB = {Lamp.RED: (1.0, 0.1, 0.1), Lamp.YELLOW: (1.0, 0.85, 0.0), Lamp.GREEN: (0.1, 1.0, 0.3),
+             Lamp.RED_YELLOW: (1.0, 0.5, 0.0), Lamp.OFF: (0.5, 0.5, 0.5)}  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)

@@ -34,13 +34,19 @@ from shapely.geometry import LineString, Polygon
 
 from networks.geometry import SE3
 from networks.markings import PaintedLine, crossing_lanes, painted_lines, read_road_marks
+from networks.vocabulary import LineRole
 
 MAP_VERSION = "2"  # part of the cache key of a network's map.json
 ELEMENT_TYPES = ("lane_divider", "edge_line", "stop_line", "road_boundary", "crossing", "lane_centre")
 RASTER_LAYERS = ("drivable", "lane_divider", "road_boundary", "crossing", "walkway", "car", "truck", "bus",
                  "motorcycle", "bicycle", "pedestrian", "trailer", "construction_vehicle", "traffic_cone",
                  "barrier")  # fmt: skip
-ROLE_TYPE = {"divider": "lane_divider", "edge": "edge_line", "stop": "stop_line", "give_way": "stop_line"}
+ROLE_TYPE = {
+    LineRole.DIVIDER: "lane_divider",
+    LineRole.EDGE: "edge_line",
+    LineRole.STOP: "stop_line",
+    LineRole.GIVE_WAY: "stop_line",
+}
 
 
 @dataclass(frozen=True, slots=True)

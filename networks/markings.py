@@ -28,6 +28,7 @@ import sumolib
 
 from networks.classes import SemanticClass
 from networks.mesh import ClassedMesh, merge, polyline_normals, ribbon
+from networks.vocabulary import LinePattern, LineRole
 
 MARKINGS_VERSION = "4"  # part of the world cache key: change it when the markings change
 PAINT_HEIGHT_M = 0.005  # above the lane surface
@@ -169,7 +170,7 @@ class _Line:
     kind: str
     yellow: bool
     width_m: float
-    role: str = "divider"  # "divider" between lanes (of one direction or of both), "edge" at the road's edge
+    role: LineRole = LineRole.DIVIDER  # between lanes (of one direction or of both), or at the road's edge
 
 
 @dataclass(frozen=True, slots=True)
@@ -180,8 +181,8 @@ class PaintedLine:
     ``(K, 3)`` polyline of its middle (a double line is two lines), the SUMO lane it belongs to
     and, for a broken line, its dash and gap lengths along the polyline from its start."""
 
-    role: str
-    pattern: str
+    role: LineRole
+    pattern: LinePattern
     yellow: bool
     width_m: float
     polyline_m: npt.NDArray[np.float64]
@@ -250,14 +251,18 @@ def _lines_of(
     if neighbour is None or _paved_for_vehicles(neighbour):  # beside a sidewalk: a kerb, no paint
         at_edge = neighbour is None
         for mark in _outer_marks(edge, lane, neighbour, marks):
-            lines.append(_placed(mark, outer * width / 2.0, at_edge, outer, "edge" if at_edge else "divider"))
+            lines.append(
+                _placed(mark, outer * width / 2.0, at_edge, outer, LineRole.EDGE if at_edge else LineRole.DIVIDER)
+            )
     if i == len(lanes) - 1:
         key = _centre_key(lane, outer)
         if key not in centre_lines_seen:
             centre_lines_seen.add(key)
             for mark in _centre_marks(edge, lane, marks):
                 one_way = _is_edge(edge)
-                lines.append(_placed(mark, -outer * width / 2.0, one_way, -outer, "edge" if one_way else "divider"))
+                lines.append(
+                    _placed(mark, -outer * width / 2.0, one_way, -outer, LineRole.EDGE if one_way else LineRole.DIVIDER)
+                )
     return [_clipped(line, length) for line in lines]
 
 
@@ -267,7 +272,7 @@ def _clipped(line: _Line, length_m: float) -> _Line:
                  line.role)  # fmt: skip
 
 
-def _placed(mark: _Line, boundary_m: float, at_edge: bool, side: float, role: str) -> _Line:
+def _placed(mark: _Line, boundary_m: float, at_edge: bool, side: float, role: LineRole) -> _Line:
     """A line on the lane boundary at ``boundary_m``; at the road's edge moved inside it."""
     offset = boundary_m - side * (_painted_width(mark) / 2.0 + EDGE_INSET_M) if at_edge else boundary_m
     return _Line(offset, mark.s0_m, mark.s1_m, mark.kind, mark.yellow, mark.width_m, role)
@@ -398,8 +403,11 @@ def _single_lines(lane: sumolib.net.lane.Lane, line: _Line, outer: float) -> lis
     for kind, offset in zip(kinds, offsets, strict=True):
         moved = shape.copy()
         moved[:, :2] += polyline_normals(shape[:, :2]) * offset
-        pattern_dash = None if kind == "solid" else (BOTTS_DOTS_M if kind == "botts dots" else dash)
-        out.append(PaintedLine(line.role, kind, line.yellow, line.width_m, _cut(moved, line.s0_m, line.s1_m),
+        pattern = LinePattern(kind)
+        pattern_dash = (
+            None if pattern is LinePattern.SOLID else BOTTS_DOTS_M if pattern is LinePattern.BOTTS_DOTS else dash
+        )
+        out.append(PaintedLine(line.role, pattern, line.yellow, line.width_m, _cut(moved, line.s0_m, line.s1_m),
                                lane.getID(), pattern_dash))  # fmt: skip
     return out
 
@@ -413,9 +421,9 @@ def _stop_line(lane: sumolib.net.lane.Lane) -> PaintedLine | None:
     states = {c.getState() for c in links}
     signalled = any(c.getTLSID() for c in links)
     if signalled or states & _STOP_STATES:
-        role, width, dashes = "stop", STOP_LINE_WIDTH_M, None
+        role, width, dashes = LineRole.STOP, STOP_LINE_WIDTH_M, None
     elif states & _YIELD_STATES:
-        role, width, dashes = "give_way", GIVE_WAY_WIDTH_M, GIVE_WAY_DASH_M
+        role, width, dashes = LineRole.GIVE_WAY, GIVE_WAY_WIDTH_M, GIVE_WAY_DASH_M
     else:
         return None
     shape = _clean(np.asarray(lane.getShape3D(), np.float64))
@@ -428,7 +436,8 @@ def _stop_line(lane: sumolib.net.lane.Lane) -> PaintedLine | None:
     left = np.array([-heading[1], heading[0]]) / max(float(np.linalg.norm(heading)), 1e-9)
     half = lane.getWidth() / 2.0 - 0.05
     across = np.array([[*(c[:2] + left * half), c[2]], [*(c[:2] - left * half), c[2]]])
-    return PaintedLine(role, "solid" if dashes is None else "broken", False, width, across, lane.getID(), dashes)
+    pattern = LinePattern.SOLID if dashes is None else LinePattern.BROKEN
+    return PaintedLine(role, pattern, False, width, across, lane.getID(), dashes)
 
 
 def _zebra(lane: sumolib.net.lane.Lane) -> ClassedMesh:

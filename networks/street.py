@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from enum import Enum
 from pathlib import Path
 from xml.etree import ElementTree
 
@@ -37,12 +36,17 @@ from networks.classes import SemanticClass
 from networks.geometry import arc_lengths, point_and_heading
 from networks.markings import section_start
 from networks.mesh import ClassedMesh, merge, prism
+from networks.vocabulary import SIGNAL_HEAD, Lamp, SignalState, SignKind, sign_kind, speed_limit_subtype
 
 STREET_VERSION = "4"  # part of the world cache key: change it when poles move
 STREET_ID_BASE = 61440  # 0xF000: ids fit the 16-bit instance ids of PNG masks and SemanticKITTI labels
 HEAD_LWH_M = (0.3, 0.35, 1.0)  # depth, width, height of a signal head's housing
 HEAD_CENTRE_HEIGHT_M = 3.0  # above the road at the stop line
-SIGN_LWH_M = {"stop": (0.05, 0.75, 0.75), "yield": (0.05, 0.9, 0.8), "speed_limit": (0.05, 0.6, 0.6)}
+SIGN_LWH_M = {
+    SignKind.STOP: (0.05, 0.75, 0.75),
+    SignKind.YIELD: (0.05, 0.9, 0.8),
+    SignKind.SPEED_LIMIT: (0.05, 0.6, 0.6),
+}
 SIGN_CENTRE_HEIGHT_M = 2.2
 POLE_RADIUS_M = 0.08
 POLE_BEHIND_SIDEWALK_M = 0.3  # beyond the sidewalk's outer edge: pedestrians walk the whole sidewalk
@@ -51,54 +55,6 @@ BACK_FROM_LANE_END_M = 1.0
 SPEED_SIGN_INTO_ROAD_M = 5.0
 
 
-class SignalState(Enum):
-    """One letter of a SUMO traffic light's state string (one a controlled link, as
-    ``libsumo.trafficlight.getRedYellowGreenState`` and ``getNextTLS`` give it), decoded."""
-
-    GREEN_MAJOR = "G"  # green, with priority
-    GREEN_MINOR = "g"  # green, giving way to links with priority
-    GREEN_AFTER_STOP = "s"  # a green arrow after a stop (a right turn on red)
-    RED = "r"
-    YELLOW = "y"
-    YELLOW_MAJOR = "Y"
-    RED_YELLOW = "u"
-    OFF_BLINKING = "o"
-    OFF = "O"
-
-    @classmethod
-    def of(cls, letter: str) -> SignalState:
-        """The state of a letter (a letter SUMO does not define: off)."""
-        return _STATE_OF_LETTER.get(letter, cls.OFF)
-
-    @classmethod
-    def decode(cls, text: str) -> tuple[SignalState, ...]:
-        """A light's state string, one state a link."""
-        return tuple(cls.of(letter) for letter in text)
-
-    @property
-    def lamp(self) -> str:
-        """The lamp a head shows: one of :data:`STATES`."""
-        return _LAMPS[self]
-
-    @property
-    def is_green(self) -> bool:
-        """Green (``G``, ``g``): a vehicle may go (the arrow after a stop is not)."""
-        return self in (SignalState.GREEN_MAJOR, SignalState.GREEN_MINOR)
-
-    @property
-    def is_red(self) -> bool:
-        return self is SignalState.RED
-
-    @property
-    def is_yellow(self) -> bool:
-        return self in (SignalState.YELLOW, SignalState.YELLOW_MAJOR)
-
-
-STATES = ("red", "yellow", "green", "red_yellow", "off")
-_STATE_OF_LETTER = {s.value: s for s in SignalState}
-_LAMPS = {SignalState.GREEN_MAJOR: "green", SignalState.GREEN_MINOR: "green", SignalState.GREEN_AFTER_STOP: "green",
-          SignalState.RED: "red", SignalState.YELLOW: "yellow", SignalState.YELLOW_MAJOR: "yellow",
-          SignalState.RED_YELLOW: "red_yellow", SignalState.OFF_BLINKING: "off", SignalState.OFF: "off"}  # fmt: skip
 _STOP_STATES = frozenset("sw")
 
 
@@ -126,12 +82,12 @@ class StreetObject:
         return self.semantic_class == SemanticClass.TRAFFIC_LIGHT
 
     def state(self, signal_states: Mapping[str, Sequence[SignalState]]) -> str:
-        """The lamp a head shows, from its traffic light's states ('off' if unknown; '' for a
+        """The lamp a head shows, from its traffic light's states (off if unknown; '' for a
         sign)."""
         if not self.is_light:
             return ""
         states = signal_states.get(self.tls_id, ())
-        return states[self.shown_link].lamp if 0 <= self.shown_link < len(states) else "off"
+        return states[self.shown_link].lamp if 0 <= self.shown_link < len(states) else Lamp.OFF
 
 
 def street_objects(
@@ -150,7 +106,7 @@ def street_objects(
             if not tls:
                 continue
             straight = [c for c in links if c.getDirection() == "s"] or sorted(links, key=lambda c: c.getTLLinkIndex())
-            found.append((SemanticClass.TRAFFIC_LIGHT, "signal_head", edge_id, _lanes(links), -1.0, tls,
+            found.append((SemanticClass.TRAFFIC_LIGHT, SIGNAL_HEAD, edge_id, _lanes(links), -1.0, tls,
                           int(straight[0].getTLLinkIndex())))  # fmt: skip
     if signs and not from_file:
         for (edge_id, tls), links in sorted(approaches.items()):
@@ -158,17 +114,17 @@ def street_objects(
             if tls:
                 continue
             if states & _STOP_STATES:
-                found.append((SemanticClass.TRAFFIC_SIGN, "stop", edge_id, _lanes(links), -1.0, "", -1))
+                found.append((SemanticClass.TRAFFIC_SIGN, SignKind.STOP.value, edge_id, _lanes(links), -1.0, "", -1))
             elif states == {"m"}:
-                found.append((SemanticClass.TRAFFIC_SIGN, "yield", edge_id, _lanes(links), -1.0, "", -1))
+                found.append((SemanticClass.TRAFFIC_SIGN, SignKind.YIELD.value, edge_id, _lanes(links), -1.0, "", -1))
         for edge_id, kmh in _speed_changes(net):
             lanes = tuple(sorted(lane.getID() for lane in net.getEdge(edge_id).getLanes() if _drives(lane)))
-            found.append((SemanticClass.TRAFFIC_SIGN, f"speed_limit_{kmh}", edge_id, lanes, SPEED_SIGN_INTO_ROAD_M,
+            found.append((SemanticClass.TRAFFIC_SIGN, speed_limit_subtype(kmh), edge_id, lanes, SPEED_SIGN_INTO_ROAD_M,
                           "", -1))  # fmt: skip
     out = []
     for k, (cls, subtype, edge_id, lanes, from_start, tls, link) in enumerate(found):
         light = cls == SemanticClass.TRAFFIC_LIGHT
-        lwh = HEAD_LWH_M if light else SIGN_LWH_M[subtype.rsplit("_", 1)[0] if subtype.startswith("speed") else subtype]
+        lwh = HEAD_LWH_M if light else SIGN_LWH_M[sign_kind(subtype)]
         height = HEAD_CENTRE_HEIGHT_M if light else SIGN_CENTRE_HEIGHT_M
         centre, yaw, foot = _placement(net.getEdge(edge_id), left_hand, from_start, height, lwh[0])
         out.append(StreetObject(STREET_ID_BASE + k, cls, subtype, edge_id, lanes, centre, yaw, lwh, foot,
@@ -254,8 +210,8 @@ def pole_mesh(objects: tuple[StreetObject, ...]) -> ClassedMesh:
 
 
 # OpenDRIVE static signal types (German StVO catalogue numbers, US MUTCD codes) -> our subtypes.
-_FILE_SIGN_TYPES = {"206": "stop", "R1-1": "stop", "205": "yield", "R1-2": "yield", "274": "speed_limit",
-                    "R2-1": "speed_limit"}  # fmt: skip
+_FILE_SIGN_TYPES = {"206": SignKind.STOP, "R1-1": SignKind.STOP, "205": SignKind.YIELD, "R1-2": SignKind.YIELD,
+                    "274": SignKind.SPEED_LIMIT, "R2-1": SignKind.SPEED_LIMIT}  # fmt: skip
 MPH_TO_KMH = 1.609344
 
 
@@ -302,7 +258,8 @@ def read_signs(xodr_path: Path | None) -> FileSigns:
             if not (math.isfinite(s) and math.isfinite(t)):
                 bad.append(f"road {road.get('id')}: signal {record.get('id')!r} has no readable s and t")
                 continue
-            if kind == "speed_limit":
+            subtype = kind.value
+            if kind is SignKind.SPEED_LIMIT:
                 value = _float(record.get("value"), math.nan)
                 if not math.isfinite(value) or value <= 0:
                     value = _float(record.get("subtype"), math.nan)  # some files keep the limit there
@@ -310,11 +267,11 @@ def read_signs(xodr_path: Path | None) -> FileSigns:
                     bad.append(f"road {road.get('id')}: speed-limit signal {record.get('id')!r} has no value")
                     continue
                 kmh = value * MPH_TO_KMH if (record.get("unit") or "").lower() == "mph" else value
-                kind = f"speed_limit_{round(kmh)}"
+                subtype = speed_limit_subtype(round(kmh))
             start = max([v for v in starts if v <= s + 1e-6] or [0.0])
             end = min([v for v in starts if v > start + 1e-6] or [length])
             signs.append(FileSign(road.get("id", ""), s, t, _float(record.get("zOffset"), 0.0),
-                                  (record.get("orientation") or "+").strip() != "-", kind, start,
+                                  (record.get("orientation") or "+").strip() != "-", subtype, start,
                                   max(end - start, 1e-6)))  # fmt: skip
     problem = f"{xodr_path}: {len(bad)} signal record(s) left out (first: {bad[0]})" if bad else ""
     return FileSigns(tuple(signs), problem)
@@ -360,7 +317,7 @@ def _file_sign(net: sumolib.net.Net, sign: FileSign, left_hand: bool) -> StreetO
     road_dir = lane_dir if along else -lane_dir
     xy = reference + np.array([-road_dir[1], road_dir[0]]) * sign.t_m
     facing = -road_dir if sign.along_s else road_dir  # towards the traffic the sign is for
-    lwh = SIGN_LWH_M["speed_limit" if sign.subtype.startswith("speed_limit") else sign.subtype]
+    lwh = SIGN_LWH_M[sign_kind(sign.subtype)]
     height = sign.z_offset_m + lwh[2] / 2.0 if sign.z_offset_m >= 1.0 else SIGN_CENTRE_HEIGHT_M
     foot = xy - facing * (POLE_RADIUS_M + lwh[0] / 2.0 + 0.01)
     lanes = tuple(sorted(lane.getID() for lane in edge.getLanes() if _drives(lane)))

@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from networks.geometry import SE3
+from networks.vocabulary import SensorKind
 from sensors.agents import Agents, EgoState
 from sensors.errors import SensorConfigError, SensorError
 from sensors.hits import RayHits
@@ -52,7 +53,7 @@ class CameraSpec:
     :mod:`sensors.pinhole`). ``shutter_s``: the exposure time over which the image blurs with
     the motion of the ego and the traffic (0: a sharp image)."""
 
-    name: str = "camera"
+    name: str = SensorKind.CAMERA.value  # named after its kind unless the rig names it
     width_px: int = 1280
     height_px: int = 720
     hfov_deg: float = 85.0
@@ -113,7 +114,7 @@ class CameraOutput:
 
 
 class Camera:
-    kind: ClassVar[str] = "camera"
+    kind: ClassVar[SensorKind] = SensorKind.CAMERA
 
     def __init__(self, spec: CameraSpec) -> None:
         self.spec = spec

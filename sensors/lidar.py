@@ -24,6 +24,7 @@ import numpy.typing as npt
 
 from networks.geometry import SE3
 from networks.records import check_arrays
+from networks.vocabulary import SensorKind
 from sensors.agents import EgoState, turned_about_z
 from sensors.beam import SLICES, BeamEchoes, beam_echoes, edge_shots, spot_directions
 from sensors.errors import SensorConfigError
@@ -47,7 +48,7 @@ if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer pr
 
 @dataclass(frozen=True, slots=True)
 class LidarSpec:
-    name: str = "lidar"
+    name: str = SensorKind.LIDAR.value  # named after its kind unless the rig names it
     beams: int = 64
     vertical_min_deg: float = -24.9
     vertical_max_deg: float = 2.0
@@ -171,7 +172,7 @@ class LidarOutput:
 
 
 class Lidar:
-    kind: ClassVar[str] = "lidar"
+    kind: ClassVar[SensorKind] = SensorKind.LIDAR
 
     def __init__(self, spec: LidarSpec) -> None:
         self.spec = spec

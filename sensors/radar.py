@@ -21,6 +21,7 @@ import numpy.typing as npt
 
 from networks.geometry import SE3
 from networks.records import check_arrays
+from networks.vocabulary import SensorKind
 from sensors.agents import EgoState
 from sensors.errors import SensorConfigError
 from sensors.parts import radar_reflectivity
@@ -37,7 +38,7 @@ class RadarSpec:
     """A forward radar. ``azimuth_steps`` x ``elevation_steps`` rays are cast before thinning
     to ``points_per_frame``; ``cell_range_m`` x ``cell_azimuth_deg`` is the resolution cell."""
 
-    name: str = "radar"
+    name: str = SensorKind.RADAR.value  # named after its kind unless the rig names it
     hfov_deg: float = 90.0
     vfov_deg: float = 18.0
     range_m: float = 150.0
@@ -152,7 +153,7 @@ def thin_to_budget(
 
 
 class Radar:
-    kind: ClassVar[str] = "radar"
+    kind: ClassVar[SensorKind] = SensorKind.RADAR
 
     def __init__(self, spec: RadarSpec) -> None:
         self.spec = spec

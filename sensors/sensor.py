@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from networks.geometry import SE3
+from networks.vocabulary import SensorKind
 from sensors.agents import EgoState
 from sensors.camera import CameraOutput
 from sensors.lidar import LidarOutput
@@ -57,8 +58,8 @@ class SensorSpec(Protocol):
 
 class Sensor(Protocol):
     @property
-    def kind(self) -> str:
-        """``lidar``, ``camera`` or ``radar``: the stage its frames are timed under."""
+    def kind(self) -> SensorKind:
+        """What it measures (the stage its frames are timed under)."""
         ...
 
     @property

@@ -20,6 +20,7 @@ import numpy.typing as npt
 
 from networks.classes import SemanticClass
 from networks.records import check_arrays
+from networks.vocabulary import Lamp, SignKind
 from sensors.hits import RayHits
 from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAINT_BGR
 from sensors.photo import (
@@ -44,10 +45,13 @@ LAMP_BGR = np.array([[40, 40, 255], [0, 200, 255], [90, 255, 60]], np.float32)  
 UNLIT_LAMP_BGR = np.array([35, 35, 35], np.float32)
 LAMP_UP_M = np.array([0.3, 0.0, -0.3], np.float32)  # each lamp's centre above the housing's centre
 LAMP_RADIUS_M = 0.11
-LIT_LAMPS = {"red": (0,), "yellow": (1,), "green": (2,), "red_yellow": (0, 1), "off": ()}
+LIT_LAMPS = {Lamp.RED: (0,), Lamp.YELLOW: (1,), Lamp.GREEN: (2,), Lamp.RED_YELLOW: (0, 1), Lamp.OFF: ()}
 # Sign faces (Vienna Convention colours, BGR 0..1): the field, the rim and the rim's width in metres.
-SIGN_FACES = {"stop": ((0.12, 0.1, 0.75), (0.9, 0.9, 0.9), 0.03), "yield": ((0.9, 0.9, 0.9), (0.12, 0.1, 0.75), 0.1),
-              "speed_limit": ((0.9, 0.9, 0.9), (0.12, 0.1, 0.75), 0.07)}  # fmt: skip
+SIGN_FACES = {
+    SignKind.STOP: ((0.12, 0.1, 0.75), (0.9, 0.9, 0.9), 0.03),
+    SignKind.YIELD: ((0.9, 0.9, 0.9), (0.12, 0.1, 0.75), 0.1),
+    SignKind.SPEED_LIMIT: ((0.9, 0.9, 0.9), (0.12, 0.1, 0.75), 0.07),
+}
 SIGN_KINDS = tuple(SIGN_FACES)
 
 

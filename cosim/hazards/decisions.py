@@ -17,7 +17,7 @@ import numpy.typing as npt
 from cosim.kinematics import sumo_angle_to_yaw
 from cosim.scenario import HazardConfig
 from networks.records import check_arrays
-from networks.street import SignalState
+from networks.vocabulary import SignalState
 
 F64 = npt.NDArray[np.float64]
 

@@ -47,8 +47,8 @@ from gtgen.content import STOPPED_MPS
 from networks.cache import cache_dir, digest, intact, seal, take_notices
 from networks.classes import SemanticClass
 from networks.errors import clipped, quoted
-from networks.street import SignalState
 from networks.sumo_tools import sumo_binary, sumo_home, sumo_refusal
+from networks.vocabulary import SignalState
 from sensors.agents import Agents, EgoState
 
 if TYPE_CHECKING:

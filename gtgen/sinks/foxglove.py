@@ -34,6 +34,7 @@ from gtgen.signals import STATE_RGB
 from gtgen.sinks.images import JPEG_QUALITY, FrameImages
 from networks.classes import SemanticClass
 from networks.geometry import SE3
+from networks.vocabulary import Lamp
 from sensors.camera import CameraOutput
 from sensors.lidar import LidarOutput
 from sensors.radar import RadarOutput
@@ -127,7 +128,7 @@ def box_update(ns: int, labels: FrameLabels, signal_states: dict[int, str] | Non
     for i in range(len(o)):
         cls = SemanticClass(int(o.semantic_class[i]))
         state = states.get(int(o.track_id[i]))
-        r, g, b = STATE_RGB[state] if state is not None else CLASS_RGB.get(cls, (0.8, 0.8, 0.8))
+        r, g, b = STATE_RGB[Lamp(state)] if state is not None else CLASS_RGB.get(cls, (0.8, 0.8, 0.8))
         event = labels.hazard_event[i] if labels.hazard_event else ""
         if event:
             r, g, b = HAZARD_RGB

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 from gtgen.errors import disk_full_error, out_of_space
 from gtgen.frame import FrameRecord
@@ -23,6 +25,9 @@ from gtgen.sinks.resume_sink import ResumeSink
 from gtgen.sinks.yolo_sink import YoloSink
 from gtgen.timing import NO_CLOCK, StageClock
 from networks.geometry import SE3
+from networks.vocabulary import SensorKind, SinkKind
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,7 +43,7 @@ class SinkChoice:
     yolo_min_visible_px: int = 25
     map_world: Path | None = None  # a static world file (networks.world.read_world) for the MCAP's /map
     live: LiveAddress | None = None  # serve the MCAP's messages to Foxglove over a WebSocket
-    sensors: tuple[tuple[str, str], ...] = ()  # the rig's (kind, name) pairs: the live view's channels
+    sensors: tuple[tuple[SensorKind, str], ...] = ()  # the rig's (kind, name) pairs: the live view's channels
     resume: bool = False  # keep .resume/states.jsonl, so that an interrupted run can continue
     keep_frames: int = 0  # continue an earlier run: keep its first frames
     first_map_SE3_ego: SE3 | None = None  # the earlier run's ego pose at frame 0 (for KITTI's poses)
@@ -62,40 +67,63 @@ class SinkChoice:
     def lights_csv(self) -> bool:
         return self.csv and self.traffic_lights
 
+    def wants(self, kind: SinkKind) -> bool:
+        """Whether the sink ``kind`` is chosen."""
+        return bool(_CHOSEN[kind](self))
+
     def partial_paths(self) -> list[Path]:
         """Where the chosen sinks write until they close (``*.partial`` files and folders)."""
-        names = {"mcap": "run.mcap", "csv": "labels.csv", "lights_csv": "lights_and_signs.csv", "kitti": "kitti",
-                 "yolo": "yolo", "map": "map", "nuscenes": "nuscenes",
-                 "events": "event_frames.csv", "occupancy": "occupancy"}  # fmt: skip
-        return [self.out_dir / f"{name}.partial" for kind, name in names.items() if getattr(self, kind)]
+        return [self.out_dir / f"{name}.partial" for kind, name in OUTPUT_NAMES.items() if name and self.wants(kind)]
 
 
-def _open_one(choice: SinkChoice, kind: str) -> Sink:
-    out, keep = choice.out_dir, choice.keep_frames
-    if kind == "mcap":
-        return McapSink(out / "run.mcap", choice.map_world, keep)
-    if kind == "live":
-        if choice.live is None:
-            raise ValueError("SinkChoice: no live address")
-        return LiveSink(choice.live, choice.map_world, choice.sensors, choice.map, choice.hazards)
-    if kind == "csv":
-        return CsvSink(out / "labels.csv", keep)
-    if kind == "lights_csv":
-        return CsvSink(out / "lights_and_signs.csv", keep, signals=True)
-    if kind == "kitti":
-        return KittiSink(out / "kitti", keep, choice.first_map_SE3_ego, choice.kitti_native_types,
-                         choice.kitti_image_3)  # fmt: skip
-    if kind == "map" and choice.map_json is not None:
-        return MapSink(out / "map", choice.map_json, keep)
-    if kind == "events":
-        return EventsSink(out, keep)
-    if kind == "nuscenes" and choice.nuscenes is not None:
-        return NuscenesSink(out / "nuscenes", choice.nuscenes, keep)
-    if kind == "occupancy":
-        return OccupancySink(out / "occupancy", keep)
-    if kind == "resume":
-        return ResumeSink(out, keep)
-    return YoloSink(out / "yolo", choice.yolo_min_visible_px, keep)
+# Whether a sink is chosen, and what it writes under the output folder ('': nothing there).
+_CHOSEN: dict[SinkKind, Callable[[SinkChoice], object]] = {
+    SinkKind.MCAP: lambda c: c.mcap,
+    SinkKind.CSV: lambda c: c.csv,
+    SinkKind.LIGHTS_CSV: lambda c: c.lights_csv,
+    SinkKind.EVENTS: lambda c: c.events,
+    SinkKind.KITTI: lambda c: c.kitti,
+    SinkKind.YOLO: lambda c: c.yolo,
+    SinkKind.MAP: lambda c: c.map,
+    SinkKind.NUSCENES: lambda c: c.nuscenes,
+    SinkKind.OCCUPANCY: lambda c: c.occupancy,
+    SinkKind.LIVE: lambda c: c.live,
+    SinkKind.RESUME: lambda c: c.resume,
+}
+OUTPUT_NAMES = {
+    SinkKind.MCAP: "run.mcap",
+    SinkKind.CSV: "labels.csv",
+    SinkKind.LIGHTS_CSV: "lights_and_signs.csv",
+    SinkKind.EVENTS: "event_frames.csv",
+    SinkKind.KITTI: "kitti",
+    SinkKind.YOLO: "yolo",
+    SinkKind.MAP: "map",
+    SinkKind.NUSCENES: "nuscenes",
+    SinkKind.OCCUPANCY: "occupancy",
+    SinkKind.LIVE: "",
+    SinkKind.RESUME: "",
+}
+_OPEN: dict[SinkKind, Callable[[SinkChoice], Sink]] = {
+    SinkKind.MCAP: lambda c: McapSink(c.out_dir / "run.mcap", c.map_world, c.keep_frames),
+    SinkKind.CSV: lambda c: CsvSink(c.out_dir / "labels.csv", c.keep_frames),
+    SinkKind.LIGHTS_CSV: lambda c: CsvSink(c.out_dir / "lights_and_signs.csv", c.keep_frames, signals=True),
+    SinkKind.EVENTS: lambda c: EventsSink(c.out_dir, c.keep_frames),
+    SinkKind.KITTI: lambda c: KittiSink(
+        c.out_dir / "kitti", c.keep_frames, c.first_map_SE3_ego, c.kitti_native_types, c.kitti_image_3
+    ),
+    SinkKind.YOLO: lambda c: YoloSink(c.out_dir / "yolo", c.yolo_min_visible_px, c.keep_frames),
+    SinkKind.MAP: lambda c: MapSink(c.out_dir / "map", _given(c.map_json, "map_json"), c.keep_frames),
+    SinkKind.NUSCENES: lambda c: NuscenesSink(c.out_dir / "nuscenes", _given(c.nuscenes, "nuscenes"), c.keep_frames),
+    SinkKind.OCCUPANCY: lambda c: OccupancySink(c.out_dir / "occupancy", c.keep_frames),
+    SinkKind.LIVE: lambda c: LiveSink(_given(c.live, "live"), c.map_world, c.sensors, c.map, c.hazards),
+    SinkKind.RESUME: lambda c: ResumeSink(c.out_dir, c.keep_frames),
+}
+
+
+def _given(value: T | None, name: str) -> T:
+    if value is None:
+        raise ValueError(f"SinkChoice: no {name}")
+    return value
 
 
 class SinkGroup(ClosedOnExit):
@@ -119,27 +147,11 @@ class SinkGroup(ClosedOnExit):
     def open(cls, choice: SinkChoice, clock: StageClock = NO_CLOCK, announce: bool = True) -> SinkGroup:
         """Open the chosen sinks; if one cannot be opened, those already open are aborted.
         With ``announce``, their notices go to stderr."""
-        kinds = [
-            k
-            for k in (
-                "mcap",
-                "csv",
-                "lights_csv",
-                "events",
-                "kitti",
-                "yolo",
-                "map",
-                "nuscenes",
-                "occupancy",
-                "live",
-                "resume",
-            )
-            if getattr(choice, k)
-        ]
         group = cls([], clock)
         try:
-            for kind in kinds:
-                group._sinks.append(_open_one(choice, kind))
+            for kind in SinkKind:
+                if choice.wants(kind):
+                    group._sinks.append(_OPEN[kind](choice))
         except BaseException as err:
             if out_of_space(err):  # a run that continues: its earlier frames stay
                 group.keep()

@@ -38,6 +38,7 @@ from gtgen.frame import FrameRecord
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.mcap_sink import McapFrame, channel_schema, map_message, planned_topics, serialized_frame
 from networks.errors import quoted
+from networks.vocabulary import SensorKind
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
@@ -211,7 +212,7 @@ class LiveSink:
     pairs of the rig) name the channels it advertises before the first frame."""
 
     def __init__(
-        self, address: LiveAddress, map_world: Path | None = None, sensors: tuple[tuple[str, str], ...] = (),
+        self, address: LiveAddress, map_world: Path | None = None, sensors: tuple[tuple[SensorKind, str], ...] = (),
         map_vectors: bool = False, events: bool = False,
     ) -> None:  # fmt: skip
         try:

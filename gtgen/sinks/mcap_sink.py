@@ -49,6 +49,7 @@ from gtgen.sinks.layout import layout_for
 from gtgen.sinks.occupancy_messages import occupancy_update, with_flow
 from gtgen.static_map import static_map_update
 from gtgen.table import COLUMNS, label_table
+from networks.vocabulary import SensorKind
 from networks.world import read_world
 from sensors.sensor import SensorOutput
 
@@ -177,7 +178,10 @@ def frame_messages(record: FrameRecord, images: FrameImages) -> list[tuple[str, 
 
 
 def planned_topics(
-    sensors: tuple[tuple[str, str], ...], with_map: bool, with_map_vectors: bool = False, with_events: bool = False
+    sensors: tuple[tuple[SensorKind, str], ...],
+    with_map: bool,
+    with_map_vectors: bool = False,
+    with_events: bool = False,
 ) -> list[tuple[str, type | None]]:
     """Every topic a run of a rig writes, with its protobuf class (None: JSON), known before its
     first frame. ``sensors``: (kind, name) pairs of the rig; ``with_map_vectors``: the run writes
@@ -185,9 +189,9 @@ def planned_topics(
     :func:`frame_messages`."""
     out: list[tuple[str, type | None]] = [(topics.MAP, SceneUpdate)] if with_map else []
     out.append((topics.TF, FrameTransforms))
-    out += [(topics.cloud(name), PointCloud) for kind, name in sensors if kind == "lidar"]
-    out += [(topics.cloud(name), PointCloud) for kind, name in sensors if kind == "radar"]
-    for name in (name for kind, name in sensors if kind == "camera"):
+    out += [(topics.cloud(name), PointCloud) for kind, name in sensors if kind == SensorKind.LIDAR]
+    out += [(topics.cloud(name), PointCloud) for kind, name in sensors if kind == SensorKind.RADAR]
+    for name in (name for kind, name in sensors if kind == SensorKind.CAMERA):
         out += [(topics.camera(name, k), CompressedImage) for k in topics.CAMERA_IMAGES]
         out += [(topics.camera(name, "calibration"), CameraCalibration),
                 (topics.camera(name, "annotations"), ImageAnnotations)]  # fmt: skip

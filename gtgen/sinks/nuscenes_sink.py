@@ -44,6 +44,7 @@ from gtgen.sinks.images import JPEG_QUALITY, FrameImages
 from gtgen.table import subtypes as body_subtypes
 from networks.classes import SemanticClass
 from networks.geometry import SE3
+from networks.vocabulary import SensorKind
 from sensors.camera import CameraOutput
 from sensors.lidar import LidarOutput, LidarScan
 from sensors.radar import RadarOutput
@@ -58,7 +59,7 @@ class NuscenesSetup:
 
     name: str
     step_s: float
-    sensors: tuple[tuple[str, str, float], ...]
+    sensors: tuple[tuple[SensorKind, str, float], ...]
     location: str
     map_json: Path | None = None
 
@@ -84,7 +85,7 @@ class NuscenesSink:
             _drop_after(partial, keep_frames)
         self._folder = PartialFolder(folder, ("rows",), keep_frames)
         self._rates = {name: rate for _, name, rate in setup.sensors}
-        lidars = [name for kind, name, _ in setup.sensors if kind == "lidar"]
+        lidars = [name for kind, name, _ in setup.sensors if kind == SensorKind.LIDAR]
         self._channels = {name: channel_of(kind, name, first=lidars[:1] == [name]) for kind, name, _ in setup.sensors}
         self._lidar_channel = "LIDAR_TOP"
         calibration = self._folder.partial / "calibration.json"
@@ -219,7 +220,8 @@ def _calibration(channel: str, output: SensorOutput) -> dict[str, Any]:
     """The sensor's ``calibrated_sensor`` values: its frame in the ego frame, a camera's K."""
     spec = output.spec
     pose = spec.ego_SE3_sensor
-    modality = "camera" if isinstance(output, CameraOutput) else "lidar" if isinstance(output, LidarOutput) else "radar"
+    modality = (SensorKind.CAMERA if isinstance(output, CameraOutput)
+                else SensorKind.LIDAR if isinstance(output, LidarOutput) else SensorKind.RADAR)  # fmt: skip
     intrinsic = output.spec.pinhole.K.tolist() if isinstance(output, CameraOutput) else []
     return calibration_record(channel, modality, [round(float(v), 9) for v in pose.translation],
                               quaternion_wxyz(pose.rotation), intrinsic)  # fmt: skip

@@ -16,7 +16,7 @@ from gtgen.frame import FrameRecord
 from gtgen.sinks.folder import PartialFolder
 from gtgen.sinks.images import JPEG_QUALITY, FrameImages
 from networks.classes import SemanticClass
-from networks.street import STATES
+from networks.vocabulary import Lamp, SignKind, sign_kind
 
 YOLO_CLASSES = (SemanticClass.CAR, SemanticClass.TRUCK, SemanticClass.BUS, SemanticClass.MOTORCYCLE,
                 SemanticClass.BICYCLE, SemanticClass.PEDESTRIAN)  # fmt: skip
@@ -24,27 +24,27 @@ YOLO_CLASSES = (SemanticClass.CAR, SemanticClass.TRUCK, SemanticClass.BUS, Seman
 # then signs by kind (traffic_sign_stop is 11, traffic_sign_yield 12, traffic_sign_speed_limit 13),
 # then the classes added later, so that earlier datasets' ids keep their meaning (trailer 14,
 # construction_vehicle 15, traffic_cone 16, barrier 17).
-LIGHT_CLASSES = {state: len(YOLO_CLASSES) + k for k, state in enumerate(STATES)}
-SIGN_CLASSES = {kind: len(YOLO_CLASSES) + len(STATES) + k for k, kind in enumerate(("stop", "yield", "speed_limit"))}
+LIGHT_CLASSES = {lamp: len(YOLO_CLASSES) + k for k, lamp in enumerate(Lamp)}
+SIGN_CLASSES = {kind: len(YOLO_CLASSES) + len(Lamp) + k for k, kind in enumerate(SignKind)}
 LATER_CLASSES = (SemanticClass.TRAILER, SemanticClass.CONSTRUCTION_VEHICLE, SemanticClass.TRAFFIC_CONE,
                  SemanticClass.BARRIER)  # fmt: skip
-LATER_FROM = len(YOLO_CLASSES) + len(STATES) + len(SIGN_CLASSES)
+LATER_FROM = len(YOLO_CLASSES) + len(Lamp) + len(SIGN_CLASSES)
 _INDEX = np.full(256, -1, np.int64)
 for _i, _c in enumerate(YOLO_CLASSES):
     _INDEX[int(_c)] = _i
 for _i, _c in enumerate(LATER_CLASSES):
     _INDEX[int(_c)] = LATER_FROM + _i
 YOLO_NAMES = {**{i: c.label for i, c in enumerate(YOLO_CLASSES)},
-              **{i: f"traffic_light_{state}" for state, i in LIGHT_CLASSES.items()},
-              **{i: f"traffic_sign_{kind}" for kind, i in SIGN_CLASSES.items()},
+              **{i: f"traffic_light_{lamp.value}" for lamp, i in LIGHT_CLASSES.items()},
+              **{i: f"traffic_sign_{kind.value}" for kind, i in SIGN_CLASSES.items()},
               **{LATER_FROM + i: c.label for i, c in enumerate(LATER_CLASSES)}}  # fmt: skip
 
 
 def _street_class(subtype: str, state: str) -> int:
     """The YOLO class of a signal head (by ``state``) or a sign (by ``subtype``)."""
     if state:
-        return LIGHT_CLASSES[state]
-    return SIGN_CLASSES["speed_limit" if subtype.startswith("speed_limit") else subtype]
+        return LIGHT_CLASSES[Lamp(state)]
+    return SIGN_CLASSES[sign_kind(subtype)]
 
 
 class YoloSink:

@@ -35,7 +35,7 @@ from cosim.hazards.decisions import (
     straight,
 )
 from cosim.scenario import HazardConfig
-from networks.street import STATES, SignalState
+from networks.vocabulary import Lamp, SignalState
 
 EAST = 90.0  # SUMO's angle of a vehicle heading east (degrees clockwise from north)
 
@@ -194,7 +194,7 @@ def test_a_light_is_not_switched_where_a_green_link_would_skip_its_yellow():
 
 def test_every_signal_letter_decodes_to_a_state_with_a_lamp():
     states = SignalState.decode("GgsryYuoO")
-    assert len(set(states)) == len(SignalState) and all(s.lamp in STATES for s in states)
+    assert len(set(states)) == len(SignalState) and all(s.lamp in Lamp for s in states)
     assert SignalState.of("x") is SignalState.OFF
     assert [s.is_green for s in SignalState.decode("Ggsr")] == [True, True, False, False]
 

@@ -9,6 +9,7 @@ import pytest
 
 from cosim.errors import ScenarioError
 from cosim.scenario import catalog_names, load_scenario
+from networks.vocabulary import HazardKind
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -92,6 +93,23 @@ def test_sensor_spec_errors_name_the_sensor_in_the_list(tmp_path):
 
 def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "cosim", *args], capture_output=True, text=True, cwd=cwd, check=False)
+
+
+def test_a_hazard_kind_is_read_into_the_vocabulary_and_a_bad_one_names_the_kinds(tmp_path):
+    good = write(tmp_path, "network: skeleton\nhazards: [{kind: cut_in}]\n")
+    assert load_scenario(str(good)).hazards[0].kind is HazardKind.CUT_IN
+    bad = write(tmp_path, "network: skeleton\nhazards: [{kind: cut-in}]\n")
+    expected = "expected one of 'cut_in', 'hard_brake', 'jaywalker', 'red_light', got 'cut-in'"
+    with pytest.raises(ScenarioError, match=r"scene\.yaml: hazards\[0\]\.kind: " + re.escape(expected)):
+        load_scenario(str(bad))
+
+
+def test_cli_bad_hazard_kind_prints_one_line_and_writes_nothing(tmp_path):
+    path = write(tmp_path, "network: skeleton\nhazards: [{kind: [cut_in]}]\n")
+    proc = run_cli("run", str(path), "--out", str(tmp_path / "o"), cwd=ROOT)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode != 0 and len(lines) == 1 and "hazards[0].kind: expected one of 'cut_in'" in lines[0]
+    assert not (tmp_path / "o").exists()
 
 
 def test_cli_unknown_scenario_prints_one_line_naming_the_known_ones(tmp_path):

@@ -12,6 +12,7 @@ from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.sinks.mcap_sink import complete_frames
 from gtgen.sinks.resume_sink import read_states
 from gtgen.summary import event_summary, hazard_lines
+from networks.vocabulary import HazardKind
 
 
 def write(records, out: Path, keep_frames: int = 0, first=None) -> None:
@@ -102,7 +103,7 @@ def test_events_of_a_run_stopped_and_continued_are_those_of_a_run_never_stopped(
 
     from gtgen.frame import ActiveHazard
 
-    marked = [replace(r, hazards=(ActiveHazard("hard_brake-1", "hard_brake", (3, 5), 1),) if i else ())
+    marked = [replace(r, hazards=(ActiveHazard("hard_brake-1", HazardKind.HARD_BRAKE, (3, 5), 1),) if i else ())
               for i, r in enumerate(records)]  # fmt: skip
 
     def export(out: Path, upto: int, keep: int = 0) -> None:

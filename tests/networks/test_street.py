@@ -9,8 +9,9 @@ import pytest
 
 from networks.convert import import_opendrive
 from networks.markings import is_left_hand
-from networks.street import SIGN_CENTRE_HEIGHT_M, SignalState, read_signs, street_objects
+from networks.street import SIGN_CENTRE_HEIGHT_M, read_signs, street_objects
 from networks.towns import town_opendrive
+from networks.vocabulary import SignalState
 from networks.world import build_world, load_net
 
 

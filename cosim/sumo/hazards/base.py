@@ -13,6 +13,7 @@ from cosim.hazards.plan import Schedule, Sight
 from cosim.scenario import HazardConfig
 from cosim.sumo.hazards import roads
 from networks.sumo_tools import sumo_home
+from networks.vocabulary import HazardKind
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
@@ -52,7 +53,7 @@ class Event:
     path: tuple[np.ndarray, np.ndarray, float] | None = None  # jaywalker: start, unit direction, length
 
     @property
-    def kind(self) -> str:
+    def kind(self) -> HazardKind:
         return self.config.kind
 
 
@@ -85,7 +86,7 @@ class Base:
         self._ego_mode: int | None = None  # the ego's own lane-change mode while cut-ins hold its lane
         self._held: dict[str, tuple[float, float, float]] = {}  # pedestrians standing: x, y, SUMO angle
         self._leftover: set[str] = set()  # those of past events, removed once out of sight
-        if any(h.kind == "jaywalker" and h.child for h in hazards):
+        if any(h.kind == HazardKind.JAYWALKER and h.child for h in hazards):
             libsumo.vehicletype.copy("DEFAULT_PEDTYPE", CHILD_TYPE)
             libsumo.vehicletype.setLength(CHILD_TYPE, CHILD_LWH_M[0])
             libsumo.vehicletype.setWidth(CHILD_TYPE, CHILD_LWH_M[1])

@@ -15,12 +15,18 @@ from cosim.sumo.hazards.red_lights import RED_LEAD_S, RedLights
 from cosim.sumo.hazards.vehicles import LEADER_LEAD_S, MAKE_LEAD_S, Vehicles
 from gtgen.frame import ActiveHazard
 from networks.sumo_tools import sumo_home
+from networks.vocabulary import HazardKind
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
 
-LEADS_S = {"cut_in": MAKE_LEAD_S, "hard_brake": LEADER_LEAD_S, "jaywalker": JAYWALK_LEAD_S, "red_light": RED_LEAD_S}
-PREPARED_AT_ONCE = {"cut_in": 2, "hard_brake": 1, "jaywalker": 2, "red_light": 1}  # a kind's next events
+LEADS_S = {
+    HazardKind.CUT_IN: MAKE_LEAD_S,
+    HazardKind.HARD_BRAKE: LEADER_LEAD_S,
+    HazardKind.JAYWALKER: JAYWALK_LEAD_S,
+    HazardKind.RED_LIGHT: RED_LEAD_S,
+}
+PREPARED_AT_ONCE = {HazardKind.CUT_IN: 2, HazardKind.HARD_BRAKE: 1, HazardKind.JAYWALKER: 2, HazardKind.RED_LIGHT: 1}
 
 
 class HazardController(Vehicles, Jaywalkers, RedLights):
@@ -54,7 +60,7 @@ class HazardController(Vehicles, Jaywalkers, RedLights):
         for index, hazard in enumerate(self._hazards):
             self._prepare(index, hazard, ego, now)
         self._hold_ego_lane(ego)
-        if any(h.kind == "red_light" for h in self._hazards):
+        if any(h.kind == HazardKind.RED_LIGHT for h in self._hazards):
             self._green_ahead(ego, actuate=True)  # the ego does not wait at a red: it is to approach greens
 
     def active(self, track_id: Callable[[str], int], ego: str) -> tuple[ActiveHazard, ...]:
@@ -70,8 +76,12 @@ class HazardController(Vehicles, Jaywalkers, RedLights):
         due = next(d for d in map(self._schedules[index].due_s, range(len(preparing) + 1)) if d not in preparing)
         if now < due - LEADS_S[hazard.kind]:
             return
-        make = {"cut_in": self._make_cut_in, "hard_brake": self._make_hard_brake, "jaywalker": self._make_jaywalker,
-                "red_light": self._make_red_light}[hazard.kind]  # fmt: skip
+        make = {
+            HazardKind.CUT_IN: self._make_cut_in,
+            HazardKind.HARD_BRAKE: self._make_hard_brake,
+            HazardKind.JAYWALKER: self._make_jaywalker,
+            HazardKind.RED_LIGHT: self._make_red_light,
+        }[hazard.kind]
         try:
             event = make(Event(index, hazard, [], due, due + LATE_S), ego, now)
         except libsumo.TraCIException:
@@ -95,8 +105,12 @@ class HazardController(Vehicles, Jaywalkers, RedLights):
 
     def _ready(self, event: Event, ego: str, now: float) -> bool:
         """One step of a preparation (it may start the event); True: it is given up."""
-        ready = {"cut_in": self._cut_in_ready, "hard_brake": self._hard_brake_ready,
-                 "jaywalker": self._jaywalker_ready, "red_light": self._red_light_ready}[event.kind]  # fmt: skip
+        ready = {
+            HazardKind.CUT_IN: self._cut_in_ready,
+            HazardKind.HARD_BRAKE: self._hard_brake_ready,
+            HazardKind.JAYWALKER: self._jaywalker_ready,
+            HazardKind.RED_LIGHT: self._red_light_ready,
+        }[event.kind]
         return ready(event, ego, now)
 
     def _take_back_unmade(self) -> None:
@@ -111,8 +125,8 @@ class HazardController(Vehicles, Jaywalkers, RedLights):
         """The ego keeps its lane while a cut-in or a hard brake is prepared or under way (lane
         changes its route needs only; its leader stays its leader) and changes none while a
         cut-in is under way; then it gets its own lane changes back."""
-        cut_ins = [e for e in self._events if e.kind == "cut_in"]
-        held = cut_ins or [e for e in self._events if e.kind == "hard_brake"]
+        cut_ins = [e for e in self._events if e.kind == HazardKind.CUT_IN]
+        held = cut_ins or [e for e in self._events if e.kind == HazardKind.HARD_BRAKE]
         mode = 0 if any(e.number for e in cut_ins) else KEEP_LANE if held else None
         if mode is None and self._ego_mode is not None:
             libsumo.vehicle.setLaneChangeMode(ego, self._ego_mode)
@@ -124,6 +138,6 @@ class HazardController(Vehicles, Jaywalkers, RedLights):
 
     def _advance(self, event: Event, ego: str, now: float) -> bool:
         """One step of an event under way; True: it is over."""
-        if event.kind == "jaywalker" and event.path is not None:
+        if event.kind == HazardKind.JAYWALKER and event.path is not None:
             return self._walk(event, ego, now)
         return now >= event.ends_s

@@ -17,6 +17,7 @@ from cosim.hazards.decisions import (
 from cosim.sumo.hazards import roads
 from cosim.sumo.hazards.base import CHILD_TYPE, HIDDEN_MARGIN_M, STRAIGHT_REACH_M, Base, Event
 from networks.sumo_tools import sumo_home
+from networks.vocabulary import HazardKind
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
@@ -117,7 +118,9 @@ class Jaywalkers(Base):
 
     def _spot_taken(self, road: str, pos: float) -> bool:
         """Whether another jaywalker steps out within 40 m of a place."""
-        return any(e.spot[0] == road and abs(e.spot[1] - pos) < 40.0 for e in self._events if e.kind == "jaywalker")
+        return any(
+            e.spot[0] == road and abs(e.spot[1] - pos) < 40.0 for e in self._events if e.kind == HazardKind.JAYWALKER
+        )
 
     def _parked_near(self, road: str, pos: float) -> bool:
         return any(r == road and abs(p - pos) < 8.0 for r, p in self._parked_places().values())
@@ -209,7 +212,7 @@ class Jaywalkers(Base):
         """A step of a jaywalker crossing (True: it has crossed); the ego stops for it if it is
         in the ego's path or will be before the ego could stop."""
         config = event.config
-        if event.kind == "jaywalker" and event.path is not None:
+        if event.kind == HazardKind.JAYWALKER and event.path is not None:
             start, direction, length = event.path
             walked = (now - event.started_s) * config.walk_mps
             person = event.actors[0]

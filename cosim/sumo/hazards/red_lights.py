@@ -11,8 +11,8 @@ import numpy as np
 from cosim.hazards.decisions import JUNCTION_M, RED_LIGHT_S, RED_MARGIN_S, phase_to_green, red_run
 from cosim.sumo.hazards import roads
 from cosim.sumo.hazards.base import CAR_RADIUS_M, HIDDEN_MARGIN_M, SPEED_DEFAULT, Base, Event, free
-from networks.street import SignalState
 from networks.sumo_tools import sumo_home
+from networks.vocabulary import SignalState
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402

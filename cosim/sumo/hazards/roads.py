@@ -10,8 +10,8 @@ import numpy as np
 
 from cosim.hazards import decisions
 from cosim.hazards.decisions import Kerb, Pose, straight
-from networks.street import SignalState
 from networks.sumo_tools import sumo_home
+from networks.vocabulary import SignalState
 
 sumo_home()  # exports SUMO_HOME before libsumo loads
 import libsumo  # noqa: E402
