@@ -218,13 +218,28 @@ def sink_choice(
     """The run's outputs; with ``point``, those of a run that continues an earlier one."""
     o = scenario.outputs
     keep, first = (0, None) if point is None else (point.frames, point.first_map_SE3_ego)
-    sensors = tuple((kind, spec.name) for kind, spec in rig_specs(scenario))
-    return SinkChoice(out_dir, o.mcap, o.csv, o.kitti, o.yolo, o.yolo_min_visible_px, map_world, o.live_address,
-                      sensors, resume=True, keep_frames=keep, first_map_SE3_ego=first,
-                      kitti_native_types=o.kitti_types == "native", kitti_image_3=kitti_image_3(scenario),
-                      traffic_lights=scenario.street.traffic_lights or scenario.street.signs,
-                      map_json=map_json, nuscenes=nuscenes_setup(scenario, out_dir, map_json),
-                      hazards=bool(scenario.hazards), occupancy=o.occupancy.enabled)  # fmt: skip
+    return SinkChoice(
+        out_dir=out_dir,
+        mcap=o.mcap,
+        csv=o.csv,
+        kitti=o.kitti,
+        yolo=o.yolo,
+        yolo_min_visible_px=o.yolo_min_visible_px,
+        map_world=map_world,
+        live=o.live_address,
+        sensors=tuple((kind, spec.name) for kind, spec in rig_specs(scenario)),
+        deskewed=tuple(spec.name for spec in scenario.sensors.lidars if spec.deskew),
+        resume=True,
+        keep_frames=keep,
+        first_map_SE3_ego=first,
+        kitti_native_types=o.kitti_types == "native",
+        kitti_image_3=kitti_image_3(scenario),
+        traffic_lights=scenario.street.traffic_lights or scenario.street.signs,
+        map_json=map_json,
+        nuscenes=nuscenes_setup(scenario, out_dir, map_json),
+        hazards=bool(scenario.hazards),
+        occupancy=o.occupancy.enabled,
+    )
 
 
 def kitti_image_3(scenario: Scenario) -> bool:

@@ -11,6 +11,7 @@ import shapely
 
 from networks.cache import cache_dir, digest, intact, scratch_dir, seal
 from networks.errors import NetconvertError, NetworkError, SumoRefusedError
+from networks.opendrive import opendrive_root
 from networks.sumo_tools import sumo_binary, sumo_refusal
 from networks.world import lane_footprint, load_net
 
@@ -145,7 +146,7 @@ MOTORWAY_BANNED = ("bicycle", "moped", "pedestrian")  # off roads of OpenDRIVE t
 def motorway_roads(xodr_path: Path) -> set[str]:
     """Ids of the OpenDRIVE roads with a ``<type type="motorway">`` record."""
     try:
-        roads = ElementTree.parse(xodr_path).getroot().iter("road")
+        roads = opendrive_root(xodr_path).iter("road")
     except ElementTree.ParseError:
         return set()
     return {road.get("id", "") for road in roads if _is_motorway(road)}
@@ -287,7 +288,7 @@ def road_facts(xodr_path: Path) -> tuple[list[str], bool]:
     not from the lanes' own speed records, so motorways would get sidewalks otherwise.
     """
     try:
-        roads = list(ElementTree.parse(xodr_path).getroot().iter("road"))
+        roads = list(opendrive_root(xodr_path).iter("road"))
     except ElementTree.ParseError:
         return [], False  # netconvert reports the broken file itself
     bare = []

@@ -192,6 +192,12 @@ def arc_lengths(polyline: npt.ArrayLike) -> FloatArray:
     return np.asarray(np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1))], np.float64)
 
 
+def polyline_length(polyline: npt.ArrayLike) -> float:
+    """The length of a ``(K, 2+)`` polyline in the plane (0 for fewer than two points)."""
+    p = np.asarray(polyline, np.float64)
+    return float(np.sum(np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1)))
+
+
 def point_and_heading(polyline: npt.ArrayLike, s_m: float) -> tuple[FloatArray, FloatArray]:
     """The ``(3,)`` point ``s_m`` along a ``(K, 3)`` polyline (in the plane; z interpolated) and
     the ``(2,)`` unit direction of the segment it lies on."""

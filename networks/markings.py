@@ -27,7 +27,9 @@ import numpy.typing as npt
 import sumolib
 
 from networks.classes import SemanticClass
+from networks.geometry import arc_lengths, polyline_length
 from networks.mesh import ClassedMesh, merge, polyline_normals, ribbon
+from networks.opendrive import opendrive_root
 from networks.vocabulary import LinePattern, LineRole
 
 MARKINGS_VERSION = "4"  # part of the world cache key: change it when the markings change
@@ -85,7 +87,7 @@ def read_road_marks(xodr_path: Path | None) -> RoadMarks:
     if xodr_path is None:
         return RoadMarks({})
     try:
-        root = ElementTree.parse(xodr_path).getroot()
+        root = opendrive_root(xodr_path)
     except (ElementTree.ParseError, OSError) as err:
         return RoadMarks({}, f"{xodr_path}: roadMark records not read ({err})")
     roads: dict[str, tuple[LaneSection, ...]] = {}
@@ -227,7 +229,7 @@ def _paint(line: PaintedLine) -> ClassedMesh:
     """The strips of one painted line (its dashes, if broken)."""
     cls = SemanticClass.LANE_MARKING_YELLOW if line.yellow else SemanticClass.LANE_MARKING
     p = line.polyline_m
-    length = float(np.sum(np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1)))
+    length = polyline_length(p)
     if line.dash_m is None:
         return ribbon(p, line.width_m, cls, PAINT_HEIGHT_M)
     on, off = line.dash_m
@@ -382,7 +384,7 @@ def _clean(shape: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
 
 def _cut(shape: npt.NDArray[np.float64], s0: float, s1: float) -> npt.NDArray[np.float64]:
     """The part of a ``(K, 3)`` polyline between arc lengths ``s0`` and ``s1``."""
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1))])
+    s = arc_lengths(shape)
     inside = shape[(s > s0) & (s < s1)]
     ends = [np.array([np.interp(v, s, shape[:, k]) for k in range(3)]) for v in (s0, s1)]
     return np.vstack([ends[0], inside, ends[1]])
@@ -427,7 +429,7 @@ def _stop_line(lane: sumolib.net.lane.Lane) -> PaintedLine | None:
     else:
         return None
     shape = _clean(np.asarray(lane.getShape3D(), np.float64))
-    length = float(np.sum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1)))
+    length = polyline_length(shape)
     if shape.shape[0] < 2 or length < width + LINE_BACK_M + 0.5:
         return None
     s = length - LINE_BACK_M - width / 2.0
@@ -445,7 +447,7 @@ def _zebra(lane: sumolib.net.lane.Lane) -> ClassedMesh:
     shape = _clean(np.asarray(lane.getShape3D(), np.float64))
     if shape.shape[0] < 2:
         return ClassedMesh.empty()
-    length = float(np.sum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1)))
+    length = polyline_length(shape)
     bar = lane.getWidth() - 2 * ZEBRA_MARGIN_M
     if bar <= 0.2 or length < 2 * ZEBRA_STRIPE_M:
         return ClassedMesh.empty()

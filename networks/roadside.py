@@ -28,6 +28,7 @@ from shapely.prepared import prep
 
 from networks.buildings import Districts, is_motorway
 from networks.classes import SemanticClass
+from networks.geometry import arc_lengths
 from networks.mesh import BOX_TRIANGLES, ClassedMesh, merge, polyline_normals, prism
 
 RAIL_OFFSET_M = 0.6  # a guardrail's face beyond the carriageway's edge
@@ -100,7 +101,7 @@ def _borders(
             continue
         s = np.arange(0.0, line.length, STEP_M)
         xy = np.array([line.interpolate(v).coords[0] for v in s])
-        along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(shape[:, :2], axis=0), axis=1))])
+        along = arc_lengths(shape)
         z = np.interp(s, along, shape[:, 2])
         normals = polyline_normals(xy)
         normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-9)
@@ -155,7 +156,7 @@ def _strip(points: np.ndarray, offset_m: float, z0_m: float, z1_m: float, cls: S
 def _guardrail(points: np.ndarray) -> ClassedMesh:
     parts = [_strip(points, 0.0, *RAIL_Z_M, SemanticClass.FENCE)]
     line = LineString(points[:, :2])
-    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points[:, :2], axis=0), axis=1))])
+    along = arc_lengths(points)
     for s in np.arange(POST_SPACING_M / 2, line.length, POST_SPACING_M):
         p = line.interpolate(float(s))
         z = float(np.interp(s, along, points[:, 2]))

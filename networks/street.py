@@ -36,6 +36,7 @@ from networks.classes import SemanticClass
 from networks.geometry import arc_lengths, point_and_heading
 from networks.markings import section_start
 from networks.mesh import ClassedMesh, merge, prism
+from networks.opendrive import opendrive_root
 from networks.vocabulary import SIGNAL_HEAD, Lamp, SignalState, SignKind, sign_kind, speed_limit_subtype
 
 STREET_VERSION = "4"  # part of the world cache key: change it when poles move
@@ -243,7 +244,7 @@ def read_signs(xodr_path: Path | None) -> FileSigns:
     if xodr_path is None:
         return FileSigns(())
     try:
-        root = ElementTree.parse(xodr_path).getroot()
+        root = opendrive_root(xodr_path)
     except (ElementTree.ParseError, OSError):
         return FileSigns(())  # the markings' notice names an unreadable file
     signs, bad = [], []

@@ -16,6 +16,7 @@ import numpy.typing as npt
 
 from cosim.kinematics import sumo_angle_to_yaw
 from cosim.scenario import HazardConfig
+from networks.geometry import arc_lengths, polyline_length
 from networks.records import check_arrays
 from networks.vocabulary import SignalState
 
@@ -131,13 +132,9 @@ def straight(points: F64, reach_m: float) -> bool:
     return abs(math.degrees(math.atan2(math.sin(turn), math.cos(turn)))) <= STRAIGHT_DEG
 
 
-def polyline_length(points: F64) -> float:
-    return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()) if len(points) > 1 else 0.0
-
-
 def point_along(points: F64, distance_m: float) -> F64:
     """The point ``distance_m`` along a polyline ``(K, 2)``."""
-    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+    along = arc_lengths(points)
     return np.array([np.interp(distance_m, along, points[:, 0]), np.interp(distance_m, along, points[:, 1])])
 
 

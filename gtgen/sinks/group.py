@@ -44,6 +44,7 @@ class SinkChoice:
     map_world: Path | None = None  # a static world file (networks.world.read_world) for the MCAP's /map
     live: LiveAddress | None = None  # serve the MCAP's messages to Foxglove over a WebSocket
     sensors: tuple[tuple[SensorKind, str], ...] = ()  # the rig's (kind, name) pairs: the live view's channels
+    deskewed: tuple[str, ...] = ()  # the LiDARs that deskew (their /<name>/deskewed channels)
     resume: bool = False  # keep .resume/states.jsonl, so that an interrupted run can continue
     keep_frames: int = 0  # continue an earlier run: keep its first frames
     first_map_SE3_ego: SE3 | None = None  # the earlier run's ego pose at frame 0 (for KITTI's poses)
@@ -115,7 +116,9 @@ _OPEN: dict[SinkKind, Callable[[SinkChoice], Sink]] = {
     SinkKind.MAP: lambda c: MapSink(c.out_dir / "map", _given(c.map_json, "map_json"), c.keep_frames),
     SinkKind.NUSCENES: lambda c: NuscenesSink(c.out_dir / "nuscenes", _given(c.nuscenes, "nuscenes"), c.keep_frames),
     SinkKind.OCCUPANCY: lambda c: OccupancySink(c.out_dir / "occupancy", c.keep_frames),
-    SinkKind.LIVE: lambda c: LiveSink(_given(c.live, "live"), c.map_world, c.sensors, c.map, c.hazards),
+    SinkKind.LIVE: lambda c: LiveSink(
+        _given(c.live, "live"), c.map_world, c.sensors, c.map, c.hazards, c.deskewed, c.occupancy
+    ),
     SinkKind.RESUME: lambda c: ResumeSink(c.out_dir, c.keep_frames),
 }
 

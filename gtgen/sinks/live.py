@@ -213,7 +213,7 @@ class LiveSink:
 
     def __init__(
         self, address: LiveAddress, map_world: Path | None = None, sensors: tuple[tuple[SensorKind, str], ...] = (),
-        map_vectors: bool = False, events: bool = False,
+        map_vectors: bool = False, events: bool = False, deskewed: tuple[str, ...] = (), occupancy: bool = False,
     ) -> None:  # fmt: skip
         try:
             self._server = FoxgloveServer(address.host, address.port)
@@ -223,7 +223,8 @@ class LiveSink:
         self.host, self.port = address.host, self._server.port
         self._map_world = map_world
         self._channels: dict[str, int] = {}
-        for topic, proto in planned_topics(sensors, map_world is not None, map_vectors, events) if sensors else []:
+        planned = planned_topics(sensors, map_world is not None, map_vectors, events, deskewed, occupancy)
+        for topic, proto in planned if sensors else []:
             self._channel(topic, proto)
 
     def _channel(self, topic: str, proto: type | None) -> int:

@@ -182,20 +182,27 @@ def planned_topics(
     with_map: bool,
     with_map_vectors: bool = False,
     with_events: bool = False,
+    deskewed: tuple[str, ...] = (),
+    with_occupancy: bool = False,
 ) -> list[tuple[str, type | None]]:
-    """Every topic a run of a rig writes, with its protobuf class (None: JSON), known before its
-    first frame. ``sensors``: (kind, name) pairs of the rig; ``with_map_vectors``: the run writes
-    map ground truth; ``with_events``: the run makes hazard events. The same topics as
-    :func:`frame_messages`."""
+    """Every topic a run of a rig writes, in the order :func:`frame_messages` writes them, with
+    its protobuf class (None: JSON), known before its first frame. ``sensors``: (kind, name)
+    pairs of the rig; ``deskewed``: the names of the LiDARs that deskew; ``with_map_vectors``:
+    the run writes map ground truth; ``with_events``: the run makes hazard events;
+    ``with_occupancy``: the run writes occupancy."""
     out: list[tuple[str, type | None]] = [(topics.MAP, SceneUpdate)] if with_map else []
     out.append((topics.TF, FrameTransforms))
-    out += [(topics.cloud(name), PointCloud) for kind, name in sensors if kind == SensorKind.LIDAR]
+    lidars = [name for kind, name in sensors if kind == SensorKind.LIDAR]
+    out += [(topics.cloud(name), PointCloud) for name in lidars]
+    out += [(topics.deskewed(name), PointCloud) for name in lidars if name in deskewed]
     out += [(topics.cloud(name), PointCloud) for kind, name in sensors if kind == SensorKind.RADAR]
     for name in (name for kind, name in sensors if kind == SensorKind.CAMERA):
         out += [(topics.camera(name, k), CompressedImage) for k in topics.CAMERA_IMAGES]
         out += [(topics.camera(name, "calibration"), CameraCalibration),
                 (topics.camera(name, "annotations"), ImageAnnotations)]  # fmt: skip
-    out += [(topics.BOXES, SceneUpdate)] + ([(topics.MAP_VECTORS, SceneUpdate)] if with_map_vectors else [])
+    out.append((topics.BOXES, SceneUpdate))
+    out += [(topics.OCCUPANCY, SceneUpdate)] if with_occupancy else []
+    out += [(topics.MAP_VECTORS, SceneUpdate)] if with_map_vectors else []
     out += [(topics.EVENTS, None)] if with_events else []
     return [*out, (topics.LABELS, None)]
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from networks.geometry import polyline_length
 from networks.towns.layout import Point, StreetStyle, TownBuilder, bezier, polyline_between, polyline_frame, smooth_z
 
 RAMP_LEVEL_SHARE = 0.3  # of a ramp's length, at the carriageway's end, kept level
@@ -52,7 +53,7 @@ def motorway(
 ) -> list[Interchange]:
     """Lay out both carriageways along ``centre`` (``(K, 2)``; for ``closed`` the first
     point is repeated at the end) with interchanges at the arc lengths ``interchange_s``."""
-    total = float(np.sum(np.linalg.norm(np.diff(centre, axis=0), axis=1)))
+    total = polyline_length(centre)
     road = StreetStyle(lanes=1, lane_width_m=3.3, sidewalk_width_m=2.0, speed_mps=13.89)
     out = []
     for k, s in enumerate(interchange_s):

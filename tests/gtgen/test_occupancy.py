@@ -9,10 +9,13 @@ from gtgen.labels import label_frame
 from gtgen.load import load_occupancy
 from gtgen.occupancy import FREE_NATIVE, OCC3D_CLASSES, camera_rays, occupancy_frame
 from gtgen.sinks.group import SinkChoice, SinkGroup
+from gtgen.sinks.images import FrameImages
+from gtgen.sinks.mcap_sink import frame_messages, planned_topics
 from gtgen.voxels import OccupancyGrid, box_voxels
 from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
 from networks.mesh import flat_polygon, merge, prism
+from networks.vocabulary import SensorKind
 from sensors.agents import Agents, EgoState
 from sensors.camera import CameraSpec
 from sensors.lidar import Lidar, LidarSpec
@@ -169,6 +172,20 @@ def test_mcap_has_the_occupancy_cubes_and_each_points_flow(tmp_path):
     points = lidar_points(messages["/lidar"])
     on_car = points["instance"] == 4
     assert np.allclose(points["flow_x"][on_car], 0.5) and not points["flow_x"][~on_car].any()
+
+
+def test_the_planned_topics_name_the_deskewed_cloud_and_the_occupancy_in_write_order():
+    agents = car(12.0, 0.0, speed_mps=10.0)
+    scene = FrameScene(GROUND, agents)
+    lidar = Lidar(LidarSpec(deskew=True)).sense(scene, EGO, DAY, np.random.default_rng(0))
+    occupancy, _ = frame(GROUND, agents, camera=False)
+    record = FrameRecord(0, 0, SE3.identity(), (lidar,), label_frame(0, 0, agents, EGO, (lidar,), scene, 120.0),
+                         occupancy=occupancy)  # fmt: skip
+    messages = frame_messages(record, FrameImages(()))
+    written = [(topic, None if isinstance(m, dict) else type(m)) for topic, m in messages]
+    rig = ((SensorKind.LIDAR, "lidar"),)
+    assert planned_topics(rig, with_map=False, deskewed=("lidar",), with_occupancy=True) == written
+    assert {"/lidar/deskewed", "/occupancy"} <= {topic for topic, _ in written}
 
 
 def test_nuscenes_export_gets_occ3d_annotations_finding_each_keyframe_by_its_sample_token(records, tmp_path):

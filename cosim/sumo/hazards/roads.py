@@ -10,6 +10,7 @@ import numpy as np
 
 from cosim.hazards import decisions
 from cosim.hazards.decisions import Kerb, Pose, straight
+from networks.geometry import arc_lengths, polyline_length
 from networks.sumo_tools import sumo_home
 from networks.vocabulary import SignalState
 
@@ -202,10 +203,10 @@ def straight_ahead(ego: str, reach_m: float) -> bool:
     travelled = libsumo.vehicle.getLanePosition(ego)  # along the first lane's shape
     for next_lane in lane_ahead(ego) or (libsumo.vehicle.getLaneID(ego),):
         shape = np.array(libsumo.lane.getShape(next_lane), dtype=float)
-        along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(shape, axis=0), axis=1))])
+        along = arc_lengths(shape)
         path += list(shape[along > travelled])
         travelled = 0.0
-        if decisions.polyline_length(np.array(path)) >= reach_m:
+        if polyline_length(np.array(path)) >= reach_m:
             break
     return straight(np.array(path), reach_m)
 
@@ -213,7 +214,7 @@ def straight_ahead(ego: str, reach_m: float) -> bool:
 def straight_lane(lane: str, start_m: float, end_m: float) -> bool:
     """Whether a lane runs straight (within ``STRAIGHT_DEG``) from ``start_m`` to ``end_m``."""
     shape = np.array(libsumo.lane.getShape(lane), dtype=float)
-    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(shape, axis=0), axis=1))])
+    along = arc_lengths(shape)
     inner = shape[(along > start_m) & (along < end_m)]
     points = np.array([decisions.point_along(shape, start_m), *inner, decisions.point_along(shape, end_m)])
     return straight(points, end_m - start_m)
