@@ -209,7 +209,8 @@ def _classes(
     flats.append(flat)
     classes.append(tri_class[source])
     instances.append(np.zeros(flat.shape[0], np.uint32))
-    flat, cls = _solid_insides(grid, solids, map_SE3_ego)
+    solid = np.isin(tri_class, solids.classes)[source]
+    flat, cls = _solid_insides(grid, solids, map_SE3_ego, flat[solid])
     flats.append(flat)
     classes.append(cls)
     instances.append(np.zeros(flat.shape[0], np.uint32))
@@ -303,16 +304,43 @@ def _filled(grid: VoxelGrid, box: npt.NDArray[np.int64], surface: npt.NDArray[np
 
 
 def _solid_insides(
-    grid: VoxelGrid, solids: Solids, map_SE3_ego: SE3
+    grid: VoxelGrid, solids: Solids, map_SE3_ego: SE3, surface: npt.NDArray[np.int64]
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint8]]:
-    """The voxels whose centre lies inside a solid, and the solid's class."""
-    R, v = map_SE3_ego.rotation, grid.voxel_m
-    axes = [np.asarray(grid.lower_m[a]) + (np.arange(n) + 0.5) * v for a, n in enumerate(grid.shape)]
-    centers = (map_SE3_ego.translation + axes[0][:, None, None, None] * R[:, 0]
-               + axes[1][None, :, None, None] * R[:, 1] + axes[2][None, None, :, None] * R[:, 2])  # fmt: skip
-    cls = solids.inside(centers.reshape(-1, 3))
-    inside = np.flatnonzero(cls)
-    return inside.astype(np.int64), cls[inside]
+    """The voxels whose centre lies inside a solid, and the solid's class. ``surface``: the
+    voxels a solid's surface meets. Inside and outside change only across a solid's surface or
+    floor, so along each row of voxels (ego x) a run of voxels that no wall, top or floor meets is
+    all inside or all outside: one centre per run is cast (:meth:`Solids.inside`), and each voxel
+    that only a floor meets on its own. Voxels a solid's surface meets are occupied by it anyway."""
+    barrier = np.zeros(grid.size, np.bool_)
+    barrier[surface] = True
+    ego_SE3_map = map_SE3_ego.inverse()
+    lo, hi = np.asarray(grid.lower_m), np.asarray(grid.upper_m)
+    reach = float(np.linalg.norm(hi - lo)) / 2.0
+    floors = solids.floors_near(map_SE3_ego.transform_from((lo + hi) / 2.0), reach)
+    floor = np.zeros(grid.size, np.bool_)
+    if floors.shape[0]:
+        floor[triangle_voxels(grid, ego_SE3_map.transform_from(floors.reshape(-1, 3)).reshape(-1, 3, 3))[0]] = True
+    floor &= ~barrier
+    barrier |= floor
+    rows = barrier.reshape(grid.shape).transpose(1, 2, 0).ravel()  # (y, z, x): rows along x
+    nx = grid.shape[0]
+    first = np.zeros(rows.shape[0], np.bool_)
+    first[::nx] = True
+    start = ~rows & (first | np.r_[True, rows[:-1]])
+    run = np.cumsum(start) - 1
+    tested = np.flatnonzero(start | floor.reshape(grid.shape).transpose(1, 2, 0).ravel())
+    yzx = np.stack(np.unravel_index(tested, (grid.shape[1], grid.shape[2], nx)), axis=-1)
+    ijk = yzx[:, [2, 0, 1]]
+    centers = map_SE3_ego.transform_from(np.asarray(grid.lower_m) + (ijk + 0.5) * grid.voxel_m)
+    cls = solids.inside(centers)
+    run_class = np.zeros(int(start.sum()), np.uint8)
+    is_start = start[tested]
+    run_class[run[tested[is_start]]] = cls[is_start]
+    out = np.where(rows, 0, run_class[np.maximum(run, 0)]).astype(np.uint8)
+    out[tested[~is_start]] = cls[~is_start]
+    flat_out = out.reshape(grid.shape[1], grid.shape[2], nx).transpose(2, 0, 1).ravel()
+    inside = np.flatnonzero(flat_out)
+    return inside.astype(np.int64), flat_out[inside]
 
 
 def point_flow_m(lidar: LidarOutput, agents: Agents, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:

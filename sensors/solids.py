@@ -7,8 +7,12 @@ A point lies inside one iff a horizontal ray from it crosses the walls an odd nu
 a top: walls are vertical, so a horizontal ray below a prism's walls or above them crosses none
 of them). Two rays (along map +x and +y) must agree: a ray that grazes a wall's vertical edge
 and miscounts leaves the point outside rather than filling a voxel in front of a wall. Only
-points under some solid's top (a raster of the tops' heights, map frame) are cast. The rest of
-the world (roads, sidewalks, terrain) is surface, not volume.
+points under some solid's top (a raster of the tops' heights, map frame, made in tiles and
+kept) are cast. The rest of the world (roads, sidewalks, terrain) is surface, not volume.
+
+:attr:`Solids.floors` closes the prisms for whoever needs closed surfaces: under each top
+triangle, the same triangle at the foot of its prism's walls (inside and outside change
+only across a wall, a top or a floor).
 """
 
 from __future__ import annotations
@@ -22,14 +26,20 @@ from networks.mesh import ClassedMesh
 from sensors.o3d import RaycastingScene, o3c
 
 SOLID_CLASSES = (SemanticClass.BUILDING, SemanticClass.VEGETATION, SemanticClass.POLE)
+ROOFED = np.asarray([SemanticClass.BUILDING, SemanticClass.VEGETATION], np.uint8)  # sloped tops: roofs, crowns
 RASTER_M = 0.2  # the tops' raster (points within two of its cells of a top are cast)
+TILE = 256  # raster cells along a tile's side (51.2 m)
+MARGIN = 4  # cells drawn beyond a tile's sides (the dilation reaches two)
+KEPT_TILES = 64
 
 
 class Solids:
     """The solids of the whole static world (whole prisms: rays run to infinity)."""
 
+    classes = np.asarray(SOLID_CLASSES, np.uint8)
+
     def __init__(self, world: ClassedMesh) -> None:
-        keep = np.isin(world.triangle_class, np.asarray(SOLID_CLASSES, np.uint8))
+        keep = np.isin(world.triangle_class, self.classes)
         tri = world.vertices_m[world.triangles[keep]].astype(np.float64)
         self._scene = RaycastingScene()
         if keep.any():
@@ -38,42 +48,71 @@ class Solids:
             self._scene.add_triangles(o3c.Tensor.from_numpy(vertices), o3c.Tensor.from_numpy(indices))
         normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         flat = np.abs(normal[:, 2]) > 0.999 * np.linalg.norm(normal, axis=1)
-        roof = (world.triangle_class[keep] == SemanticClass.BUILDING) & (
-            np.abs(normal[:, 2]) > 0.05 * np.linalg.norm(normal, axis=1)
-        )  # a gable roof's slopes: tops at their highest point
+        roof = np.isin(world.triangle_class[keep], ROOFED) & (normal[:, 2] > 0.05 * np.linalg.norm(normal, axis=1))
         self._tops = tri[flat | roof]
         self._top_class = world.triangle_class[keep][flat | roof]
+        self._top_z = self._tops[:, :, 2].max(axis=1) if self._tops.shape[0] else np.zeros(0)
+        self._top_xy_low = self._tops[:, :, :2].min(axis=1) if self._tops.shape[0] else np.zeros((0, 2))
+        self._top_xy_high = self._tops[:, :, :2].max(axis=1) if self._tops.shape[0] else np.zeros((0, 2))
+        self.floors = _floors(tri[~(flat | roof)], self._tops)
+        self._tiles: dict[tuple[int, int], tuple[npt.NDArray[np.float32], npt.NDArray[np.uint8]]] = {}
+
+    def floors_near(self, center_m: npt.NDArray[np.float64], reach_m: float) -> npt.NDArray[np.float64]:
+        """``(F, 3, 3)`` the floors within ``reach_m`` of ``center_m`` (map frame, horizontally)."""
+        f = self.floors
+        if f.shape[0] == 0:
+            return f
+        low, high = f[:, :, :2].min(axis=1), f[:, :, :2].max(axis=1)
+        gap = np.maximum(np.maximum(low - center_m[:2], center_m[:2] - high), 0.0)
+        return np.asarray(f[np.linalg.norm(gap, axis=1) <= reach_m], np.float64)
 
     def inside(self, xyz_map_m: npt.NDArray[np.float64]) -> npt.NDArray[np.uint8]:
         """``(N,) uint8``: the class of the solid each point (map frame) lies inside, 0 if none."""
         out = np.zeros(xyz_map_m.shape[0], np.uint8)
         if self._tops.shape[0] == 0 or xyz_map_m.shape[0] == 0:
             return out
-        top_z, top_class, origin = self._raster(xyz_map_m)
-        px = np.floor((xyz_map_m[:, :2] - origin) / RASTER_M).astype(np.int64)
-        px = np.clip(px, 0, np.asarray(top_z.shape[::-1]) - 1)
-        candidate = np.flatnonzero(xyz_map_m[:, 2] <= top_z[px[:, 1], px[:, 0]])
+        top_z, top_class = self._raster_at(xyz_map_m[:, :2])
+        candidate = np.flatnonzero(xyz_map_m[:, 2] <= top_z)
         odd = candidate
         for axis in (0, 1):  # along +x and +y: a ray that grazes a wall's edge miscounts one of them
             rays = np.zeros((odd.shape[0], 6), np.float32)
             rays[:, :3], rays[:, 3 + axis] = xyz_map_m[odd], 1.0
             crossings = self._scene.count_intersections(o3c.Tensor.from_numpy(rays)).numpy()
             odd = odd[crossings % 2 == 1]
-        out[odd] = top_class[px[odd, 1], px[odd, 0]]
+        out[odd] = top_class[odd]
         return out
 
-    def _raster(
-        self, xyz_map_m: npt.NDArray[np.float64]
-    ) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.uint8], npt.NDArray[np.float64]]:
-        """The highest top's height and class per cell over the points' extent (two cells wider
-        all round, each top two cells wider: a point near a footprint's edge is cast)."""
-        origin = xyz_map_m[:, :2].min(axis=0) - 4 * RASTER_M
-        size = np.ceil((xyz_map_m[:, :2].max(axis=0) + 4 * RASTER_M - origin) / RASTER_M).astype(int)
-        top_z = np.full((size[1], size[0]), -np.inf, np.float32)
-        top_class = np.zeros((size[1], size[0]), np.uint8)
-        xy = (self._tops[:, :, :2] - origin) / RASTER_M
-        near = np.all(xy.max(axis=1) >= 0, axis=1) & np.all(xy.min(axis=1) <= size, axis=1)
-        tops_px, tops_z, tops_class = xy[near], self._tops[near, :, 2].max(axis=1), self._top_class[near]
+    def _raster_at(self, xy_map_m: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.uint8]]:
+        """The raster's highest top and its class at each point (from the tiles it falls in)."""
+        cell = np.floor(xy_map_m / RASTER_M).astype(np.int64)
+        tile = np.floor_divide(cell, TILE)
+        key = tile[:, 0] * (1 << 32) + tile[:, 1]
+        top_z = np.empty(xy_map_m.shape[0], np.float32)
+        top_class = np.empty(xy_map_m.shape[0], np.uint8)
+        order = np.argsort(key, kind="stable")
+        bounds = np.flatnonzero(np.r_[True, key[order][1:] != key[order][:-1], True])
+        for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+            rows = order[a:b]
+            tx, ty = (int(v) for v in tile[rows[0]])
+            z, cls = self._tile(tx, ty)
+            local = cell[rows] - np.array([tx * TILE, ty * TILE])
+            top_z[rows], top_class[rows] = z[local[:, 1], local[:, 0]], cls[local[:, 1], local[:, 0]]
+        return top_z, top_class
+
+    def _tile(self, tx: int, ty: int) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.uint8]]:
+        """One tile of the raster: the highest top's height and class per cell (each top two cells
+        wider all round: a point near a footprint's edge is cast); the last few are kept."""
+        key = (tx, ty)
+        if key in self._tiles:
+            return self._tiles[key]
+        size = TILE + 2 * MARGIN
+        origin = (np.array([tx, ty], np.float64) * TILE - MARGIN) * RASTER_M
+        top_z = np.full((size, size), -np.inf, np.float32)
+        top_class = np.zeros((size, size), np.uint8)
+        extent = size * RASTER_M
+        near = np.all(self._top_xy_high >= origin, axis=1) & np.all(self._top_xy_low <= origin + extent, axis=1)
+        tops_px = (self._tops[near, :, :2] - origin) / RASTER_M
+        tops_z, tops_class = self._top_z[near], self._top_class[near]
         for z in np.unique(tops_z):  # lowest first: a higher top over a lower one wins
             at = tops_z == z
             polygons = list(np.round(tops_px[at] * 16).astype(np.int32))
@@ -82,4 +121,31 @@ class Solids:
         grown = cv2.dilate(top_z, np.ones((5, 5), np.uint8))
         grown_class = cv2.dilate(top_class, np.ones((5, 5), np.uint8))
         classes = np.where(top_class > 0, top_class, grown_class).astype(np.uint8)
-        return np.asarray(grown, np.float32), classes, np.asarray(origin, np.float64)
+        inner = slice(MARGIN, MARGIN + TILE)
+        tile = (
+            np.ascontiguousarray(grown[inner, inner], np.float32),
+            np.ascontiguousarray(classes[inner, inner], np.uint8),
+        )
+        if len(self._tiles) >= KEPT_TILES:
+            self._tiles.pop(next(iter(self._tiles)))
+        self._tiles[key] = tile
+        return tile
+
+
+def _floors(walls: npt.NDArray[np.float64], tops: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """``(T, 3, 3)``: each top triangle moved down to the lowest foot of the walls that share one
+    of its corners (its prism's foot; a top no wall meets gets no floor: it stays where it is)."""
+    if tops.shape[0] == 0 or walls.shape[0] == 0:
+        return tops.copy()
+    wall_keys = np.round(walls.reshape(-1, 3) * 1000.0).astype(np.int64)
+    keys, inverse = np.unique(wall_keys, axis=0, return_inverse=True)
+    foot = np.full(keys.shape[0], np.inf)
+    np.minimum.at(foot, inverse.ravel(), np.repeat(walls[:, :, 2].min(axis=1), 3))
+    top_keys = np.round(tops.reshape(-1, 3) * 1000.0).astype(np.int64)
+    packed = keys.view([("", np.int64)] * 3).ravel()
+    at = np.clip(np.searchsorted(packed, top_keys.view([("", np.int64)] * 3).ravel()), 0, keys.shape[0] - 1)
+    found = np.all(keys[at] == top_keys, axis=1)
+    z = np.where(found, foot[at], np.inf).reshape(-1, 3).min(axis=1)
+    floors = tops.copy()
+    floors[:, :, 2] = np.where(np.isfinite(z), z, tops[:, :, 2].min(axis=1))[:, None]
+    return floors

@@ -11,7 +11,7 @@ from gtgen.occupancy import FREE_NATIVE, OCC3D_CLASSES, camera_rays, occupancy_f
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.mcap_sink import frame_messages, planned_topics
-from gtgen.voxels import OccupancyGrid, box_voxels
+from gtgen.voxels import OccupancyGrid, box_voxels, triangle_voxels
 from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
 from networks.mesh import flat_polygon, merge, prism
@@ -77,6 +77,61 @@ def test_building_is_solid_inside_not_only_its_walls():
     inside = occupancy.semantics_native[125:150, 125:150, 3:]  # x, y 10..20 m, z 0.2..5.4 m
     assert np.all(inside == SemanticClass.BUILDING)
     assert np.all(occupancy.semantics_native[100:124, 100:124, 3:] == FREE_NATIVE)
+
+
+def test_solids_insides_by_runs_agree_with_every_voxel_centre_cast_alone():
+    """One centre cast per run of voxels no wall, top or floor meets gives what casting every
+    centre gives: a building standing 1 m up (voxels under its floor stay outside), one with a
+    top tier, a gabled house, a tree (its crown solid), seen from an ego turned and pitched."""
+    from gtgen.occupancy import _solid_insides
+    from networks.buildings import gabled
+
+    solids_mesh = merge([
+        prism(rect(6.0, 4.0, 14.0, 12.0), 1.0, 3.0, SemanticClass.BUILDING),
+        prism(rect(-20.0, -20.0, -6.0, -8.0), -0.05, 2.5, SemanticClass.BUILDING),
+        prism(rect(-17.0, -17.0, -9.0, -11.0), 2.45, 2.0, SemanticClass.BUILDING),
+        gabled(rect(10.0, -14.0, 18.0, -8.0), -0.05, 2.6, 1.8, SemanticClass.BUILDING),
+        _tree_for_test(-8.0, 10.0),
+    ])  # fmt: skip
+    world = merge([GROUND, solids_mesh])
+    solids = Solids(world)
+    grid = SPEC.grid
+    map_SE3_ego = SE3.from_matrix(_pose(yaw_rad=0.3, pitch_rad=0.04, xyz=(0.7, -0.3, 0.1)))
+    ego_SE3_map = map_SE3_ego.inverse()
+    tri = world.vertices_m[world.triangles].astype(np.float64)
+    flat, source = triangle_voxels(grid, ego_SE3_map.transform_from(tri.reshape(-1, 3)).reshape(-1, 3, 3))
+    surface = flat[np.isin(world.triangle_class[source], solids.classes)]
+    inside, cls = _solid_insides(grid, solids, map_SE3_ego, surface)
+    every = solids.inside(map_SE3_ego.transform_from(grid.centers_m(np.arange(grid.size))))
+    every[surface] = 0  # voxels a surface meets are occupied by it: their centres are not asked
+    got = np.zeros(grid.size, np.uint8)
+    got[inside] = cls
+    got[surface] = 0
+    assert np.array_equal(got, every)
+    counts = np.bincount(got, minlength=6)
+    assert counts[SemanticClass.BUILDING] > 3000 and counts[SemanticClass.VEGETATION] > 100
+    floating = map_SE3_ego.transform_from(grid.centers_m(np.flatnonzero(got == SemanticClass.BUILDING)))
+    near_floating = (floating[:, 0] > 6.5) & (floating[:, 0] < 13.5) & (floating[:, 1] > 4.5) & (floating[:, 1] < 11.5)
+    assert near_floating.any() and floating[near_floating, 2].min() > 1.0  # nothing under its floor
+
+
+def _pose(yaw_rad: float, pitch_rad: float, xyz: tuple[float, float, float]) -> np.ndarray:
+    cy, sy, cp, sp = np.cos(yaw_rad), np.sin(yaw_rad), np.cos(pitch_rad), np.sin(pitch_rad)
+    m = np.eye(4)
+    m[:3, :3] = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]]) @ np.array(
+        [[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]]
+    )
+    m[:3, 3] = xyz
+    return m
+
+
+def _tree_for_test(x: float, y: float):
+    from shapely.geometry import Point
+
+    from networks.mesh import ellipsoid_mesh
+
+    trunk = prism(Point(x, y).buffer(0.18, quad_segs=1), -0.05, 2.0, SemanticClass.VEGETATION)
+    return merge([trunk, ellipsoid_mesh((x, y, 3.5), (2.0, 2.0, 1.6), SemanticClass.VEGETATION)])
 
 
 def test_wall_hides_the_voxels_behind_it_from_both_masks():
