@@ -340,7 +340,7 @@ def run(
         signals = StreetObjects(objects)
     occupancy = None
     if scenario.outputs.occupancy.enabled:
-        occupancy = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh)
+        occupancy = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh, rig.engine.name)
     loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, counts, out_dir, progress, one_process, probe,
                      signals, hdmap, occupancy)  # fmt: skip
     stopped: BaseException | None = None

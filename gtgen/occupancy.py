@@ -36,6 +36,7 @@ in the LiDAR frame's axes (0 on the static world; constant velocity, no turning)
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -43,7 +44,7 @@ import numpy as np
 import numpy.typing as npt
 
 from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, LIDARSEG_LUT
-from gtgen.voxels import OccupancyGrid, VoxelGrid, box_voxels, mark_segments, triangle_voxels
+from gtgen.voxels import OccupancyGrid, SegmentWalk, VoxelGrid, box_voxels, triangle_voxels, walk_segments
 from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
 from networks.mesh import ClassedMesh
@@ -89,6 +90,7 @@ PRIORITY = (
     SemanticClass.CURB, SemanticClass.SIDEWALK, SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW,
     SemanticClass.CROSSING, SemanticClass.ROAD, SemanticClass.TERRAIN, SemanticClass.NONE,
 )  # fmt: skip
+Walker = Callable[[VoxelGrid, SegmentWalk, npt.NDArray[np.bool_]], None]
 _RANK = np.full(256, len(PRIORITY), np.int64)
 for _rank, _cls in enumerate(PRIORITY):
     _RANK[int(_cls)] = _rank
@@ -152,23 +154,25 @@ def occupancy_frame(
     spec: OccupancyGrid, static: ClassedMesh, solids: Solids, agents: Agents, map_SE3_ego: SE3,
     ego_velocity_map_mps: npt.NDArray[np.float64], lidars: tuple[LidarOutput, ...],
     cameras: tuple[tuple[CameraSpec, npt.NDArray[np.float64]], ...] = (), agent_meshes: AgentMeshes | None = None,
+    walker: Walker = walk_segments,
 ) -> OccupancyFrame:  # fmt: skip
     """The occupancy of one frame. ``static``: the world mesh near the ego (map frame);
     ``solids``: the world's solids; ``agents`` in the map frame; ``cameras``: each camera's spec and the
     distance (m) its grid-resolution rays (:func:`camera_rays`) travelled, inf where they hit
     nothing; ``agent_meshes``: the posed meshes of (some of) the agents (their volumes; the
-    others fill their boxes)."""
+    others fill their boxes); ``walker``: marks the voxels of a :class:`~gtgen.voxels.SegmentWalk`
+    (:func:`~gtgen.voxels.walk_segments`, or the same walk compiled)."""
     grid = spec.grid
     ego_SE3_map = map_SE3_ego.inverse()
     native, instance = _classes(grid, static, solids, agents, map_SE3_ego, agent_meshes)
     mask_lidar = np.zeros(grid.size, np.bool_)
     for lidar in lidars:
         starts, ends = lidar_segments(lidar, ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64))
-        mark_segments(grid, starts, ends, mask_lidar)
+        walker(grid, SegmentWalk.of(grid, starts, ends), mask_lidar)
     mask_camera = np.zeros(grid.size, np.bool_)
     for camera, distance_m in cameras:
         starts, ends = camera_segments(spec, camera, distance_m)
-        mark_segments(grid, starts, ends, mask_camera)
+        walker(grid, SegmentWalk.of(grid, starts, ends), mask_camera)
     velocity = agents.velocity_map_mps @ ego_SE3_map.rotation.T
     relative = velocity - ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64)
     point_flow = tuple(point_flow_m(lidar, agents, map_SE3_ego) for lidar in lidars)

@@ -235,6 +235,54 @@ def mark_segments(grid: VoxelGrid, start_m: F64, end_m: F64, out: npt.NDArray[np
         out[flat] = True
 
 
+@dataclass(frozen=True, slots=True)
+class SegmentWalk:
+    """Segments set up for a voxel walk (Amanatides and Woo's): each segment clipped to the grid
+    starts in ``voxel: (N, 3) int32``, steps ``step: (N, 3) int32`` (-1, 0, +1) along each axis, meets
+    its next face along each axis at ``t_next: (N, 3) float64`` and every face after that
+    ``t_delta: (N, 3) float64`` later (parameters of the whole segment, ``inf``: never), and ends at
+    ``t_end: (N,) float64``. The walk visits the voxel it is in, then steps across the nearest face
+    while that lies before ``t_end`` and within the grid."""
+
+    voxel: npt.NDArray[np.int32]
+    step: npt.NDArray[np.int32]
+    t_next: F64
+    t_delta: F64
+    t_end: F64
+
+    @staticmethod
+    def of(grid: VoxelGrid, start_m: F64, end_m: F64) -> SegmentWalk:
+        s, e = grid.to_grid(start_m), grid.to_grid(end_m)
+        shape = np.asarray(grid.shape)
+        t0, t1 = _clip_to_box(s, e - s, shape.astype(np.float64))
+        keep = t0 < t1
+        s, d, t0, t1 = s[keep], (e - s)[keep], t0[keep], t1[keep]
+        voxel = np.clip(np.floor(s + d * t0[:, None]).astype(np.int64), 0, shape - 1)
+        step = np.sign(d).astype(np.int64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_next = np.where(step != 0, (np.where(step > 0, voxel + 1, voxel) - s) / d, np.inf)
+            t_delta = np.where(step != 0, 1.0 / np.abs(d), np.inf)
+        return SegmentWalk(voxel.astype(np.int32), step.astype(np.int32), t_next, t_delta, t1)
+
+
+def walk_segments(grid: VoxelGrid, walk: SegmentWalk, out: npt.NDArray[np.bool_]) -> None:
+    """Set ``out`` (flat, ``grid.size``) at every voxel the walk visits (numpy, all segments a
+    step at a time; the same voxels as a compiled walk)."""
+    voxel, t_next = walk.voxel.astype(np.int64), walk.t_next.copy()
+    step, t_delta, t_end = walk.step.astype(np.int64), walk.t_delta, walk.t_end
+    rows = np.arange(voxel.shape[0])
+    shape = np.asarray(grid.shape)
+    while rows.size:
+        out[grid.flat(voxel)] = True
+        axis = np.argmin(t_next, axis=1)
+        at = np.arange(rows.size)
+        t_min = t_next[at, axis]
+        voxel[at, axis] += step[rows, axis]
+        t_next[at, axis] += t_delta[rows, axis]
+        go = (t_min <= t_end[rows]) & np.all((voxel >= 0) & (voxel < shape), axis=1)
+        rows, voxel, t_next = rows[go], voxel[go], t_next[go]
+
+
 def _segment_chunks(grid: VoxelGrid, start_m: F64, end_m: F64) -> Iterator[tuple[I64, I64]]:
     s, e = grid.to_grid(start_m), grid.to_grid(end_m)
     shape = np.asarray(grid.shape)

@@ -1,10 +1,11 @@
 """Exact voxel geometry against brute force: triangles, boxes, segments."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gtgen.voxels import VoxelGrid, box_voxels, segment_voxels, triangle_voxels
+from gtgen.voxels import SegmentWalk, VoxelGrid, box_voxels, segment_voxels, triangle_voxels, walk_segments
 from networks.geometry import box_rotations
 
 GRID = VoxelGrid((-4.0, -4.0, -1.0), 0.4, (20, 20, 10))
@@ -117,3 +118,43 @@ def test_segment_crosses_every_voxel_a_dense_walk_along_it_visits(values):
             ta, tb = sorted(((lo[axis] - start[axis]) / d, (lo[axis] + GRID.voxel_m - start[axis]) / d))
             t0, t1 = max(t0, ta), min(t1, tb)
         assert t0 <= t1 + 1e-5
+
+
+def _walked(walker, starts, ends):
+    out = np.zeros(GRID.size, np.bool_)
+    walker(SegmentWalk.of(GRID, starts, ends), out)
+    return out
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-6, 6, allow_nan=False), min_size=6, max_size=6))
+def test_voxel_walk_visits_the_voxels_the_segment_crosses(values):
+    start, end = np.asarray(values[:3]), np.asarray(values[3:])
+    start[2], end[2] = start[2] / 3.0 + 1.0, end[2] / 3.0 + 1.0
+    got = np.flatnonzero(_walked(lambda w, out: walk_segments(GRID, w, out), start[None], end[None]))
+    crossed = set(segment_voxels(GRID, start[None], end[None]).tolist()) if np.any(start != end) else set()
+    # through a voxel's edge or corner the walk takes one of the voxels beside it; ending on a
+    # face, one side
+    assert set(got.tolist()) == crossed or _tie(start, end)
+
+
+def _tie(start, end):
+    g0, g1 = GRID.to_grid(start), GRID.to_grid(end)
+    t = np.linspace(0.0, 1.0, 200_001)[:, None]
+    near = np.abs((g := g0 + (g1 - g0) * t) - np.rint(g)) < 1e-4
+    return bool(np.any(near.sum(axis=1) >= 2) or near[0].any() or near[-1].any())
+
+
+def test_compiled_voxel_walk_visits_the_same_voxels_as_numpy():
+    pytest.importorskip("drjit")
+    try:
+        from sensors.mitsuba_engine import walk_segments_llvm
+    except (ImportError, RuntimeError, OSError) as err:
+        pytest.skip(f"no Dr.Jit LLVM backend: {err}")
+    rng = np.random.default_rng(3)
+    starts = np.broadcast_to([0.1, 0.2, 0.9], (5000, 3)) + rng.normal(0.0, 0.05, (5000, 3))
+    ends = rng.uniform([-7, -7, -1.5], [7, 7, 4], (5000, 3))
+    numpy_walk = _walked(lambda w, out: walk_segments(GRID, w, out), starts, ends)
+    compiled = _walked(lambda w, out: walk_segments_llvm(GRID.shape, w, out), starts, ends)
+    assert numpy_walk.sum() > 500
+    assert np.array_equal(numpy_walk, compiled)
