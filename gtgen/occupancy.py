@@ -9,23 +9,35 @@ z -1..5.4 m, 200 x 200 x 16). A voxel is occupied by every volume or surface tha
   box). Bodies are built of overlapping closed parts, not one watertight mesh, so ray parity
   (Open3D's ``compute_occupancy``) would count the overlaps as outside; the enclosure test
   does not. An agent whose mesh is not in the frame's scene fills its whole box;
-- the static world's solids (buildings, trees, poles, bridge piers: prisms): their surfaces
-  and every voxel whose centre lies inside them (:mod:`sensors.solids`: ray parity along a
-  horizontal ray from each voxel centre under a solid's top, whatever the ego's pitch); a
-  voxel meets a solid iff it meets its surface or its centre is inside, so this is exact;
+- the static world's solids (buildings, trees, poles, bridge piers: prisms; tree crowns): their
+  surfaces and every voxel whose centre lies inside them (:mod:`sensors.solids`: ray parity
+  along a horizontal ray from a voxel centre under a solid's top, whatever the ego's pitch). Inside
+  and outside change only across a solid's wall, top or floor (each prism closed by its top moved
+  down to its walls' foot), so along each row of voxels one centre per run of voxels none of these
+  meets is cast, and the voxels only a floor meets one by one; a voxel meets a solid iff it meets
+  its surface or its centre is inside, so this is exact;
 - the static world's surfaces (roads, sidewalks, curbs, crossings, markings, terrain): the
   voxels their triangles meet (:func:`gtgen.voxels.triangle_voxels`, exact).
 
-Where several classes meet one voxel, the one earliest in :data:`PRIORITY` names it (small
-and moving things before large and static ones). ``semantics`` holds Occ3D-nuScenes's 18
-classes (:data:`OCC3D_CLASSES`, 17 = free), mapped from ours through nuScenes-lidarseg's
-categories (:data:`OCC3D_OF_CLASS`); ``semantics_native`` our own classes, 255 = free.
+Where several classes meet one voxel, the one earliest in :data:`PRIORITY` names it: the static
+world's objects (fences, trees, buildings, poles, lights, signs), then the ground (curbs,
+sidewalks, paint, crossings, road, terrain), then agents (small before large). A voxel the ground
+runs through is ground, as in Occ3D, where a voxel takes the class of the points it reflects and
+the ground reflects most of them in its layer: an agent's voxels start above the ground's layer
+(a tyre's lowest 20 cm lie in the road's voxels, within half a voxel of the car's). ``semantics``
+holds Occ3D-nuScenes's 18 classes (:data:`OCC3D_CLASSES`, 17 = free), mapped from ours through
+nuScenes-lidarseg's categories (:data:`OCC3D_OF_CLASS`); ``semantics_native`` our own classes,
+255 = free.
 
 ``mask_lidar``: the voxels each LiDAR ray crossed from the sensor to its return, the return's
 voxel included (rays without a return are not counted; a timed sweep's rays from where the
 sensor was when each fired, moved with the ego's velocity to the frame's time). ``mask_camera``: the same for camera
 rays cast at the grid's resolution (one ray per voxel width at the grid's far corner) up to
-what they hit, or out of the grid. A voxel in neither mask was not observed.
+what they hit, or out of the grid. A voxel in neither mask was not observed. The voxels of a
+ray are those a voxel walk visits (Amanatides and Woo's, :class:`~gtgen.voxels.SegmentWalk`);
+a ray passes through occupied voxels only where it passes by a surface in them (Occ3D: a voxel
+that reflects points is occupied, one a beam passes through in the air is free) or through an
+agent's glass into its body (an agent's volume is solid, glass returns nothing).
 
 Flow: every agent voxel carries its agent's velocity in the ego frame's axes (``flow_mps``:
 the ego's motion taken out, the agent's velocity over the ground; ``flow_relative_mps``: minus
@@ -83,12 +95,13 @@ for _cls, _name in OCC3D_OF_CLASS.items():
 OCC3D_LUT[FREE_NATIVE] = OCC3D_FREE
 
 PRIORITY = (
+    SemanticClass.OTHER_OBJECT, SemanticClass.FENCE, SemanticClass.VEGETATION, SemanticClass.BUILDING,
+    SemanticClass.POLE, SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN,
+    SemanticClass.CURB, SemanticClass.SIDEWALK, SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW,
+    SemanticClass.CROSSING, SemanticClass.ROAD, SemanticClass.TERRAIN,
     SemanticClass.PEDESTRIAN, SemanticClass.BICYCLE, SemanticClass.MOTORCYCLE, SemanticClass.CAR, SemanticClass.TRUCK,
     SemanticClass.BUS, SemanticClass.TRAILER, SemanticClass.CONSTRUCTION_VEHICLE, SemanticClass.TRAFFIC_CONE,
-    SemanticClass.BARRIER, SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN, SemanticClass.POLE,
-    SemanticClass.OTHER_OBJECT, SemanticClass.FENCE, SemanticClass.VEGETATION, SemanticClass.BUILDING,
-    SemanticClass.CURB, SemanticClass.SIDEWALK, SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW,
-    SemanticClass.CROSSING, SemanticClass.ROAD, SemanticClass.TERRAIN, SemanticClass.NONE,
+    SemanticClass.BARRIER, SemanticClass.NONE,
 )  # fmt: skip
 Walker = Callable[[VoxelGrid, SegmentWalk, npt.NDArray[np.bool_]], None]
 _RANK = np.full(256, len(PRIORITY), np.int64)

@@ -30,3 +30,18 @@ def test_targets_compare_the_right_numbers_and_the_table_shows_every_case():
     assert t["v5000_over_v500"]["met"] is None  # the 5,000-vehicle case failed: no verdict
     text = table(results)
     assert "camera" in text and "v5000: error: TrafficError: boom" in text
+
+
+def test_the_occupancy_target_is_on_its_stages_cpu_time_not_its_wall_time():
+    probe = BenchProbe(frames=2, cast_scenes=0)
+    with probe.stage("occupancy"):
+        sum(i * i for i in range(200_000))  # CPU
+    with probe.stage("occupancy"):
+        import time
+
+        time.sleep(0.05)  # wall only
+    assert probe.times.seconds["occupancy"] >= probe.cpu_times.seconds["occupancy"] + 0.04
+    results = {"occupancy": {"frames": 2, "frame_ms": 900.0, "stages_ms": {"occupancy": 800.0},
+                             "stages_cpu_ms": {"occupancy": 12.0}}}  # fmt: skip
+    assert targets(results)["occupancy_ms"] == {"value": 12.0, "target": "<= 15.0", "met": True}
+    assert "occupancy (CPU)" in table(results)

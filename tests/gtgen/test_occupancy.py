@@ -51,20 +51,26 @@ def frame(static, agents, lidar=True, camera=True, with_meshes=False):
 
 
 def test_box_agent_fills_exactly_its_box_and_the_road_fills_one_layer():
-    occupancy, _ = frame(GROUND, car(10.1, 0.3), lidar=False, camera=False)
     grid = SPEC.grid
     expected, _ = box_voxels(
         grid, np.array([[10.1, 0.3, 0.75]]), box_rotations([0.0], [0.0]), np.array([[4.4, 1.8, 1.5]])
     )
+    low_ground = flat_polygon(rect(-200, -200, 200, 200), -0.9, SemanticClass.ROAD)  # in layer 0, under the box
+    occupancy, _ = frame(low_ground, car(10.1, 0.3), lidar=False, camera=False)
     cars = np.flatnonzero(occupancy.semantics_native.ravel() == SemanticClass.CAR)
     assert set(cars.tolist()) == set(expected.tolist())
     # x 7.9..12.3 -> voxels 119..130, y -0.6..1.2 -> 98..102 (1.2 m is a voxel face), z 0..1.5 -> 2..6
     ijk = np.stack(np.unravel_index(cars, grid.shape), axis=-1)
     assert (ijk.min(0).tolist(), ijk.max(0).tolist()) == ([119, 98, 2], [130, 102, 6])
     assert np.all(occupancy.instance.ravel()[cars] == 4)
+    # on the road (z 0) the layer the road meets is the road's, the car's voxels start above it
+    occupancy, _ = frame(GROUND, car(10.1, 0.3), lidar=False, camera=False)
+    cars = np.flatnonzero(occupancy.semantics_native.ravel() == SemanticClass.CAR)
+    above_road = expected[np.unravel_index(expected, grid.shape)[2] > 2]
+    assert set(cars.tolist()) == set(above_road.tolist())
     road = occupancy.semantics_native == SemanticClass.ROAD
-    assert road.sum() + len(cars) - np.count_nonzero(ijk[:, 2] > 2) == 200 * 200
-    assert np.all(road[:, :, 2] | (occupancy.semantics_native[:, :, 2] == SemanticClass.CAR))
+    assert road.sum() == 200 * 200 and road[:, :, 2].all()
+    assert np.all(occupancy.instance[:, :, 2] == 0)
     assert OCC3D_CLASSES[occupancy.semantics[125, 100, 4]] == "car"
     assert (
         occupancy.semantics_native[0, 0, 10] == FREE_NATIVE and OCC3D_CLASSES[occupancy.semantics[0, 0, 10]] == "free"
@@ -294,7 +300,14 @@ def test_a_car_fills_the_voxels_of_its_body_within_its_box_and_the_lidar_crosses
     xyz = LidarSpec().ego_SE3_sensor.transform_from(scan.xyz_lidar_m.astype(np.float64))
     ijk = grid.ijk_of(xyz)
     ok = grid.inside(ijk)
-    assert np.all(occupancy.semantics_native[tuple(ijk[ok & (scan.instance_id == 4)].T)] == SemanticClass.CAR)
+    on_car = ok & (scan.instance_id == 4)
+    in_car = occupancy.semantics_native[tuple(ijk[on_car].T)] == SemanticClass.CAR
+    assert in_car.mean() > 0.9
+    # the rest (the tyres' lowest 20 cm, in the road's voxels): a car voxel right above, within half a voxel
+    low = xyz[on_car][~in_car]
+    assert np.all(low[:, 2] < 0.2 + 1e-6)
+    above = grid.ijk_of(low + np.array([0.0, 0.0, grid.voxel_m / 2.0]))
+    assert np.all(occupancy.semantics_native[tuple(above.T)] == SemanticClass.CAR)
     # every voxel a ray crossed before the voxel of its return is free, or holds a surface the ray passed by
     meshes = FrameScene(static, agents).agent_meshes
     tris = np.concatenate([static.vertices_m[static.triangles], meshes.vertices_m[meshes.triangles]]).astype(float)
