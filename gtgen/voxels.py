@@ -178,41 +178,39 @@ def _in_triangle_yz(tri: F64, y: F64, z: F64) -> npt.NDArray[np.bool_]:
 # --- boxes --------------------------------------------------------------------------------------
 def box_voxels(grid: VoxelGrid, center_m: F64, grid_R_box: F64, lwh_m: F64) -> tuple[I64, I64]:
     """``(flat, source)``: the voxels whose cube overlaps the volume of each box (centre
-    ``(B, 3)``, orientation ``(B, 3, 3)``, size ``(B, 3)``) by more than a touch, and its box."""
-    flats, sources = [], []
+    ``(B, 3)``, orientation ``(B, 3, 3)``, size ``(B, 3)``) by more than a touch, and its box: the
+    voxels of each box's bounding box that no separating axis (the 15 of two boxes) parts from it."""
     half = lwh_m / 2.0 / grid.voxel_m
     center = grid.to_grid(center_m)
     reach = np.einsum("bij,bj->bi", np.abs(grid_R_box), half)
-    for b in range(center.shape[0]):
-        low = np.maximum(np.floor(center[b] - reach[b]).astype(np.int64), 0)
-        high = np.minimum(np.ceil(center[b] + reach[b]).astype(np.int64), np.asarray(grid.shape)) - 1
-        if np.any(high < low):
-            continue
-        ijk = np.stack(np.meshgrid(*(np.arange(a, z + 1) for a, z in zip(low, high, strict=True)), indexing="ij"),
-                       axis=-1).reshape(-1, 3)  # fmt: skip
-        ok = _box_overlaps_cubes(center[b], grid_R_box[b], half[b], ijk.astype(np.float64) + 0.5)
-        flats.append(grid.flat(ijk[ok]))
-        sources.append(np.full(int(ok.sum()), b, np.int64))
-    if not flats:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    return np.concatenate(flats), np.concatenate(sources)
+    shape = np.asarray(grid.shape)
+    low = np.maximum(np.floor(center - reach).astype(np.int64), 0)
+    high = np.minimum(np.ceil(center + reach).astype(np.int64), shape) - 1
+    size = np.maximum(high - low + 1, 0)
+    box, local = _ragged(size.prod(axis=1))
+    n = size[box]
+    ijk = low[box] + np.stack([local // (n[:, 1] * n[:, 2]), local // n[:, 2] % n[:, 1], local % n[:, 2]], axis=-1)
+    axes, radius = _separating_axes(grid_R_box, half)
+    d = ijk + 0.5 - center[box]
+    projected = np.abs(np.einsum("pj,paj->pa", d, axes[box]))
+    ok = np.all(projected < radius[box] - TOUCH, axis=1)
+    return grid.flat(ijk[ok]), box[ok]
 
 
-def _box_overlaps_cubes(center: F64, R: F64, half: F64, cube_centers: F64) -> npt.NDArray[np.bool_]:
-    """Separating-axis test of one oriented box against unit cubes (their centres ``(P, 3)``)."""
-    d = cube_centers - center
-    axes = [np.eye(3)[i] for i in range(3)] + [R[:, i] for i in range(3)]
-    axes += [np.cross(np.eye(3)[i], R[:, j]) for i in range(3) for j in range(3)]
-    overlap = np.ones(d.shape[0], np.bool_)
-    for axis in axes:
-        length = np.linalg.norm(axis)
-        if length < 1e-9:  # parallel edges: an axis already tested
-            continue
-        a = axis / length
-        r_box = float(np.sum(half * np.abs(R.T @ a)))
-        r_cube = 0.5 * float(np.abs(a).sum())
-        overlap &= np.abs(d @ a) < r_box + r_cube - TOUCH
-    return overlap
+def _separating_axes(R: F64, half: F64) -> tuple[F64, F64]:
+    """``(B, 15, 3)`` unit axes that may part each box from a unit cube (the cube's and the box's
+    faces, their edges crossed), and ``(B, 15)`` the box's and the cube's reach along each summed
+    (``inf`` for the cross of parallel edges: an axis already tested)."""
+    eye = np.broadcast_to(np.eye(3), R.shape)
+    box_axes = np.swapaxes(R, 1, 2)  # rows: the box's axes
+    crossed = np.cross(eye[:, :, None, :], box_axes[:, None, :, :]).reshape(-1, 9, 3)
+    axes = np.concatenate([eye, box_axes, crossed], axis=1)
+    length = np.linalg.norm(axes, axis=2)
+    usable = length > 1e-9
+    axes = axes / np.where(usable, length, 1.0)[:, :, None]
+    r_box = np.einsum("bj,baj->ba", half, np.abs(np.einsum("bij,bai->baj", R, axes)))
+    r_cube = 0.5 * np.abs(axes).sum(axis=2)
+    return axes, np.where(usable, r_box + r_cube, np.inf)
 
 
 # --- segments -----------------------------------------------------------------------------------
