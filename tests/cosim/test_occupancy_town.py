@@ -22,6 +22,7 @@ from cosim.sumo.traffic import Traffic
 from cosim.world_setup import prepare_network
 from gtgen.occupancy import FREE_NATIVE, OCC3D_LUT
 from gtgen.voxels import segment_voxel_pairs, triangle_voxels
+from networks.classes import SemanticClass
 from sensors.o3d import RaycastingScene, o3c
 from sensors.parts import Part
 from sensors.scene import StaticCrop
@@ -87,6 +88,8 @@ def _check_frame(record: Any, scene: Any, crop: StaticCrop, grid: Any, counts: C
             near_occ3d |= OCC3D_LUT[semantics[tuple(q.T)]] == OCC3D_LUT[cls]
         counts.update(points=len(cls), occupied=int((own != FREE_NATIVE).sum()), own_class=int((own == cls).sum()),
                       near=int(near.sum()), near_occ3d=int(near_occ3d.sum()))  # fmt: skip
+        for point_class, voxel_class in zip(cls[~near_occ3d].tolist(), own[~near_occ3d].tolist(), strict=True):
+            counts[f"missed {_name(point_class)} in {_name(voxel_class)}"] += 1
         sample = np.arange(0, len(xyz), ray_step)
         origin = np.broadcast_to(ego_SE3_lidar.translation, (len(sample), 3))
         ray, crossed = segment_voxel_pairs(grid, origin, xyz[sample])
@@ -101,6 +104,10 @@ def _check_frame(record: Any, scene: Any, crop: StaticCrop, grid: Any, counts: C
                       rays_into_agents_not_through_glass=_not_through_glass(
                           meshes, record.map_SE3_ego, origin[through], xyz[sample][through]))  # fmt: skip
     counts["frames"] += 1
+
+
+def _name(cls: int) -> str:
+    return "free" if cls == FREE_NATIVE else SemanticClass(cls).label
 
 
 def _not_through_glass(meshes: Any, map_SE3_ego: Any, start_ego: Any, end_ego: Any) -> int:
@@ -134,7 +141,11 @@ if __name__ == "__main__":
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 20
     c = check(frames=n)
     p = c["points"]
-    print(dict(c))
+    print({k: v for k, v in c.items() if not k.startswith("missed")})
+    print(
+        "points not within half a voxel of a voxel of their Occ3D class, by class and their voxel's:",
+        dict(sorted(((k, v) for k, v in c.items() if k.startswith("missed")), key=lambda kv: -kv[1])),
+    )
     print(f"{c['frames']} frames, {p} LiDAR points in the grid: in an occupied voxel {c['occupied'] / p:.5f}, "
           f"own class in its voxel {c['own_class'] / p:.4f}, within half a voxel {c['near'] / p:.4f} "
           f"(Occ3D classes {c['near_occ3d'] / p:.4f}); {c['crossed']} voxels crossed before a return: free "
