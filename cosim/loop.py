@@ -3,75 +3,55 @@
 from __future__ import annotations
 
 import contextlib
-import json
-import os
 import shutil
-import signal
 import sys
-import threading
-from collections import Counter
-from collections.abc import Callable, Iterator
-from dataclasses import asdict, dataclass, field, replace
-from importlib import metadata
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 from tqdm import tqdm
 
-from cosim.errors import CosimError, RunStoppedError, Terminated, TrafficError
+from cosim.errors import CosimError, Terminated, TrafficError
+from cosim.interrupts import Handlers, hold_interrupts, interrupts_after, release_interrupts
 from cosim.net_index import check_hazards
 from cosim.occupancy_step import OccupancyStep
-from cosim.resume import ResumePoint, begin, finish, kept_frames, resume_point, settle
+from cosim.outputs import FrameSink, open_sinks, prepare_map, sink_choice
+from cosim.resume import begin, finish, resume_point, settle
 from cosim.rig import Rig, build_rig
+from cosim.run_folder import (
+    RunSummary,
+    check_disk_space,
+    disk_check_frame,
+    make_output_folder,
+    outputs_kept,
+    partials_removed_on_error,
+    run_stopped,
+    summarize,
+    write_manifest,
+)
 from cosim.scenario import Scenario
 from cosim.signals import StreetObjects
 from cosim.state import WorldState
 from cosim.traffic_feed import TrafficFeed, TrafficInline, TrafficProcess
-from cosim.world_setup import PreparedNetwork, prepare_network
-from gtgen.content import STOPPED_MPS
+from cosim.world_setup import prepare_network
 from gtgen.errors import OutputKeptError
 from gtgen.frame import FrameRecord
-from gtgen.labels import FrameLabels, label_frame
+from gtgen.labels import label_frame
 from gtgen.mapgt import MapRange, map_frame
 from gtgen.occ3d_export import write_occ3d_annotations
 from gtgen.signals import SignalLabels
-from gtgen.sinks.background import BackgroundSinks
-from gtgen.sinks.group import SinkChoice, SinkGroup
-from gtgen.sinks.nuscenes_sink import NuscenesSetup
-from gtgen.sinks.resume_sink import RESUME_DIR
 from gtgen.timing import NO_CLOCK, NoClock, StageClock
-from networks.cache import cache_dir, digest, file_sha256, intact, seal
 from networks.classes import SemanticClass
 from networks.geometry import SE3
-from networks.hdmap import MAP_VERSION, HdMap, build_map
+from networks.hdmap import HdMap
 from networks.markings import is_left_hand
 from networks.street import street_objects
-from networks.vocabulary import SensorKind
-from sensors.camera import CameraSpec
 from sensors.engine import Scene
-from sensors.lidar import LidarSpec
-from sensors.radar import RadarSpec
 from sensors.scene import StaticCrop
 
 AGENT_MARGIN_M = 10.0
-
-
-class FrameSink(Protocol):
-    """Where the loop hands its frames: a SinkGroup, or BackgroundSinks in a writer process.
-    Used as a context manager: closed (files move into place) when the ``with`` block ends,
-    aborted (nothing left that looks complete) when it raises, left as they are (every frame
-    written stays, under partial names) when it raises :class:`OutputKeptError`."""
-
-    def __enter__(self) -> FrameSink: ...
-
-    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None, *_: object) -> None: ...
-
-    def ready(self) -> None:
-        """Wait until every output has opened (raises if one could not)."""
-        ...
-
-    def write(self, record: FrameRecord) -> None: ...
 
 
 class FrameProbe(StageClock, Protocol):
@@ -94,47 +74,6 @@ class _NoProbe(NoClock):
 
 
 NO_PROBE: FrameProbe = _NoProbe()
-
-
-@dataclass(slots=True)
-class RunSummary:
-    frames: int = 0
-    objects: int = 0
-    seen: int = 0
-    per_class: Counter[str] = field(default_factory=Counter)
-    scene_cuts: list[int] = field(default_factory=list)  # frames that start a new scene
-    ego_stopped: int = 0  # frames in which the ego moved slower than STOPPED_MPS
-
-    def add(self, labels: FrameLabels, scene_cut: bool = False, ego_speed_mps: float | None = None) -> None:
-        if scene_cut:
-            self.scene_cuts.append(labels.frame_index)
-        if ego_speed_mps is not None and ego_speed_mps < STOPPED_MPS:
-            self.ego_stopped += 1
-        self.frames += 1
-        self.objects += len(labels)
-        self.seen += int(labels.seen.sum())
-        self.per_class.update(SemanticClass(int(c)).label for c in labels.objects.semantic_class[labels.seen])
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"frames": self.frames, "objects": self.objects, "seen": self.seen,
-                "per_class": dict(sorted(self.per_class.items())), "scene_cuts": list(self.scene_cuts),
-                "ego_stopped": self.ego_stopped}  # fmt: skip
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> RunSummary:
-        return cls(int(data["frames"]), int(data["objects"]), int(data["seen"]), Counter(data["per_class"]),
-                   [int(f) for f in data["scene_cuts"]], int(data.get("ego_stopped", 0)))  # fmt: skip
-
-    def lines(self) -> list[str]:
-        n = max(self.frames, 1)
-        out = [f"frames: {self.frames}", f"objects in range per frame: {self.objects / n:.1f}",
-               f"objects seen per frame: {self.seen / n:.1f}"]  # fmt: skip
-        out += [f"  {cls}: {count / n:.1f}" for cls, count in sorted(self.per_class.items())]
-        out.append(f"ego stopped (below {STOPPED_MPS:g} m/s): {100 * self.ego_stopped / n:.0f} % of the frames")
-        if self.scene_cuts:
-            frames = ", ".join(str(f) for f in self.scene_cuts)
-            out.append(f"scene cuts (the ego ran out of road and started again) at frames: {frames}")
-        return out
 
 
 def sense_and_label(
@@ -167,29 +106,35 @@ def sense_and_label(
     with probe.stage("labels"):
         timestamp_ns = round(state.time_s * 1e9)
         events = {a: h.name for h in state.hazards for a in h.actor_ids} if hazards else None
-        labels = label_frame(frame_index, timestamp_ns, state.agents, state.ego, outputs, scene, rig.label_range_m,
-                             rig.camera_names, events)  # fmt: skip
+        labels = label_frame(
+            frame_index,
+            timestamp_ns,
+            state.agents,
+            state.ego,
+            outputs,
+            scene,
+            rig.label_range_m,
+            rig.camera_names,
+            events,
+        )
         lights = signals.labels(labels, state) if signals is not None else SignalLabels.empty()
     occupied = None
     if occupancy is not None:
         with probe.stage("occupancy"):
             occupied = occupancy.frame(static, scene, state, outputs)
-    return FrameRecord(frame_index, timestamp_ns, map_SE3_ego, outputs, labels, state.scene_cut, signals=lights,
-                       ego_velocity_map_mps=state.ego.velocity_map_mps, hazards=state.hazards if hazards else None,
-                       ego_collided=state.ego_collided, occupancy=occupied)  # fmt: skip
-
-
-def prepare_map(prepared: PreparedNetwork) -> tuple[HdMap, Path]:
-    """The network's HD map, and its whole-map JSON in the cache (written on first use)."""
-    hdmap = build_map(prepared.net, prepared.xodr_path, is_left_hand(prepared.net_path))
-    key = digest(MAP_VERSION, prepared.net_path.read_bytes(), prepared.xodr_path.read_bytes())
-    path = cache_dir("maps", key) / "map.json"
-    if not intact(path):
-        partial = path.with_suffix(f".{os.getpid()}.partial")
-        partial.write_text(json.dumps(hdmap.static_json(), separators=(",", ":")))
-        partial.replace(path)
-        seal(path)
-    return hdmap, path
+    return FrameRecord(
+        frame_index=frame_index,
+        timestamp_ns=timestamp_ns,
+        map_SE3_ego=map_SE3_ego,
+        sensors=outputs,
+        labels=labels,
+        scene_cut=state.scene_cut,
+        signals=lights,
+        ego_velocity_map_mps=state.ego.velocity_map_mps,
+        hazards=state.hazards if hazards else None,
+        ego_collided=state.ego_collided,
+        occupancy=occupied,
+    )
 
 
 PERSON_STEP_UP_M = 0.5  # a pedestrian stands on the highest static surface this far above its lane
@@ -211,70 +156,14 @@ def on_raised_surfaces(state: WorldState, crop: StaticCrop) -> WorldState:
     return replace(state, agents=replace(agents, center_map_m=center))
 
 
-def sink_choice(
-    scenario: Scenario, out_dir: Path, map_world: Path | None = None, point: ResumePoint | None = None,
-    map_json: Path | None = None,
-) -> SinkChoice:  # fmt: skip
-    """The run's outputs; with ``point``, those of a run that continues an earlier one."""
-    o = scenario.outputs
-    keep, first = (0, None) if point is None else (point.frames, point.first_map_SE3_ego)
-    return SinkChoice(
-        out_dir=out_dir,
-        mcap=o.mcap,
-        csv=o.csv,
-        kitti=o.kitti,
-        yolo=o.yolo,
-        yolo_min_visible_px=o.yolo_min_visible_px,
-        map_world=map_world,
-        live=o.live_address,
-        sensors=tuple((kind, spec.name) for kind, spec in rig_specs(scenario)),
-        deskewed=tuple(spec.name for spec in scenario.sensors.lidars if spec.deskew),
-        resume=True,
-        keep_frames=keep,
-        first_map_SE3_ego=first,
-        kitti_native_types=o.kitti_types == "native",
-        kitti_image_3=kitti_image_3(scenario),
-        traffic_lights=scenario.street.traffic_lights or scenario.street.signs,
-        map_json=map_json,
-        nuscenes=nuscenes_setup(scenario, out_dir, map_json),
-        hazards=bool(scenario.hazards),
-        occupancy=o.occupancy.enabled,
-    )
-
-
-def kitti_image_3(scenario: Scenario) -> bool:
-    """The rig's second camera fires every frame: the KITTI export writes it as ``image_3``."""
-    cameras = scenario.sensors.cameras
-    return len(cameras) > 1 and cameras[1].rate_hz * scenario.step_s >= 1 - 1e-9
-
-
-def rig_specs(scenario: Scenario) -> list[tuple[SensorKind, LidarSpec | CameraSpec | RadarSpec]]:
-    """The rig's sensor specs with their kind, in rig order (LiDARs, cameras, radars)."""
-    rig = scenario.sensors
-    by_kind = ((SensorKind.LIDAR, rig.lidars), (SensorKind.CAMERA, rig.cameras), (SensorKind.RADAR, rig.radars))
-    return [(kind, spec) for kind, specs in by_kind for spec in specs]
-
-
-def nuscenes_setup(scenario: Scenario, out_dir: Path, map_json: Path | None) -> NuscenesSetup | None:
-    """What the nuScenes export needs of the run (None: not asked for). The run's folder name
-    names its log and scenes."""
-    if not scenario.outputs.nuscenes:
-        return None
-    sensors = tuple((kind, spec.name, spec.rate_hz) for kind, spec in rig_specs(scenario))
-    path = scenario.network_path()
-    location = scenario.network if path is None else path.stem
-    return NuscenesSetup(out_dir.resolve().name, scenario.step_s, sensors, location, map_json)
-
-
-def open_sinks(choice: SinkChoice, one_process: bool = False, clock: StageClock = NO_CLOCK) -> FrameSink:
-    """The run's sinks: in a writer process, or in this one."""
-    return SinkGroup.open(choice, clock) if one_process else BackgroundSinks(choice, clock=clock)
-
-
 def open_traffic(
-    net_path: Path, scenario: Scenario, radius_m: float, one_process: bool = False, clock: StageClock = NO_CLOCK,
+    net_path: Path,
+    scenario: Scenario,
+    radius_m: float,
+    one_process: bool = False,
+    clock: StageClock = NO_CLOCK,
     skip_frames: int = 0,
-) -> TrafficFeed:  # fmt: skip
+) -> TrafficFeed:
     """SUMO in a traffic process one frame ahead of the loop, or in this one; its first
     ``skip_frames`` frames are simulated and not handed out (a run that continues)."""
     if one_process:
@@ -309,8 +198,11 @@ def run(
     point = resume_point(out_dir, scenario) if resume else None
     make_output_folder(out_dir)
     if progress:
-        print(f"{scenario.name}: preparing the network and its world (made on first use, then cached)",
-              file=sys.stderr, flush=True)  # fmt: skip
+        print(
+            f"{scenario.name}: preparing the network and its world (made on first use, then cached)",
+            file=sys.stderr,
+            flush=True,
+        )
     prepared = prepare_network(scenario)
     try:
         check_hazards(scenario.hazards, prepared.net)
@@ -341,8 +233,21 @@ def run(
     occupancy = None
     if scenario.outputs.occupancy.enabled:
         occupancy = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh, rig.engine.name)
-    loop = FrameLoop(scenario, prepared.net_path, rig, crop, rng, counts, out_dir, progress, one_process, probe,
-                     signals, hdmap, occupancy)  # fmt: skip
+    loop = FrameLoop(
+        scenario=scenario,
+        net_path=prepared.net_path,
+        rig=rig,
+        crop=crop,
+        rng=rng,
+        summary=counts,
+        out_dir=out_dir,
+        progress=progress,
+        one_process=one_process,
+        probe=probe,
+        signals=signals,
+        hdmap=hdmap,
+        occupancy=occupancy,
+    )
     stopped: BaseException | None = None
     held: Handlers = {}
 
@@ -382,53 +287,6 @@ def run(
     return counts
 
 
-def summarize(out_dir: Path, scenario: Scenario) -> BaseException | None:
-    """Write ``summary/`` (it moves into place when whole); the Ctrl-C or SIGTERM that cut it
-    short (the partial summary goes), else None."""
-    from gtgen.summary import asked_rates, write_summary
-
-    try:
-        write_summary(out_dir, asked=asked_rates([asdict(h) for h in scenario.hazards]))
-    except (KeyboardInterrupt, Terminated) as err:
-        shutil.rmtree(out_dir / "summary.partial", ignore_errors=True)
-        return err
-    return None
-
-
-Handlers = dict[int, Any]
-
-
-def hold_interrupts() -> Handlers:
-    """Ignore SIGINT and SIGTERM (in the main thread) while a stopped run closes its files."""
-    if threading.current_thread() is not threading.main_thread():
-        return {}
-    return {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)}
-
-
-def release_interrupts(held: Handlers) -> None:
-    for sig, handler in held.items():
-        signal.signal(sig, handler)
-
-
-@contextlib.contextmanager
-def interrupts_after() -> Iterator[None]:
-    """Run the block whole: a SIGINT or SIGTERM that arrives inside it takes effect (with the
-    handler in place before) as the block ends. A frame is counted and handed to the writers
-    together or not at all, so the manifest of a stopped run counts exactly the frames written."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-    held: Handlers = {int(sig): signal.signal(sig, lambda s, _frame: caught.append(s))
-                      for sig in (signal.SIGINT, signal.SIGTERM)}  # fmt: skip
-    try:
-        yield
-    finally:
-        release_interrupts(held)
-    if caught:
-        signal.raise_signal(caught[0])
-
-
 @dataclass(slots=True)
 class FrameLoop:
     """What the frames of a run are made with."""
@@ -455,20 +313,39 @@ class FrameLoop:
         radius_m = self.rig.reach_m + AGENT_MARGIN_M
         if self.progress:
             again = f", then again up to frame {start}" if start else ""
-            print(f"{scenario.name}: warming up the traffic ({scenario.warmup_s:g} s simulated{again})",
-                  file=sys.stderr, flush=True)  # fmt: skip
+            print(
+                f"{scenario.name}: warming up the traffic ({scenario.warmup_s:g} s simulated{again})",
+                file=sys.stderr,
+                flush=True,
+            )
         with open_traffic(self.net_path, scenario, radius_m, self.one_process, probe, start) as traffic:
             for notice in traffic.warm_up():
                 print(notice, file=sys.stderr)
             sinks.ready()
             started()
-            bar = tqdm(range(start, scenario.frames), desc=scenario.name, unit="frame", disable=not self.progress,
-                       file=sys.stderr, initial=start, total=scenario.frames)  # fmt: skip
+            bar = tqdm(
+                range(start, scenario.frames),
+                desc=scenario.name,
+                unit="frame",
+                disable=not self.progress,
+                file=sys.stderr,
+                initial=start,
+                total=scenario.frames,
+            )
             probe.frame_done(-1)
             for frame_index in bar:
                 state = traffic.next()
-                record = sense_and_label(frame_index, state, self.crop, self.rig, self.rng, probe, self.signals,
-                                         bool(scenario.hazards), self.occupancy)  # fmt: skip
+                record = sense_and_label(
+                    frame_index,
+                    state,
+                    self.crop,
+                    self.rig,
+                    self.rng,
+                    probe=probe,
+                    signals=self.signals,
+                    hazards=bool(scenario.hazards),
+                    occupancy=self.occupancy,
+                )
                 if self.hdmap is not None:
                     with probe.stage("map"):
                         o = scenario.outputs
@@ -494,136 +371,8 @@ class FrameLoop:
 
     def checkpoint(self) -> dict[str, Any]:
         """What the loop needs to continue after the frame just made (plain JSON data)."""
-        return {"rng": self.rng.bit_generator.state, "crop_center_xy_m": self.crop.center_xy_m,
-                "summary": self.summary.to_dict()}  # fmt: skip
-
-
-def run_stopped(cause: BaseException, out_dir: Path, kept: int, in_summary: bool = False) -> RunStoppedError:
-    """The line for a run that stopped and kept its first ``kept`` frames (``in_summary``: all
-    of them, while it wrote the summary), and its exit code."""
-    where = f'{out_dir} keeps frames 0 to {kept - 1} (manifest.json: "complete": false)'
-    again = "run the same command with --resume to continue"
-    at = f"at frame {kept}"
-    if in_summary:
-        at = "while writing summary/"
-        where = f'{out_dir} holds all {kept} frames and no summary (manifest.json: "complete": false)'
-        again = "run the same command with --resume to finish it"
-    if isinstance(cause, KeyboardInterrupt):
-        return RunStoppedError(f"interrupted {at}; {where}; {again}", kept, 130)
-    if isinstance(cause, Terminated):
-        return RunStoppedError(f"stopped (SIGTERM) {at}; {where}; {again}", kept, 143)
-    return RunStoppedError(f"{cause} ({at}); {where}", kept, 2)
-
-
-def outputs_kept(kept: OutputKeptError, out_dir: Path, scenario: Scenario, continuing: bool) -> RunStoppedError:
-    """The line for a run whose writers stopped and kept their files (disk full, writer killed);
-    a new run that kept no frame leaves nothing (there is nothing to continue)."""
-    frames = kept_frames(out_dir, scenario)
-    space = "free some space, then " if kept.disk_full else ""
-    if frames == 0 and not continuing:
-        remove_partials(out_dir)
-        return RunStoppedError(f"{kept}; no frame was written; {space}run the same command again", 0, 2)
-    held = f"frames 0 to {frames - 1}" if frames else "no whole frame"
-    where = f"{out_dir} keeps {held} under the files' .partial names"
-    return RunStoppedError(f"{kept}; {where}; {space}run the same command with --resume to continue", frames, 2)
-
-
-def make_output_folder(out_dir: Path) -> None:
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        reason = err.strerror or "not a folder that can be made"
-        raise CosimError(f"{out_dir}: cannot create the output folder ({err.filename}: {reason})") from err
-
-
-@contextlib.contextmanager
-def partials_removed_on_error(out_dir: Path) -> Iterator[None]:
-    """Remove what the ``with`` block wrote under ``*.partial`` names if it raises (but for
-    :class:`OutputKeptError`: the outputs keep their frames)."""
-    try:
-        yield
-    except OutputKeptError:
-        raise
-    except BaseException:
-        remove_partials(out_dir)
-        raise
-
-
-DISK_CHECK_FRAMES = 30  # the frames written before the output size is extrapolated
-DISK_MARGIN = 1.1
-WRITER_LAG_FRAMES = 3  # frames still in the writer's queue or buffers
-
-
-def disk_check_frame(frames: int) -> int:
-    """The frame after which :func:`check_disk_space` runs (-1: a run too short to check)."""
-    return min(DISK_CHECK_FRAMES, frames // 2) if frames >= 2 * WRITER_LAG_FRAMES + 2 else -1
-
-
-def check_disk_space(out_dir: Path, frames_done: int, frames_total: int) -> None:
-    """Stop early, with one line, when the run's files (extrapolated from what the first
-    frames wrote) will not fit on the disk: not after hours, with the disk full."""
-    written = sum(f.stat().st_size for partial in out_dir.glob("*.partial") for f in _files(partial))
-    frames_written = max(frames_done - WRITER_LAG_FRAMES, 1)
-    needed = written / frames_written * frames_total
-    free = shutil.disk_usage(out_dir).free
-    if (needed - written) * DISK_MARGIN > free:
-        raise CosimError(
-            f"{out_dir}: not enough free disk space for this run: about {_size(needed)} in all "
-            f"(from its first {frames_written} frames), {_size(free)} free; free some space, write "
-            "fewer frames or turn outputs off (outputs.kitti=false, outputs.yolo=false, outputs.mcap=false)"
-        )
-
-
-def _size(n_bytes: float) -> str:
-    return f"{n_bytes / 1e9:.1f} GB" if n_bytes >= 1e9 else f"{n_bytes / 1e6:.0f} MB"
-
-
-def _files(path: Path) -> list[Path]:
-    return [path] if path.is_file() else [f for f in path.rglob("*") if f.is_file()]
-
-
-def remove_partials(out_dir: Path) -> None:
-    """Remove what a failed run left: ``*.partial`` files and folders, and its resume state."""
-    shutil.rmtree(out_dir / RESUME_DIR, ignore_errors=True)
-    for partial in out_dir.glob("*.partial"):
-        if partial.is_dir():
-            shutil.rmtree(partial, ignore_errors=True)
-        else:
-            partial.unlink(missing_ok=True)
-
-
-def write_manifest(scenario: Scenario, out_dir: Path, summary: RunSummary, xodr: Path, complete: bool = True) -> None:
-    """``manifest.json``: the run's scenario, versions, counts and file hashes; ``complete``:
-    whether the run wrote all its frames (false: it stopped early and kept ``frames``)."""
-    versions = {}
-    for dist in ("eclipse-sumo", "libsumo", "open3d-cpu", "numpy", "mcap", "sumo-dataset-factory"):
-        try:
-            versions[dist] = metadata.version(dist)
-        except metadata.PackageNotFoundError:
-            versions[dist] = "unknown"
-    files = {
-        str(p.relative_to(out_dir)): file_sha256(p)
-        for p in sorted(out_dir.rglob("*"))
-        if p.is_file()
-        and p.name != "manifest.json"
-        and p.parent.name not in ("image_2", "image_3", "velodyne", "images")
-        and p.relative_to(out_dir).parts[0] not in (RESUME_DIR, "summary")
-    }
-    scenario_data = asdict(scenario)
-    scenario_data.pop("source_dir")  # where the scenario file was: not part of the dataset
-    manifest = {
-        "scenario": scenario_data,
-        "seed": scenario.seed,
-        "network_sha256": file_sha256(xodr),  # the OpenDRIVE file driven (the town's, or the user's)
-        "complete": complete,
-        "frames": summary.frames,
-        "objects_per_frame": summary.objects / max(summary.frames, 1),
-        "seen_per_frame": summary.seen / max(summary.frames, 1),
-        "ego_stopped_share": summary.ego_stopped / max(summary.frames, 1),
-        "scene_cuts": summary.scene_cuts,
-        "versions": versions,
-        "files_sha256": files,
-    }
-    tmp = out_dir / "manifest.json.partial"
-    tmp.write_text(json.dumps(manifest, indent=2, sort_keys=True, default=str) + "\n")
-    tmp.replace(out_dir / "manifest.json")
+        return {
+            "rng": self.rng.bit_generator.state,
+            "crop_center_xy_m": self.crop.center_xy_m,
+            "summary": self.summary.to_dict(),
+        }

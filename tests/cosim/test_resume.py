@@ -128,7 +128,7 @@ def test_an_interrupt_during_a_frames_handoff_takes_effect_after_it():
     """The signal is raised in this thread and its Python handler has run before
     ``raise_signal`` returns (``os.kill`` to the process may land in another thread, whose
     handler can run after the block, under load after a fixed sleep too)."""
-    from cosim.loop import interrupts_after
+    from cosim.interrupts import interrupts_after
 
     done = []
     with pytest.raises(KeyboardInterrupt), interrupts_after():

@@ -1,0 +1,44 @@
+"""Ctrl-C and SIGTERM around a run's files: held while a stopped run closes them, and put off
+until a frame has been counted and handed to the writers (a frame is written whole or not at all)."""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+from typing import Any
+
+Handlers = dict[int, Any]
+
+
+def hold_interrupts() -> Handlers:
+    """Ignore SIGINT and SIGTERM (in the main thread) while a stopped run closes its files."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    return {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+
+def release_interrupts(held: Handlers) -> None:
+    for sig, handler in held.items():
+        signal.signal(sig, handler)
+
+
+@contextlib.contextmanager
+def interrupts_after() -> Iterator[None]:
+    """Run the block whole: a SIGINT or SIGTERM that arrives inside it takes effect (with the
+    handler in place before) as the block ends. A frame is counted and handed to the writers
+    together or not at all, so the manifest of a stopped run counts exactly the frames written."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    held: Handlers = {
+        int(sig): signal.signal(sig, lambda s, _frame: caught.append(s)) for sig in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        yield
+    finally:
+        release_interrupts(held)
+    if caught:
+        signal.raise_signal(caught[0])
