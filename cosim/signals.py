@@ -11,7 +11,7 @@ import numpy as np
 
 from cosim.state import WorldState
 from gtgen.labels import FrameLabels
-from gtgen.signals import SignalLabels
+from gtgen.signals import SignalLabels, signal_labels
 from networks.classes import SemanticClass
 from networks.geometry import SE3
 from networks.street import STREET_ID_BASE, StreetObject
@@ -19,7 +19,7 @@ from networks.vocabulary import Lamp, sign_kind
 from sensors.agents import Agents
 from sensors.camera import CameraOutput
 from sensors.sensor import SensorOutput
-from sensors.shading import LIT_LAMPS, SIGN_KINDS, StreetFaces
+from sensors.shading import street_faces
 
 
 class StreetObjects:
@@ -53,14 +53,7 @@ class StreetObjects:
 
     def labels(self, labels: FrameLabels, state: WorldState) -> SignalLabels:
         """Subtype, state, lanes and ego-lane flag of every head and plate among the labelled objects."""
-        o = labels.objects
-        ids = o.track_id[np.isin(o.semantic_class, [SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN])]
-        mine = [self.get(int(i)) for i in ids]
-        return SignalLabels(
-            ids.astype(np.uint32), tuple(m.subtype for m in mine), tuple(m.tls_id for m in mine),
-            tuple(m.state(state.signal_states) for m in mine), tuple(" ".join(m.lanes) for m in mine),
-            np.array([state.ego_lane in m.lanes for m in mine], np.bool_),
-        )  # fmt: skip
+        return signal_labels(labels, self.objects, state.signal_states, state.ego_lane)
 
     def light_cameras(
         self, outputs: tuple[SensorOutput, ...], agents: Agents, state: WorldState, map_SE3_ego: SE3
@@ -72,25 +65,13 @@ class StreetObjects:
         if mine.size == 0:
             return outputs
         objects = [self.get(int(i)) for i in agents.instance_id[mine]]
-        lit = np.zeros((len(objects), 3), np.bool_)
-        sign = np.full(len(objects), -1, np.int8)
-        for k, obj in enumerate(objects):
-            if obj.is_light:
-                lit[k, list(LIT_LAMPS[Lamp(obj.state(state.signal_states))])] = True
-            else:
-                sign[k] = SIGN_KINDS.index(sign_kind(obj.subtype))
-        yaw = agents.yaw_map_rad[mine]
-        front_map = np.column_stack([np.cos(yaw), np.sin(yaw), np.zeros_like(yaw)])
-        size = agents.lwh_m[mine].astype(np.float32)
+        shows = [Lamp(o.state(state.signal_states)) if o.is_light else sign_kind(o.subtype) for o in objects]
         out: list[SensorOutput] = []
         for o in outputs:
             if isinstance(o, CameraOutput):
                 cam_SE3_map = map_SE3_ego.compose(o.spec.ego_SE3_sensor).inverse()
-                r = cam_SE3_map.rotation
-                centre = cam_SE3_map.transform_from(agents.center_map_m[mine]).astype(np.float32)
-                up = np.tile(r[:, 2], (len(objects), 1)).astype(np.float32)  # the map's z axis in the camera frame
-                faces = StreetFaces(agents.instance_id[mine], centre, (front_map @ r.T).astype(np.float32), up, size,
-                                    lit, sign)  # fmt: skip
+                faces = street_faces(agents.instance_id[mine], agents.center_map_m[mine], agents.yaw_map_rad[mine],
+                                     agents.lwh_m[mine], shows, cam_SE3_map)  # fmt: skip
                 o = replace(o, frame=replace(o.frame, shading=replace(o.frame.shading, faces=faces)))
             out.append(o)
         return tuple(out)

@@ -6,6 +6,7 @@ label table."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,8 +14,10 @@ import numpy.typing as npt
 
 from gtgen.labels import FrameLabels
 from gtgen.table import CLASS_NAMES
+from networks.classes import SemanticClass
 from networks.records import check_arrays
-from networks.vocabulary import Lamp
+from networks.street import STREET_ID_BASE, StreetObject
+from networks.vocabulary import Lamp, SignalState
 
 SIGNAL_COLUMNS = [
     "frame", "timestamp", "id", "type", "subtype", "junction", "state", "governs_ego_lane", "lanes", "distance",
@@ -55,6 +58,27 @@ class SignalLabels:
     def state_of(self) -> dict[int, str]:
         """Head id -> the state it shows (signal heads only)."""
         return {int(i): s for i, s in zip(self.track_id.tolist(), self.state, strict=True) if s}
+
+
+def signal_labels(
+    labels: FrameLabels,
+    objects: Sequence[StreetObject],
+    signal_states: Mapping[str, Sequence[SignalState]],
+    ego_lane: str,
+) -> SignalLabels:
+    """Subtype, state, lanes and ego-lane flag of every head and plate among the labelled
+    objects (``objects``: the network's, in id order from :data:`STREET_ID_BASE`)."""
+    o = labels.objects
+    ids = o.track_id[np.isin(o.semantic_class, [SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN])]
+    mine = [objects[int(i) - STREET_ID_BASE] for i in ids]
+    return SignalLabels(
+        track_id=ids.astype(np.uint32),
+        subtype=tuple(m.subtype for m in mine),
+        junction=tuple(m.tls_id for m in mine),
+        state=tuple(m.state(signal_states) for m in mine),
+        lanes=tuple(" ".join(m.lanes) for m in mine),
+        governs_ego_lane=np.array([ego_lane in m.lanes for m in mine], np.bool_),
+    )
 
 
 def signal_table(labels: FrameLabels, signals: SignalLabels) -> dict[str, npt.NDArray[np.generic]]:

@@ -12,6 +12,7 @@ writer process, while the next frame's rays are cast.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -19,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from networks.classes import SemanticClass
+from networks.geometry import SE3
 from networks.records import check_arrays
 from networks.vocabulary import Lamp, SignKind
 from sensors.hits import RayHits
@@ -106,6 +108,33 @@ class StreetFaces:
             for colour, where in ((field, mine & ~edge), (rim, mine & edge)):
                 ratio = np.asarray(colour, np.float32) / grey  # the shaded grey plate, recoloured
                 image[at[where]] = to_uint8(image[at[where]].astype(np.float32) * ratio[None, :])
+
+
+def street_faces(
+    instance_id: npt.NDArray[np.uint32],
+    centre_map_m: npt.NDArray[np.float64],
+    yaw_map_rad: npt.NDArray[np.float64],
+    lwh_m: npt.NDArray[np.float64],
+    shows: Sequence[Lamp | SignKind],
+    cam_SE3_map: SE3,
+) -> StreetFaces:
+    """The heads and plates handed over in the map frame (``(K,)`` ids, ``(K, 3)`` centres,
+    ``(K,)`` yaws of their fronts, ``(K, 3)`` sizes; what each shows: a head its lamp, a
+    plate its sign's kind) as one camera draws them, in its optical frame."""
+    k = len(shows)
+    lit = np.zeros((k, 3), np.bool_)
+    sign = np.full(k, -1, np.int8)
+    for n, what in enumerate(shows):
+        if isinstance(what, Lamp):
+            lit[n, list(LIT_LAMPS[what])] = True
+        else:
+            sign[n] = SIGN_KINDS.index(what)
+    front_map = np.column_stack([np.cos(yaw_map_rad), np.sin(yaw_map_rad), np.zeros_like(yaw_map_rad)])
+    r = cam_SE3_map.rotation
+    centre = cam_SE3_map.transform_from(centre_map_m).astype(np.float32)
+    up = np.tile(r[:, 2], (k, 1)).astype(np.float32)  # the map's z axis in the camera frame
+    front = (front_map @ r.T).astype(np.float32)
+    return StreetFaces(instance_id, centre, front, up, lwh_m.astype(np.float32), lit, sign)
 
 
 @dataclass(frozen=True, slots=True)

@@ -261,3 +261,18 @@ def test_a_bus_in_service_shows_lit_windows_at_night_and_a_parked_one_dark(synth
     day_on, _ = render("day", int(Lamp.LIGHTS))
     day_off, _ = render("day", 0)
     np.testing.assert_allclose(day_on[glass].mean(), day_off[glass].mean(), atol=1.0)  # by day nothing shows
+
+
+def test_street_faces_handed_over_in_the_map_frame_are_drawn_in_the_cameras_frame() -> None:
+    from networks.vocabulary import Lamp, SignKind
+    from sensors.shading import SIGN_KINDS, street_faces
+
+    cam_SE3_map = SE3(np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]]), np.zeros(3))  # optical axes
+    faces = street_faces(np.array([7, 8], np.uint32), np.array([[20.0, 1.0, 3.0], [15.0, -2.0, 2.2]]),
+                         np.array([math.pi, math.pi]), np.array([[0.3, 0.35, 1.0], [0.05, 0.6, 0.6]]),
+                         [Lamp.RED_YELLOW, SignKind.SPEED_LIMIT], cam_SE3_map)  # fmt: skip
+    assert faces.lit.tolist() == [[True, True, False], [False, False, False]]
+    assert faces.sign.tolist() == [-1, SIGN_KINDS.index(SignKind.SPEED_LIMIT)]
+    assert np.allclose(faces.centre_cam[0], [-1.0, -3.0, 20.0])  # right of the camera is -y of the map
+    assert np.allclose(faces.front_cam, [[0.0, 0.0, -1.0]] * 2, atol=1e-6)  # facing the camera
+    assert np.allclose(faces.up_cam, [[0.0, -1.0, 0.0]] * 2)  # the map's up is the image's up
