@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from cosim.kinematics import sumo_angle_to_yaw
+from cosim.kinematics import front_bumper_to_center, sumo_angle_to_yaw
 from cosim.scenario import HazardConfig
 from networks.geometry import arc_lengths, polyline_length
 from networks.records import check_arrays
@@ -71,8 +71,10 @@ class Pose:
 
     @property
     def centre_xy_m(self) -> F64:
-        """The footprint's centre: half a length behind the front bumper."""
-        return self.front_xy_m - 0.5 * self.length_m * self.forward
+        """The footprint's centre: half a length behind the front bumper (the traffic's box
+        centres, :func:`cosim.kinematics.front_bumper_to_center`, on level ground)."""
+        front = np.array([self.front_xy_m[0], self.front_xy_m[1], 0.0])
+        return front_bumper_to_center(front, self.yaw_rad, 0.0, self.length_m, 0.0)[0, :2]
 
 
 def left_of(forward: F64) -> F64:
