@@ -20,6 +20,7 @@ The labels never come from here: masks, depth and boxes use the centre rays only
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -131,7 +132,9 @@ def sky_linear(weather: Weather, dirs: F32) -> F32:
     t = np.sqrt(np.clip(dirs[:, 2], 0.0, 1.0))[:, None]
     horizon, zenith = to_linear(weather.sky_horizon_bgr), to_linear(weather.sky_zenith_bgr)
     sky = horizon + t * (zenith - horizon)
-    cover = textures.clouds(dirs)[:, None] * np.float32(0.85) * np.clip(dirs[:, 2:3] * 6.0, 0.0, 1.0)
+    up = np.flatnonzero(dirs[:, 2] > 0)  # clouds lie above the horizon: below it their cover is 0
+    cover = np.zeros((len(dirs), 1), np.float32)
+    cover[up] = textures.clouds(dirs[up])[:, None] * np.float32(0.85) * np.clip(dirs[up, 2:3] * 6.0, 0.0, 1.0)
     cloud = horizon * np.float32(1.05) + np.float32(0.02)
     return np.asarray(sky + cover * (cloud - sky), np.float32)
 
@@ -152,7 +155,7 @@ _IS_GROUND[list(_GROUND)] = True
 def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple[F32, F32, F32]:
     """Linear albedo ``(N, 3)`` of static-world surfaces with their textures, their mirror
     strength ``(N,)`` and emission at night ``(N,)`` (lit windows)."""
-    albedo = ALBEDO_BGR_BY_CLASS[cls].copy()
+    albedo = ALBEDO_BGR_BY_CLASS[cls]  # a new array (indexed by an array)
     mirror = np.zeros(len(cls), np.float32)
     glow = np.zeros(len(cls), np.float32)
     for c, fn in (
@@ -192,11 +195,13 @@ def contact_light(
         return light
     ground = np.flatnonzero(_IS_GROUND[cls] & (instance == 0))
     gp = points[ground]
+    gx, gy = np.ascontiguousarray(gp[:, 0]), np.ascontiguousarray(gp[:, 1])
     order = np.argsort(boxes.instance_id)
     for k in range(len(boxes.instance_id)):
         c, (length, w, _), yaw = boxes.centre_m[k], boxes.lwh_m[k], boxes.yaw_rad[k]
         reach = 0.5 * np.hypot(length, w) + CONTACT_M
-        near = np.flatnonzero((np.abs(gp[:, 0] - c[0]) < reach) & (np.abs(gp[:, 1] - c[1]) < reach))
+        near = np.flatnonzero(np.abs(gx - c[0]) < reach)
+        near = near[np.abs(gy[near] - c[1]) < reach]
         if len(near) == 0:
             continue
         dx, dy = gp[near, 0] - np.float32(c[0]), gp[near, 1] - np.float32(c[1])
@@ -336,7 +341,35 @@ def radiance(
 ) -> F32:
     """``(N, 3)`` linear BGR radiance reaching the camera along each ray; ``sky_open`` is the
     share of sky light reaching each hit (:func:`contact_light`), ``lamp`` the light its lamp
-    sends out (:func:`lamp_light`)."""
+    sends out (:func:`lamp_light`). Each ray's on its own: many rays are taken
+    :data:`STRIPE_PX` at a time, whose arrays stay in the CPU's cache through every step."""
+    n = len(cls)
+    if n <= STRIPE_PX:
+        return _radiance(dirs_map, range_m, cls, instance, part, normal, sun_lit, forward, origin_map_m, weather,
+                         max_range_m, sky_open, lamp)  # fmt: skip
+    out = np.empty((n, 3), np.float32)
+    for start in range(0, n, STRIPE_PX):
+        s = slice(start, start + STRIPE_PX)
+        out[s] = _radiance(dirs_map[s], range_m[s], cls[s], instance[s], part[s], normal[s], sun_lit[s], forward[s],
+                           origin_map_m, weather, max_range_m, sky_open[s], lamp[s])  # fmt: skip
+    return out
+
+
+def _radiance(
+    dirs_map: F32,
+    range_m: F32,
+    cls: npt.NDArray[np.uint8],
+    instance: npt.NDArray[np.uint32],
+    part: npt.NDArray[np.uint8],
+    normal: F32,
+    sun_lit: npt.NDArray[np.bool_],
+    forward: F32,
+    origin_map_m: npt.NDArray[np.float64],
+    weather: Weather,
+    max_range_m: float,
+    sky_open: F32,
+    lamp: F32,
+) -> F32:
     n = len(cls)
     out = np.empty((n, 3), np.float32)
     hit = np.isfinite(range_m) & (range_m <= np.float32(max_range_m))
@@ -514,12 +547,15 @@ def bloom(linear: F32) -> F32:
     """Light beyond :data:`BLOOM_THRESHOLD` spread around its source (lamps at night, sun
     glints), as a lens and sensor do."""
 
-    bright = np.maximum(linear - BLOOM_THRESHOLD, np.float32(0.0))
-    rows, cols = _span(bright.max(axis=-1) > 0, 3.0 * BLOOM_SIGMA_PX)
+    over = linear[..., 0] > BLOOM_THRESHOLD
+    over |= linear[..., 1] > BLOOM_THRESHOLD
+    over |= linear[..., 2] > BLOOM_THRESHOLD
+    rows, cols = _span(over, 3.0 * BLOOM_SIGMA_PX)
     if rows is None or cols is None:
         return linear
+    bright = np.maximum(linear[rows, cols] - BLOOM_THRESHOLD, np.float32(0.0))
     out = linear.copy()
-    out[rows, cols] += BLOOM_GAIN * soft_blur(bright[rows, cols], BLOOM_SIGMA_PX)
+    out[rows, cols] += BLOOM_GAIN * soft_blur(bright, BLOOM_SIGMA_PX)
     return out
 
 
@@ -557,10 +593,14 @@ def tone_map(linear: F32, exposure: float) -> F32:
     return np.asarray(np.clip(y, 0.0, 1.0) ** (np.float32(1.0) / GAMMA) * np.float32(255.0), np.float32)
 
 
+@functools.lru_cache(maxsize=4)
 def vignette(height: int, width: int) -> F32:
+    """``(H * W,)`` light kept at each pixel (read-only: one array per image size)."""
     v, u = np.mgrid[0:height, 0:width].astype(np.float32)
     r2 = ((u - (width - 1) / 2) ** 2 + (v - (height - 1) / 2) ** 2) / np.float32((width / 2) ** 2 + (height / 2) ** 2)
-    return np.asarray(np.float32(1.0) - VIGNETTE * r2, np.float32).ravel()
+    out = np.asarray(np.float32(1.0) - VIGNETTE * r2, np.float32).ravel()
+    out.flags.writeable = False
+    return out
 
 
 STRIPE_PX = 1 << 15
@@ -578,13 +618,16 @@ def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32]
 
     h, w = depth_m.shape
     facing = np.einsum("ij,ij->i", normal, dirs_map)
-    out = np.where((facing > 0)[:, None], -normal, normal).astype(np.float32)
+    out = np.array(normal, np.float32)
+    np.negative(out, out=out, where=(facing > 0)[:, None])
     agent = (instance > 0).astype(np.float32)
     if not agent.any():
         return out
     grid = out.reshape(h, w, 3)  # a view: agents' pixels are written back through it
-    want_px = np.float32(focal_px * ROUNDING_M) / np.maximum(depth_m, np.float32(0.1))
-    level = np.abs(np.log(want_px[..., None] / np.asarray(ROUNDING_LEVELS_PX, np.float32))).argmin(axis=-1)
+    on_agent = agent > 0
+    want_px = np.float32(focal_px * ROUNDING_M) / np.maximum(depth_m[on_agent], np.float32(0.1))
+    level = np.full((h, w), -1, np.intp)  # the nearest level in scale, on agents' pixels only
+    level[on_agent] = np.abs(np.log(want_px[:, None] / np.asarray(ROUNDING_LEVELS_PX, np.float32))).argmin(axis=-1)
     for k, sigma in enumerate(ROUNDING_LEVELS_PX):
         pick = (level == k) & (agent > 0)
         rows, cols = _span(pick, 3.0 * sigma)

@@ -14,23 +14,37 @@ import numpy.typing as npt
 F32 = npt.NDArray[np.float32]
 
 
+_STEP_X, _STEP_Y, _MIX = np.uint32(374761393), np.uint32(668265263), np.uint32(1274126177)
+
+
+def _lattice(ix: npt.NDArray[np.integer], iy: npt.NDArray[np.integer], seed: int) -> npt.NDArray[np.uint32]:
+    """The hash's first step, ``ix * 374761393 + iy * 668265263 + seed * 2147483647`` modulo 2**32."""
+    s = np.uint32((seed * 2147483647) & 0xFFFFFFFF)
+    return ix.astype(np.uint32) * _STEP_X + iy.astype(np.uint32) * _STEP_Y + s
+
+
+def _mixed01(h: npt.NDArray[np.uint32]) -> F32:
+    """The hash's mixing of a lattice value, as a float in [0, 1) (32-bit arithmetic wraps as
+    the masks to 32 bits did)."""
+    h = (h ^ (h >> np.uint32(13))) * _MIX
+    h ^= h >> np.uint32(16)
+    return (h & np.uint32(0xFFFFFF)).astype(np.float32) / np.float32(16777216.0)
+
+
 def hash01(ix: npt.NDArray[np.int64], iy: npt.NDArray[np.int64], seed: int) -> F32:
     """A float in [0, 1) per integer lattice point, well mixed (an integer hash)."""
-    h = (ix * 374761393 + iy * 668265263 + seed * 2147483647) & 0xFFFFFFFF
-    h = ((h ^ (h >> 13)) * 1274126177) & 0xFFFFFFFF
-    h ^= h >> 16
-    return (h & 0xFFFFFF).astype(np.float32) / np.float32(16777216.0)
+    return _mixed01(_lattice(ix, iy, seed))
 
 
 def value_noise(x: F32, y: F32, seed: int) -> F32:
     """Smooth noise in [0, 1) with features one unit apart."""
     fx, fy = np.floor(x), np.floor(y)
-    ix, iy = fx.astype(np.int64), fy.astype(np.int64)
+    corner = _lattice(fx.astype(np.int64), fy.astype(np.int64), seed)  # the other corners are steps from it
     tx, ty = x - fx, y - fy
     tx = tx * tx * (np.float32(3.0) - np.float32(2.0) * tx)
     ty = ty * ty * (np.float32(3.0) - np.float32(2.0) * ty)
-    a, b = hash01(ix, iy, seed), hash01(ix + 1, iy, seed)
-    c, d = hash01(ix, iy + 1, seed), hash01(ix + 1, iy + 1, seed)
+    a, b = _mixed01(corner), _mixed01(corner + _STEP_X)
+    c, d = _mixed01(corner + _STEP_Y), _mixed01(corner + (_STEP_X + _STEP_Y))
     top = a + (b - a) * tx
     return np.asarray(top + (c + (d - c) * tx - top) * ty, np.float32)
 
