@@ -6,8 +6,8 @@ loop's timing probe (:class:`BenchProbe`), prints a table and writes ``bench.jso
 entry per case under ``cases``, each with the ray engine that ran and its frames/s).
 
 Cases: ``full`` (the default rig on town05_crowded, all outputs, the default engine: the fast
-one when it starts), ``full-open3d`` (the same with Open3D), ``lidar`` and ``lidar-open3d``
-(a LiDAR-only rig, MCAP and CSV out), ``v500`` and ``v5000`` (the full rig with 500 and 5,000
+one when it starts), ``full-flat`` (the same with the camera's flat shading), ``full-open3d``
+(the same with Open3D), ``lidar`` and ``lidar-open3d`` (a LiDAR-only rig, MCAP and CSV out), ``v500`` and ``v5000`` (the full rig with 500 and 5,000
 vehicles in the network), ``occupancy`` (the full rig with ``outputs.occupancy``: its stage
 is the occupancy's cost a frame; its target is on the stage's CPU time, all threads, which load
 does not change). Per case: frames/s over the frame loop (after the warm-up; closing
@@ -16,9 +16,8 @@ own cast time of the same rays on scenes kept from the first 100 frames (recast 
 run), CPU milliseconds per frame of the loop's process and of its traffic and writer
 processes (load-independent, unlike wall time), their peak resident memory, and the growth
 of the three processes' summed resident memory from frame 100 to the last frame. Frames:
-``full`` 3,000 (so it is the memory-growth run), the Open3D and LiDAR cases 600, ``v500``
-and ``v5000`` 150 each: about 10 minutes on an idle 2-core machine. ``--quick`` is a smoke
-run of 20 to 60 frames a case.
+``full`` 3,000 (so it is the memory-growth run), ``full-flat``, the Open3D and LiDAR cases 600,
+``v500`` and ``v5000`` 150 each. ``--quick`` is a smoke run of 20 to 60 frames a case.
 """
 
 from __future__ import annotations
@@ -53,6 +52,7 @@ CAST_REPEATS = 3
 LIDAR_ONLY = ("sensors.cameras=[]", "sensors.radars=[]", "outputs.kitti=false", "outputs.yolo=false")
 TARGETS = {"full_fps": 15.0, "lidar_fps": 80.0, "cast_ratio": 1.25, "v5000_over_v500": 1.5, "rss_growth_pct": 5.0,
            "street_map_cost_pct": 10.0, "occupancy_ms": 15.0}  # fmt: skip
+FLAT_CAMERA = ("sensors.cameras=[{shading: flat}]",)
 NO_STREET = ("street.markings=false", "street.traffic_lights=false", "street.signs=false", "outputs.map=false")
 
 
@@ -76,6 +76,7 @@ def cases(quick: bool = False) -> list[Case]:
     return [
         Case("full", "full rig, town05_crowded", "town05_crowded", full),
         Case("full-bare", "full rig, no markings, lights, signs or map", "town05_crowded", full, NO_STREET),
+        Case("full-flat", "full rig, flat camera shading", "town05_crowded", other, FLAT_CAMERA),
         Case("full-open3d", "full rig, town05_crowded, Open3D", "town05_crowded", other, o3d, engine="open3d"),
         Case("lidar", "LiDAR only, town05_crowded", "town05_crowded", lidar, LIDAR_ONLY),
         Case("lidar-open3d", "LiDAR only, Open3D", "town05_crowded", lidar, (*LIDAR_ONLY, *o3d), engine="open3d"),
@@ -358,7 +359,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--frames", type=int, help="frames of every case (instead of the defaults)")
     parser.add_argument(
         "--cases",
-        help="comma-separated subset of: full, full-bare, full-open3d, lidar, lidar-open3d, nuscenes, v500, v5000",
+        help="comma-separated subset of: full, full-bare, full-flat, full-open3d, lidar, lidar-open3d, nuscenes, "
+        "occupancy, v500, v5000",
     )
     parser.add_argument("--one-process", action="store_true", help="SUMO and the writers in the loop's process")
     parser.add_argument("--out", type=Path, default=Path("bench.json"), help="where to write the JSON (bench.json)")
