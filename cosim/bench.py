@@ -7,17 +7,18 @@ entry per case under ``cases``, each with the ray engine that ran and its frames
 
 Cases: ``full`` (the default rig on town05_crowded, all outputs, the default engine: the fast
 one when it starts), ``full-flat`` (the same with the camera's flat shading), ``full-open3d``
-(the same with Open3D), ``lidar`` and ``lidar-open3d`` (a LiDAR-only rig, MCAP and CSV out), ``v500`` and ``v5000`` (the full rig with 500 and 5,000
-vehicles in the network), ``occupancy`` (the full rig with ``outputs.occupancy``: its stage
-is the occupancy's cost a frame; its target is on the stage's CPU time, all threads, which load
-does not change). Per case: frames/s over the frame loop (after the warm-up; closing
-the sinks included), milliseconds per frame per stage (taken inside the loop), the engine's
-own cast time of the same rays on scenes kept from the first 100 frames (recast after the
-run), CPU milliseconds per frame of the loop's process and of its traffic and writer
-processes (load-independent, unlike wall time), their peak resident memory, and the growth
-of the three processes' summed resident memory from frame 100 to the last frame. Frames:
-``full`` 3,000 (so it is the memory-growth run), ``full-flat``, the Open3D and LiDAR cases 600,
-``v500`` and ``v5000`` 150 each. ``--quick`` is a smoke run of 20 to 60 frames a case.
+(the same with Open3D), ``lidar`` and ``lidar-open3d`` (a LiDAR-only rig, MCAP and CSV out),
+``v500`` and ``v5000`` (the full rig with 500 and 5,000 vehicles in the network), ``occupancy``
+(the full rig with ``outputs.occupancy``: its stage is the occupancy's cost a frame; its target
+is on the stage's CPU time, all threads, which load does not change). Per case: frames/s over
+the frame loop (after the warm-up; closing the sinks included), milliseconds per frame per
+stage (taken inside the loop), the engine's own cast time of the same rays on scenes kept from
+the first 100 frames (recast after the run), CPU milliseconds per frame of the loop's process
+and of its traffic and writer processes (load-independent, unlike wall time), their peak
+resident memory, and the growth of the three processes' summed resident memory from frame 100
+to the last frame. Frames: ``full`` 3,000 (so it is the memory-growth run), ``full-flat``, the
+Open3D and LiDAR cases 600, ``v500`` and ``v5000`` 150 each. ``--quick`` is a smoke run of 20
+to 60 frames a case.
 """
 
 from __future__ import annotations
