@@ -218,7 +218,7 @@ def _arch(cx: float, r: float, reverse: bool = False) -> list[tuple[float, float
 
 
 def car(s: CarShape) -> Piece:
-    hl, hw = s.length / 2, s.width / 2 - 0.02
+    hl, hw = s.length / 2, s.width / 2 - 0.07  # the door mirrors reach the full width
     r = s.wheel_r
     bl = hl - 0.03  # the body's ends: lamps, plates and bumpers stand out of them to the full length
     deck_x = -bl + s.tail_slope
@@ -274,7 +274,7 @@ def car(s: CarShape) -> Piece:
     a0, b0 = a + along * 0.05 + outward * 0.003, b - along * 0.07 + outward * 0.003
     a1, b1 = a0 + outward * 0.006, b0 + outward * 0.006
     pieces.append(
-        prism([tuple(a0), tuple(b0), tuple(b1), tuple(a1)], lambda z: 0.72 * cabin(z), Part.GLASS, Part.GLASS)
+        prism([tuple(a0), tuple(b0), tuple(b1), tuple(a1)], lambda z: 0.86 * cabin(z), Part.GLASS, Part.GLASS)
     )
     # pillars over the side glass: A along the windscreen, B in the middle, C at the rear
     out = 0.006
@@ -332,19 +332,35 @@ def car(s: CarShape) -> Piece:
     nose = s.nose_z - 0.06
     pieces.append(box(bl - 0.06, hl - 0.01, -0.42 * hw, 0.42 * hw, fz + 0.1, nose - 0.06, Part.TRIM))
     for side in (-1.0, 1.0):
-        y0, y1 = sorted((side * 0.52 * hw, side * 0.8 * hw))
-        pieces.append(box(bl - 0.12, hl - 0.015, y0, y1, nose - 0.15, nose - 0.04, Part.HEADLAMP))
-        y0, y1 = sorted((side * (0.8 * hw + 0.01), side * 0.9 * hw))
-        pieces.append(box(bl - 0.12, hl - 0.015, y0, y1, nose - 0.15, nose - 0.04, Part.INDICATOR))
-        ty0, ty1 = sorted((side * 0.62 * hw, side * 0.84 * hw))
-        tz = min(s.deck_z - 0.2, s.belt_z) if not s.bed else s.belt_z - 0.2
-        pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.16, tz, Part.TAIL_LAMP))
-        ty0, ty1 = sorted((side * (0.84 * hw + 0.01), side * 0.95 * hw))
-        pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.16, tz, Part.INDICATOR))
-        my0, my1 = sorted((side * (hw - 0.12), side * hw))
+        # headlamps out to the front corners, the indicator at their outer end
+        y0, y1 = sorted((side * 0.48 * hw, side * 0.84 * hw))
+        pieces.append(box(bl - 0.12, hl - 0.015, y0, y1, nose - 0.2, nose - 0.03, Part.HEADLAMP))
+        y0, y1 = sorted((side * (0.84 * hw + 0.01), side * 0.97 * hw))
+        pieces.append(box(bl - 0.12, hl - 0.015, y0, y1, nose - 0.2, nose - 0.03, Part.INDICATOR))
+        # tail lamps across the rear's outer thirds, wrapping round onto the flanks
+        ty0, ty1 = sorted((side * 0.56 * hw, side * 0.86 * hw))
+        tz = min(s.deck_z - 0.16, s.belt_z) if not s.bed else s.belt_z - 0.2
+        pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.2, tz, Part.TAIL_LAMP))
+        ty0, ty1 = sorted((side * (0.86 * hw + 0.01), side * 0.98 * hw))
+        pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.2, tz, Part.INDICATOR))
+        wy0, wy1 = sorted((side * (hw - 0.02), side * (hw + 0.006)))
+        pieces.append(box(-bl + 0.03, -bl + 0.3, wy0, wy1, tz - 0.15, tz - 0.01, Part.TAIL_LAMP))
+        # door mirrors standing out of the body's sides on short arms
+        my0, my1 = sorted((side * (hw - 0.05), side * (s.width / 2 - 0.004)))
         pieces.append(
-            box(s.windscreen_x - 0.2, s.windscreen_x - 0.05, my0, my1, s.belt_z + 0.02, s.belt_z + 0.14, Part.TRIM)
+            box(s.windscreen_x - 0.24, s.windscreen_x - 0.06, my0, my1, s.belt_z + 0.02, s.belt_z + 0.16, Part.PAINT)
         )
+        ay0, ay1 = sorted((side * (hw - 0.04), side * (hw + 0.01)))
+        pieces.append(
+            box(s.windscreen_x - 0.15, s.windscreen_x - 0.08, ay0, ay1, s.belt_z - 0.04, s.belt_z + 0.05, Part.TRIM)
+        )
+        # door shut lines (front door from the A pillar to the B pillar, the rear door behind) and handles
+        gy0, gy1 = sorted((side * (hw - 0.01), side * (hw + 0.003)))
+        rear_door = bx - min(0.9, (bx - s.rear_glass_x) * 0.65)
+        for gx in (s.windscreen_x + 0.05, bx, rear_door):
+            pieces.append(box(gx - 0.006, gx + 0.006, gy0, gy1, s.clearance + 0.12, s.belt_z - 0.02, Part.TRIM))
+        for hx in (bx + 0.12, rear_door + 0.12):
+            pieces.append(box(hx - 0.07, hx + 0.07, gy0, gy1, s.belt_z - 0.12, s.belt_z - 0.09, Part.TRIM))
     pieces.append(box(hl - 0.04, hl, -0.26, 0.26, fz - 0.04, fz + 0.07, Part.PLATE))
     pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, s.clearance + 0.25, s.clearance + 0.37, Part.PLATE))
     if s.bed:  # the open bed's floor, seen from above, and its tailgate
@@ -603,7 +619,7 @@ def person(
                     Part.SHOES,
                 )
             )
-    lean = 0.0 if seated is None else (0.32 if seated == "bicycle" else 0.22)
+    lean = 0.0 if seated is None else (0.45 if seated == "bicycle" else 0.35)
     chest = np.array([lean * (shoulder_z - hip_z), 0.0, shoulder_z])
     # the trunk: hips, a narrower waist, a chest wider than deep, rounded shoulders
     waist = np.array([lean * 0.3 * (shoulder_z - hip_z), 0.0, hip_z + 0.2 * s])
@@ -630,7 +646,11 @@ def person(
             elbow = shoulder + 0.3 * s * np.array([math.sin(a), 0.1 * side, -math.cos(a)])
             hand = elbow + 0.27 * s * np.array([math.sin(a + 0.25 * abs(a) + 0.1), 0.06 * side, -math.cos(a + 0.1)])
         else:
-            hand = np.array([0.55 if seated == "bicycle" else 0.5, side * 0.25, hip_z + 0.25 * s])
+            hand = (
+                np.array([0.68, side * 0.27, hip_z + 0.06 * s])  # on the bicycle's bars
+                if seated == "bicycle"
+                else np.array([0.7, side * 0.32, hip_z + 0.18 * s])  # on the motorcycle's bars
+            )
             elbow = (shoulder + hand) / 2 + np.array([0.0, side * 0.04, -0.08])
         pieces.append(tube(shoulder, elbow, 0.05 * s * build, 0.042 * s * build, Part.TOP))
         pieces.append(tube(elbow, hand, 0.042 * s * build, 0.035 * s, Part.TOP))
@@ -675,10 +695,29 @@ def bicycle(pedal_phase: float) -> Piece:
     return merge(pieces + rider)
 
 
+def spoked_wheel(x: float, r: float, half_width: float, spokes: int = 5) -> list[Piece]:
+    """A motorcycle's wheel: a deep tyre ring on a narrow rim, open between cast spokes (the
+    road behind shows through), a hub and a brake disc."""
+    tyre = prism(circle(x, r, r, 18), half_width, Part.TYRE, Part.TYRE, hole=circle(x, r, 0.7 * r, 18))
+    rim = prism(circle(x, r, 0.705 * r, 18), 0.55 * half_width, Part.RIM, Part.RIM, hole=circle(x, r, 0.62 * r, 18))
+    hub = prism(circle(x, r, 0.14 * r, 8), 0.8 * half_width, Part.FRAME, Part.FRAME)
+    disc = prism(circle(x, r, 0.45 * r, 12), 0.008, Part.CHROME, Part.CHROME, 0.9 * half_width,
+                 hole=circle(x, r, 0.3 * r, 12))  # fmt: skip
+    pieces = [tyre, rim, hub, disc]
+    centre = np.array([x, 0.0, r])
+    for k in range(spokes):
+        a = 2 * math.pi * k / spokes + 0.3
+        out = centre + 0.64 * r * np.array([math.cos(a), 0.0, math.sin(a)])
+        inner = centre + 0.13 * r * np.array([math.cos(a), 0.0, math.sin(a)])
+        pieces.append(tube(inner, out, 0.022, 0.016, Part.RIM, sides=4))
+    return pieces
+
+
 def motorcycle() -> Piece:
-    r = 0.3
-    pieces = wheel(-0.72, r, -0.06, 0.06) + wheel(0.75, r, -0.05, 0.05)
-    pieces += wheel(-0.72, r, 0.06, -0.06)[1:] + wheel(0.75, r, 0.05, -0.05)[1:]  # rims on both sides
+    r = 0.31
+    pieces = spoked_wheel(-0.72, r, 0.08) + spoked_wheel(0.75, r, 0.06)
+    # the exhaust along the right side, from the engine to beside the rear wheel
+    pieces.append(tube(np.array([0.05, -0.17, 0.3]), np.array([-0.55, -0.2, 0.42]), 0.04, 0.05, Part.CHROME, sides=6))
     pieces.append(
         prism([(-0.45, 0.3), (0.3, 0.3), (0.45, 0.55), (0.2, 0.7), (-0.35, 0.62)], 0.16, Part.FRAME, Part.FRAME)
     )
@@ -688,14 +727,23 @@ def motorcycle() -> Piece:
     )  # seat
     pieces.append(prism([(-0.95, 0.62), (-0.7, 0.7), (-0.7, 0.85), (-0.92, 0.8)], 0.12, Part.PAINT, Part.PAINT))  # tail
     pieces.append(box(-0.96, -0.92, -0.08, 0.08, 0.68, 0.76, Part.TAIL_LAMP))
-    pieces.append(tube(np.array([0.75, 0.0, r]), np.array([0.5, 0.0, 1.0]), 0.035, 0.035, Part.CHROME, sides=4))
+    for side in (-1.0, 1.0):  # the fork's two legs, the mirrors on stalks over the bar's ends
+        pieces.append(
+            tube(
+                np.array([0.75, side * 0.085, r]), np.array([0.5, side * 0.085, 1.0]), 0.03, 0.03, Part.CHROME, sides=4
+            )
+        )
+        stalk = np.array([0.4, side * 0.27, 1.07])
+        pieces.append(tube(stalk, stalk + np.array([0.02, side * 0.05, 0.2]), 0.01, 0.01, Part.FRAME, sides=4))
+        pieces.append(blob((0.43, side * 0.32, 1.29), (0.025, 0.05, 0.035), Part.TRIM, rings=3, segments=6))
     pieces.append(
         prism([(0.55, 0.85), (0.72, 0.85), (0.7, 1.05), (0.55, 1.05)], 0.12, Part.PAINT, Part.PAINT)
     )  # fairing
     pieces.append(box(0.7, 0.74, -0.06, 0.06, 0.88, 0.98, Part.HEADLAMP))
-    pieces.append(tube(np.array([0.5, -0.36, 1.02]), np.array([0.5, 0.36, 1.02]), 0.02, 0.02, Part.TRIM, sides=4))
+    pieces.append(box(-0.985, -0.955, -0.09, 0.09, 0.5, 0.62, Part.PLATE))
+    pieces.append(tube(np.array([0.42, -0.34, 1.06]), np.array([0.42, 0.34, 1.06]), 0.018, 0.018, Part.TRIM, sides=4))
     rider = person(None, 1.75, 1.1, "motorcycle")
-    rider = [Piece(p.vertices + np.array([-0.45, 0.0, 0.86 - 0.92]), p.triangles, p.parts) for p in rider]
+    rider = [Piece(p.vertices + np.array([-0.3, 0.0, 0.86 - 0.92]), p.triangles, p.parts) for p in rider]
     return merge(pieces + rider)
 
 
