@@ -117,7 +117,7 @@ def test_cross_section_comes_from_the_material_table_metal_strong_people_weak(
     rows = [(CAR_ID, SemanticClass.CAR, 15.0, -2.0, 0.75, 4.5, 1.8, 1.5, np.pi / 2),
             (9, SemanticClass.PEDESTRIAN, 15.0, 2.0, 0.9, 0.5, 0.6, 1.8, np.pi)]  # fmt: skip
     world = synth.scene([synth.ground(), synth.wall_at_x(120.0)], synth.agents(rows))
-    returns = scan(Radar(RadarSpec(points_per_frame=400)), world, synth, rng)
+    returns = scan(Radar(RadarSpec(points_per_frame=2000)), world, synth, rng)  # enough to reach the person
     car, person = (returns.strength_db[returns.instance_id == k] for k in (CAR_ID, 9))
     assert car.size > 5 and person.size > 0
     assert np.median(car) > np.median(person) + 6.0  # paint 1.0 against clothes and skin 0.1-0.15: 8-10 dB
