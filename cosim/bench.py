@@ -323,8 +323,10 @@ def table(results: dict[str, dict[str, Any]]) -> str:
     loads = ["/".join(f"{v:.1f}" for v in results[n].get("load_avg_1min", [])) or "-" for n in names]
     rows.append(["load avg 1 min start/end", *loads])
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True)))
-             for r in rows]  # fmt: skip
+    lines = [
+        "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True)))
+        for r in rows
+    ]
     errors = [f"{n}: error: {results[n]['error']}" for n in names if "error" in results[n]]
     return "\n".join(lines + errors)
 

@@ -81,8 +81,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, overrides)
     out_dir = args.out if args.out is not None else Path("out") / scenario.name
     try:
-        summary = run(scenario, out_dir, progress=not args.no_progress, resume=args.resume,
-                      summary=not args.no_summary)  # fmt: skip
+        summary = run(scenario, out_dir, progress=not args.no_progress, resume=args.resume, summary=not args.no_summary)
     except AlreadyCompleteError as done:
         print(f"nothing to do: {done}")
         return 0
@@ -136,8 +135,10 @@ def _tally(results: list[SweepResult]) -> str:
     """How the runs of a stopped sweep ended, in words."""
     stopped = sum(1 for r in results if r.error.startswith(("interrupted", "stopped (SIGTERM)")))
     failed = sum(1 for r in results if r.error) - stopped
-    return (f"{len(results) - stopped - failed} complete, {stopped} stopped part-way keeping the frames they "
-            f"wrote, {failed} failed")  # fmt: skip
+    return (
+        f"{len(results) - stopped - failed} complete, {stopped} stopped part-way keeping the frames they "
+        f"wrote, {failed} failed"
+    )
 
 
 def _terminate(signum: int, frame: object) -> None:

@@ -139,9 +139,10 @@ def _dataclass(cls: type, value: Any, source: str, key: str) -> Any:
     kwargs = {name: _convert(hints[name], value[name], source, f"{key}.{name}" if key else name)
               for name in fields if name in value}  # fmt: skip
     missing = [
-        n for n, f in fields.items()
+        n
+        for n, f in fields.items()
         if n not in kwargs and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
-    ]  # fmt: skip
+    ]
     if missing:
         where = f"{key}.{missing[0]}" if key else missing[0]
         raise ScenarioError(f"{source}: {where}: required key is missing")

@@ -65,8 +65,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args(argv)
     head = ["scenario", "frames", "ego stopped %", "longest stop s", "scene cuts", *SHOWN, "parked"]
-    print(f"road users within {RADIUS_M:g} m of the ego per frame (seen or not); the ego stopped below "
-          f"{STOPPED_MPS:g} m/s")  # fmt: skip
+    print(
+        f"road users within {RADIUS_M:g} m of the ego per frame (seen or not); the ego stopped below "
+        f"{STOPPED_MPS:g} m/s"
+    )
     print("| " + " | ".join(head) + " |\n|" + "---|" * len(head))
     for spec in args.scenarios:
         overrides = [*args.overrides, *([f"frames={args.frames}"] if args.frames else [])]

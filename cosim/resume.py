@@ -105,8 +105,10 @@ def resume_point(out_dir: Path, scenario: Scenario) -> ResumePoint | None:
         raise CosimError(f"{out_dir}: no interrupted run to continue here; run without --resume to start one")
     differ = _differences(json.loads(run_file.read_text()), scenario_identity(scenario))
     if differ:
-        raise CosimError(f"{out_dir}: the run there was made from another scenario ({_keys(differ)} differ); "
-                         "give the same scenario and overrides, or run without --resume to start again")  # fmt: skip
+        raise CosimError(
+            f"{out_dir}: the run there was made from another scenario ({_keys(differ)} differ); "
+            "give the same scenario and overrides, or run without --resume to start again"
+        )
     return _point(out_dir, scenario)
 
 
@@ -128,8 +130,10 @@ def settle(out_dir: Path) -> None:
     """Wait for the writer of an earlier run in ``out_dir`` (one killed with its run keeps its
     files for a moment after) to end."""
     if not wait_for_writer(out_dir, WRITER_WAIT_S):
-        raise CosimError(f"{out_dir}: the writer process of another run still writes here after "
-                         f"{WRITER_WAIT_S:g} s; let it end (or stop it) first")  # fmt: skip
+        raise CosimError(
+            f"{out_dir}: the writer process of another run still writes here after "
+            f"{WRITER_WAIT_S:g} s; let it end (or stop it) first"
+        )
 
 
 def _point(out_dir: Path, scenario: Scenario) -> ResumePoint | None:

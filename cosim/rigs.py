@@ -116,16 +116,19 @@ def nuscenes_hfov_deg(focal_px: float) -> float:
     return round(math.degrees(2.0 * math.atan(NUSCENES_IMAGE[0] / 2.0 / focal_px)), 4)
 
 
-def _mount(translation: tuple[float, float, float], wxyz: tuple[float, float, float, float], optical: bool = False
-           ) -> dict[str, list[float]]:  # fmt: skip
+def _mount(
+    translation: tuple[float, float, float], wxyz: tuple[float, float, float, float], optical: bool = False
+) -> dict[str, list[float]]:
     """A nuScenes mount as ours: position from our origin, body roll/pitch/yaw in degrees."""
     w, x, y, z = wxyz
     rotation = rotation_from_quaternion_xyzw(x, y, z, w)
     if optical:  # the camera body (x forward) from its optical frame
         rotation = rotation @ EGO_AXES_R_OPTICAL.T
     xyz = [translation[0] + NUSCENES_REAR_AXLE_X_M, translation[1], translation[2]]
-    return {"mount_xyz_m": [round(v, 6) for v in xyz],
-            "mount_rpy_deg": [round(float(np.degrees(a)), 6) for a in rpy_from_rotation(rotation)]}  # fmt: skip
+    return {
+        "mount_xyz_m": [round(v, 6) for v in xyz],
+        "mount_rpy_deg": [round(float(np.degrees(a)), 6) for a in rpy_from_rotation(rotation)],
+    }
 
 
 def _nuscenes() -> dict[str, Any]:

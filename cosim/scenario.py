@@ -85,8 +85,9 @@ class HazardConfig:
     def __post_init__(self) -> None:
         _check(0 < self.per_minute <= 30, "per_minute", "events per minute in (0, 30]", self.per_minute)
         lo, hi = self.distance_m
-        _check(0 < lo < hi <= 150, "distance_m", "a range [near, far] in metres, 0 < near < far <= 150",
-               self.distance_m)  # fmt: skip
+        _check(
+            0 < lo < hi <= 150, "distance_m", "a range [near, far] in metres, 0 < near < far <= 150", self.distance_m
+        )
         _check(0 <= self.time_gap_s[0] < self.time_gap_s[1], "time_gap_s", "a range [low, high] in seconds",
                self.time_gap_s)  # fmt: skip
         _check(1.0 <= self.decel_mps2 <= 12.0, "decel_mps2", "a deceleration in [1, 12] m/s^2", self.decel_mps2)
@@ -178,8 +179,9 @@ class OccupancyConfig:
         _check(all(abs(e / grid.voxel_m - round(e / grid.voxel_m)) < 1e-6 for e in extents), "range_m",
                f"extents that are whole multiples of voxel_m ({grid.voxel_m:g} m)", grid.range_m)  # fmt: skip
         voxels = int(np.prod([round(e / grid.voxel_m) for e in extents]))
-        _check(voxels <= 40_000_000, "voxel_m", f"a grid of at most 40 million voxels (this one: {voxels:,})",
-               grid.voxel_m)  # fmt: skip
+        _check(
+            voxels <= 40_000_000, "voxel_m", f"a grid of at most 40 million voxels (this one: {voxels:,})", grid.voxel_m
+        )
 
     @property
     def grid(self) -> OccupancyGrid:
@@ -254,8 +256,9 @@ class Scenario:
         rig = self.sensors
         kinds = f"{len(rig.cameras)} camera(s) and {len(rig.lidars)} LiDAR(s)"
         if self.outputs.kitti and not (rig.cameras and rig.lidars):
-            raise ValueError(f"outputs.kitti: needs a rig with a camera and a LiDAR, this one has {kinds}; "
-                             "set outputs.kitti=false")  # fmt: skip
+            raise ValueError(
+                f"outputs.kitti: needs a rig with a camera and a LiDAR, this one has {kinds}; set outputs.kitti=false"
+            )
         if self.outputs.yolo and not rig.cameras:
             raise ValueError("outputs.yolo: needs a rig with a camera, this one has none; set outputs.yolo=false")
         frame_hz = 1.0 / self.step_s
@@ -263,10 +266,12 @@ class Scenario:
         if self.outputs.kitti:
             camera, lidar = rig.cameras[0], rig.lidars[0]
             if min(camera.rate_hz, lidar.rate_hz) < frame_hz * (1 - 1e-9):
-                raise ValueError(f"outputs.kitti: KITTI pairs each image with a LiDAR sweep, so the first camera "
-                                 f"({camera.name}, {camera.rate_hz:g} Hz) and LiDAR ({lidar.name}, "
-                                 f"{lidar.rate_hz:g} Hz) must fire {every_frame}; set their rate_hz, or "
-                                 "outputs.kitti=false")  # fmt: skip
+                raise ValueError(
+                    f"outputs.kitti: KITTI pairs each image with a LiDAR sweep, so the first camera "
+                    f"({camera.name}, {camera.rate_hz:g} Hz) and LiDAR ({lidar.name}, "
+                    f"{lidar.rate_hz:g} Hz) must fire {every_frame}; set their rate_hz, or "
+                    "outputs.kitti=false"
+                )
         if self.outputs.nuscenes:
             self._check_nuscenes(frame_hz, every_frame)
         for output, cameras in (("kitti", rig.cameras[:2]), ("nuscenes", rig.cameras)):
@@ -280,19 +285,25 @@ class Scenario:
     def _check_nuscenes(self, frame_hz: float, every_frame: str) -> None:
         rig = self.sensors
         if not rig.lidars:
-            raise ValueError("outputs.nuscenes: needs a LiDAR (nuScenes's keyframes are LiDAR sweeps), this rig has "
-                             "none; add one or set outputs.nuscenes=false")  # fmt: skip
+            raise ValueError(
+                "outputs.nuscenes: needs a LiDAR (nuScenes's keyframes are LiDAR sweeps), this rig has "
+                "none; add one or set outputs.nuscenes=false"
+            )
         lidar = rig.lidars[0]
         keyframe_steps = 0.5 / self.step_s
         if lidar.rate_hz < frame_hz * (1 - 1e-9) or abs(keyframe_steps - round(keyframe_steps)) > 1e-6:
-            raise ValueError(f"outputs.nuscenes: keyframes come every 0.5 s from the first LiDAR ({lidar.name}, "
-                             f"{lidar.rate_hz:g} Hz): it must fire {every_frame} and 0.5 s must be a whole number "
-                             "of frames (step_s 0.05 or 0.1)")  # fmt: skip
+            raise ValueError(
+                f"outputs.nuscenes: keyframes come every 0.5 s from the first LiDAR ({lidar.name}, "
+                f"{lidar.rate_hz:g} Hz): it must fire {every_frame} and 0.5 s must be a whole number "
+                "of frames (step_s 0.05 or 0.1)"
+            )
         if self.rig == "nuscenes":
             for camera in rig.cameras:
                 own = NUSCENES_CAMERAS.get(camera.name)
-                if own is not None and ((camera.width_px, camera.height_px) != NUSCENES_IMAGE
-                                        or abs(camera.hfov_deg - nuscenes_hfov_deg(own[2])) > 1e-3):  # fmt: skip
+                if own is not None and (
+                    (camera.width_px, camera.height_px) != NUSCENES_IMAGE
+                    or abs(camera.hfov_deg - nuscenes_hfov_deg(own[2])) > 1e-3
+                ):
                     raise ValueError(
                         f"sensors: {camera.name}: {camera.width_px}x{camera.height_px} px, {camera.hfov_deg:g} deg "
                         f"conflicts with the nuscenes preset's {camera.name} ({NUSCENES_IMAGE[0]}x"

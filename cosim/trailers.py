@@ -54,9 +54,11 @@ def hitch_point(
 
 
 def pulled_axle(
-    axle_xy_m: npt.NDArray[np.float64] | None, hitch_xy_m: npt.NDArray[np.float64], truck_yaw_rad: float,
+    axle_xy_m: npt.NDArray[np.float64] | None,
+    hitch_xy_m: npt.NDArray[np.float64],
+    truck_yaw_rad: float,
     combination: Combination,
-) -> npt.NDArray[np.float64]:  # fmt: skip
+) -> npt.NDArray[np.float64]:
     """``(2,)`` the trailer's axle after the hitch moved to ``hitch_xy_m`` (``None``: the
     trailer starts in line with the truck), the articulation limited."""
     reach = combination.axle_to_hitch_m

@@ -46,7 +46,8 @@ def prepare_network(scenario: Scenario) -> PreparedNetwork:
         raise ScenarioError(msg)
     net_path = import_opendrive(xodr)
     street = scenario.street
-    world = build_world(net_path, markings=street.markings, xodr_path=xodr,
-                        traffic_lights=street.traffic_lights, signs=street.signs)  # fmt: skip
+    world = build_world(
+        net_path, markings=street.markings, xodr_path=xodr, traffic_lights=street.traffic_lights, signs=street.signs
+    )
     notices = [notice, *take_notices(), conversion_notice(net_path), world.notice]
     return PreparedNetwork(xodr, net_path, world, "\n".join(n for n in notices if n))

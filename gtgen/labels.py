@@ -77,8 +77,9 @@ class FrameLabels:
         return len(self.objects)
 
 
-def _hits(outputs: tuple[SensorOutput, ...], kind: type[LidarOutput | RadarOutput], track_ids: npt.NDArray[np.uint32]
-          ) -> npt.NDArray[np.int32]:  # fmt: skip
+def _hits(
+    outputs: tuple[SensorOutput, ...], kind: type[LidarOutput | RadarOutput], track_ids: npt.NDArray[np.uint32]
+) -> npt.NDArray[np.int32]:
     counts = [count_hits(o.scan.instance_id, track_ids) for o in outputs if isinstance(o, kind)]
     return sum(counts, np.zeros(track_ids.shape[0], np.int32))
 
@@ -110,8 +111,10 @@ def label_frame(
     keep = (distance <= range_m) | seen
     kept = objects.select(keep)
     map_SE3_ego = ego.map_SE3_ego()
-    camera_labels = tuple(_camera_labels(camera, kept, map_SE3_ego, scene, px[keep])
-                          for camera, px in zip(cameras, pixels_per_camera, strict=True))  # fmt: skip
+    camera_labels = tuple(
+        _camera_labels(camera, kept, map_SE3_ego, scene, px[keep])
+        for camera, px in zip(cameras, pixels_per_camera, strict=True)
+    )
     p_xy, v_xy = kept.center_ego_m[:, :2], kept.velocity_ego_mps[:, :2]
     ego_lw = (float(ego.lwh_m[0]), float(ego.lwh_m[1]))
     ttc = time_to_collision(p_xy, v_xy, kept.yaw_ego_rad, kept.lwh_m[:, :2], np.array(ego_lw))
@@ -128,6 +131,7 @@ def _camera_labels(
     spec, pinhole = camera.spec, camera.spec.pinhole
     boxes = camera_boxes(pinhole, spec.ego_SE3_sensor, objects)
     map_SE3_cam = map_SE3_ego.compose(spec.ego_SE3_sensor)
-    visibility = camera_visibility(pinhole, map_SE3_cam, objects.track_id, boxes.clipped_px, camera.frame.instance_id,
-                                   scene, visible_px)  # fmt: skip
+    visibility = camera_visibility(
+        pinhole, map_SE3_cam, objects.track_id, boxes.clipped_px, camera.frame.instance_id, scene, visible_px
+    )
     return CameraLabels(spec.name, boxes, visibility)

@@ -104,10 +104,12 @@ ATTRIBUTES = {
     "pedestrian.standing": "The pedestrian is standing.",
     "pedestrian.moving": "The pedestrian is moving.",
 }
-VISIBILITY = (("1", "v0-40", "visibility of whole object is between 0 and 40%"),
-              ("2", "v40-60", "visibility of whole object is between 40 and 60%"),
-              ("3", "v60-80", "visibility of whole object is between 60 and 80%"),
-              ("4", "v80-100", "visibility of whole object is between 80 and 100%"))  # fmt: skip
+VISIBILITY = (
+    ("1", "v0-40", "visibility of whole object is between 0 and 40%"),
+    ("2", "v40-60", "visibility of whole object is between 40 and 60%"),
+    ("3", "v60-80", "visibility of whole object is between 60 and 80%"),
+    ("4", "v80-100", "visibility of whole object is between 80 and 100%"),
+)
 MOVING_MPS = 0.3  # slower than this counts as standing still
 
 
@@ -185,14 +187,17 @@ def radar_pcd(scan: RadarScan, radar_velocity_mps: npt.NDArray[np.float64]) -> b
     sizes = " ".join(str(np.dtype(t).itemsize) for _, t in RADAR_FIELDS)
     types = " ".join("F" if t.endswith("f4") else "I" for _, t in RADAR_FIELDS)
     counts = " ".join("1" for _ in RADAR_FIELDS)
-    header = (f"# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {names}\nSIZE {sizes}\n"
-              f"TYPE {types}\nCOUNT {counts}\nWIDTH {len(rows)}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n"
-              f"POINTS {len(rows)}\nDATA binary\n")  # fmt: skip
+    header = (
+        f"# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {names}\nSIZE {sizes}\n"
+        f"TYPE {types}\nCOUNT {counts}\nWIDTH {len(rows)}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n"
+        f"POINTS {len(rows)}\nDATA binary\n"
+    )
     return header.encode() + rows.tobytes() + b"\n"
 
 
-def calibration_record(channel: str, modality: str, translation: list[float], rotation_wxyz: list[float],
-                       intrinsic: list[list[float]]) -> dict[str, Any]:  # fmt: skip
+def calibration_record(
+    channel: str, modality: str, translation: list[float], rotation_wxyz: list[float], intrinsic: list[list[float]]
+) -> dict[str, Any]:
     return {"channel": channel, "modality": modality, "translation": translation, "rotation": rotation_wxyz,
             "camera_intrinsic": intrinsic}  # fmt: skip
 

@@ -83,9 +83,11 @@ def lidarseg_of_objects(
 
 
 def panoptic_labels(
-    semantic_class: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32], number_of: dict[int, int],
+    semantic_class: npt.NDArray[np.uint8],
+    instance_id: npt.NDArray[np.uint32],
+    number_of: dict[int, int],
     category_of_track: dict[int, str] | None = None,
-) -> npt.NDArray[np.uint16]:  # fmt: skip
+) -> npt.NDArray[np.uint16]:
     """``(N,) uint16``: ``category * 1000 + instance``, the instance by ``number_of`` (track id ->
     1..999 in its scene) on the points of objects (0 where a track has no number); categories as
     :func:`lidarseg_of_objects`."""

@@ -65,8 +65,10 @@ def official_names(splits: list[Split], first: dict[str, int] | None = None) -> 
     for split in splits:
         numbers = NAMES[split]
         if taken[split] >= len(numbers):
-            raise NuscenesError(f"more than {len(numbers)} {split} scenes: nuScenes's {split} list has "
-                                f"{len(numbers)} names; merge fewer runs into one dataroot")  # fmt: skip
+            raise NuscenesError(
+                f"more than {len(numbers)} {split} scenes: nuScenes's {split} list has "
+                f"{len(numbers)} names; merge fewer runs into one dataroot"
+            )
         names.append(f"scene-{numbers[taken[split]]:04d}")
         taken[split] += 1
     return names
@@ -108,8 +110,9 @@ def partition(tables: Tables, split_of_scene: dict[str, Split]) -> dict[str, Tab
                 out[version_of(split_of_scene[scene])][table].append(record)
     for version, part in out.items():
         for task in LABEL_TASKS:
-            part[task] = [{**r, "filename": label_filename(task, version, r["sample_data_token"])}
-                          for r in part.get(task, [])]  # fmt: skip
+            part[task] = [
+                {**r, "filename": label_filename(task, version, r["sample_data_token"])} for r in part.get(task, [])
+            ]
     return out
 
 
@@ -176,8 +179,9 @@ def merge(out: Path, runs: list[Path], val: list[Path] | None = None, test: list
     roots = [run / "nuscenes" if (run / "nuscenes").is_dir() else run for run in runs]
     for run, root in zip(runs, roots, strict=True):
         if not (root / VERSION).is_dir() and not (root / TEST_VERSION).is_dir():
-            raise NuscenesError(f"{run}: no nuScenes export (expected {run}/nuscenes/{VERSION}; run it with "
-                                "outputs.nuscenes=true)")  # fmt: skip
+            raise NuscenesError(
+                f"{run}: no nuScenes export (expected {run}/nuscenes/{VERSION}; run it with outputs.nuscenes=true)"
+            )
     if out.exists() and any(out.iterdir()):
         raise NuscenesError(f"{out}: the output folder exists and is not empty")
     whole = _whole_run_splits(runs, val, test, val_fraction)
@@ -228,8 +232,9 @@ def merge(out: Path, runs: list[Path], val: list[Path] | None = None, test: list
             "annotations": len(merged["sample_annotation"]), **counts}  # fmt: skip
 
 
-def _whole_run_splits(runs: list[Path], val: list[Path] | None, test: list[Path] | None,
-                      val_fraction: float | None) -> list[Split] | None:  # fmt: skip
+def _whole_run_splits(
+    runs: list[Path], val: list[Path] | None, test: list[Path] | None, val_fraction: float | None
+) -> list[Split] | None:
     """Each run's split when whole runs are split (None: each scene keeps its run's split)."""
     if not val and not test and val_fraction is None:
         return None

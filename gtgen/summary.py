@@ -160,11 +160,15 @@ def hazard_lines(out_dir: Path) -> list[str]:
     lines = []
     for row in pd.read_csv(table).itertuples():
         ttc = "" if pd.isna(row.smallest_min_ttc) else f", smallest time to collision {row.smallest_min_ttc:.2f} s"
-        lines.append(f"hazard events, {row.kind}: {row.events} ({row.per_minute:.1f} a minute, "
-                     f"{row.asked_per_minute:g} asked{ttc})")  # fmt: skip
+        lines.append(
+            f"hazard events, {row.kind}: {row.events} ({row.per_minute:.1f} a minute, "
+            f"{row.asked_per_minute:g} asked{ttc})"
+        )
         if row.per_minute < row.asked_per_minute / 2:
-            lines.append(f"  fewer than asked: a {row.kind} starts only where the ego's way allows it "
-                         "(see Hazard scenes in the README)")  # fmt: skip
+            lines.append(
+                f"  fewer than asked: a {row.kind} starts only where the ego's way allows it "
+                "(see Hazard scenes in the README)"
+            )
     return lines
 
 

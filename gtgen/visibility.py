@@ -123,8 +123,9 @@ def camera_visibility(
     counted = count_hits(instance_mask.ravel(), track_ids) if visible_px is None else visible_px
     mask_px = counted.astype(np.int64)
     fraction = np.where(mask_px > 0, fraction, 0.0)
-    return CameraVisibility(mask_px, fraction, modal_boxes(instance_mask, track_ids), occlusion_level(fraction),
-                            visibility_bin(fraction))  # fmt: skip
+    return CameraVisibility(
+        mask_px, fraction, modal_boxes(instance_mask, track_ids), occlusion_level(fraction), visibility_bin(fraction)
+    )
 
 
 def _silhouette_hits(

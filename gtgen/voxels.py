@@ -76,8 +76,9 @@ class OccupancyGrid:
     def grid(self) -> VoxelGrid:
         lo, hi = np.asarray(self.range_m[:3]), np.asarray(self.range_m[3:])
         shape = np.rint((hi - lo) / self.voxel_m).astype(int)
-        return VoxelGrid((float(lo[0]), float(lo[1]), float(lo[2])), self.voxel_m,
-                         (int(shape[0]), int(shape[1]), int(shape[2])))  # fmt: skip
+        return VoxelGrid(
+            (float(lo[0]), float(lo[1]), float(lo[2])), self.voxel_m, (int(shape[0]), int(shape[1]), int(shape[2]))
+        )
 
 
 PRESETS = {

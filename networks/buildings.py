@@ -56,7 +56,7 @@ STYLES = {
     "residential": Style((9.0, 15.0), (8.0, 12.0), (5.0, 9.0), (4.0, 8.0), (2.5, 7.0), 0.65, (2.0, 3.5), 0.2, 0.0),
     "industrial": Style((25.0, 60.0), (20.0, 40.0), (7.0, 12.0), (6.0, 12.0), (6.0, 14.0), 0.25, (1.0, 2.0), 0.1, 0.0),
     "village": Style((7.0, 12.0), (7.0, 10.0), (4.0, 6.5), (3.0, 7.0), (5.0, 16.0), 0.9, (3.0, 5.0), 0.1, 0.0),
-}  # fmt: skip
+}
 DISTRICTS = tuple(STYLES)
 
 
@@ -88,8 +88,9 @@ class Districts:
 
     @staticmethod
     def of(net: sumolib.net.Net, seed: int) -> Districts:
-        lights = [tls.getConnections()[0][0].getEdge().getToNode() for tls in net.getTrafficLights()
-                  if tls.getConnections()]  # fmt: skip
+        lights = [
+            tls.getConnections()[0][0].getEdge().getToNode() for tls in net.getTrafficLights() if tls.getConnections()
+        ]
         if not lights:
             return Districts(None, 0.0, seed)
         xy = np.array([node.getCoord()[:2] for node in lights], dtype=np.float64)

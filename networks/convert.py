@@ -126,8 +126,9 @@ def import_opendrive(xodr_path: Path) -> Path:
         if refusal:
             refused = folder / "net.refused.xml"
             partial.replace(refused)
-            raise SumoRefusedError(f"{xodr_path}: SUMO does not load the network converted from it ({refused}): "
-                                   f"{refusal}")  # fmt: skip
+            raise SumoRefusedError(
+                f"{xodr_path}: SUMO does not load the network converted from it ({refused}): {refusal}"
+            )
         partial.replace(net)
     seal(net)
     return net
@@ -245,8 +246,9 @@ def _run_netconvert(xodr_path: Path, types_path: Path, out_path: Path, left_hand
     if not error and bare:
         edges = edges_of_roads(out_path, set(bare))
         if not edges <= set(exclude):
-            error = _netconvert(xodr_path, types_path, out_path, left_hand or says_left_hand,
-                                sorted(edges | set(exclude)))  # fmt: skip
+            error = _netconvert(
+                xodr_path, types_path, out_path, left_hand or says_left_hand, sorted(edges | set(exclude))
+            )
     return error
 
 

@@ -127,7 +127,7 @@ class HdMap:
             "elements": [element_json(e, e.points_m) for e in self.elements],
             "lanes": [{f.name: getattr(r, f.name) for f in fields(r)} for r in self.lanes],
             "junctions": [{"id": jid, "polygons": polygons_json(area)} for jid, area in self.junctions],
-        }  # fmt: skip
+        }
 
     def view(
         self, map_SE3_ego: SE3, half_x_m: float, half_y_m: float
@@ -168,8 +168,9 @@ class HdMap:
         # Area layers: a pixel is set when its centre lies in the area (exact at edges, unlike a
         # polygon fill, which also sets the pixels an edge passes through).
         rows, cols = np.mgrid[0:h, 0:w]
-        centres = np.column_stack([half_x_m - (rows.ravel() + 0.5) * resolution_m,
-                                   half_y_m - (cols.ravel() + 0.5) * resolution_m])  # fmt: skip
+        centres = np.column_stack(
+            [half_x_m - (rows.ravel() + 0.5) * resolution_m, half_y_m - (cols.ravel() + 0.5) * resolution_m]
+        )
         centres_map = centres @ map_SE3_ego.rotation[:2, :2].T + map_SE3_ego.translation[:2]
         for name in ("drivable", "crossing", "walkway"):
             area = self._areas[name].intersection(reach)
@@ -190,8 +191,9 @@ def _range_in_map(map_SE3_ego: SE3, half_x_m: float, half_y_m: float) -> Polygon
     return Polygon(map_SE3_ego.transform_from(np.column_stack([corners, np.zeros(4)]))[:, :2])
 
 
-def raster_px(xy_ego_m: npt.NDArray[np.float64], half_x_m: float, half_y_m: float, resolution_m: float
-              ) -> npt.NDArray[np.int32]:  # fmt: skip
+def raster_px(
+    xy_ego_m: npt.NDArray[np.float64], half_x_m: float, half_y_m: float, resolution_m: float
+) -> npt.NDArray[np.int32]:
     """Ego-frame points as raster (column, row) coordinates with 3 fractional bits, as OpenCV's
     drawing functions take them with ``shift=3`` (row 0 ahead, column 0 on the left)."""
     col = (half_y_m - xy_ego_m[:, 1]) / resolution_m - 0.5
@@ -230,8 +232,10 @@ def _rings(area: shapely.Geometry, holes: bool = True) -> list[npt.NDArray[np.fl
 def polygons_json(area: shapely.Geometry) -> list[list[list[list[float]]]]:
     """An area as the coordinates of a GeoJSON MultiPolygon: per polygon, its outline, then its
     holes (closed rings of x, y, rounded to mm)."""
-    return [[_round(np.asarray(part.exterior.coords)), *(_round(np.asarray(r.coords)) for r in part.interiors)]
-            for part in _polygons(area)]  # fmt: skip
+    return [
+        [_round(np.asarray(part.exterior.coords)), *(_round(np.asarray(r.coords)) for r in part.interiors)]
+        for part in _polygons(area)
+    ]
 
 
 def _areas(net: sumolib.net.Net) -> tuple[shapely.Geometry, shapely.Geometry, list[tuple[str, shapely.Geometry]]]:

@@ -103,8 +103,10 @@ def read_road_marks(xodr_path: Path | None) -> RoadMarks:
             roads[road_id] = sections
     problem = ""
     if bad:
-        problem = (f"{xodr_path}: {len(bad)} road(s) with unreadable roadMark records (first: {bad[0]}); "
-                   "their markings follow the lane rules instead")  # fmt: skip
+        problem = (
+            f"{xodr_path}: {len(bad)} road(s) with unreadable roadMark records (first: {bad[0]}); "
+            "their markings follow the lane rules instead"
+        )
     return RoadMarks(roads, problem)
 
 
@@ -129,8 +131,10 @@ def _sections(road: ElementTree.Element) -> tuple[LaneSection, ...]:
 def _mark(record: ElementTree.Element, lane_id: int) -> RoadMark:
     kind = " ".join((record.get("type") or "none").split()).lower()
     if kind not in PAINTED_TYPES and kind not in UNPAINTED_TYPES:
-        raise ValueError(f"lane {lane_id}: roadMark type {record.get('type')!r} (expected one of "
-                         f"{', '.join(PAINTED_TYPES + UNPAINTED_TYPES)})")  # fmt: skip
+        raise ValueError(
+            f"lane {lane_id}: roadMark type {record.get('type')!r} (expected one of "
+            f"{', '.join(PAINTED_TYPES + UNPAINTED_TYPES)})"
+        )
     weight = (record.get("weight") or "standard").lower()
     width = _number(record.get("width"), f"lane {lane_id}: roadMark width", 0.0)
     if width <= 0.0 or width > 1.0:
@@ -270,8 +274,9 @@ def _lines_of(
 
 def _clipped(line: _Line, length_m: float) -> _Line:
     """``line`` with its span clipped to the lane's length."""
-    return _Line(line.offset_m, max(line.s0_m, 0.0), min(line.s1_m, length_m), line.kind, line.yellow, line.width_m,
-                 line.role)  # fmt: skip
+    return _Line(
+        line.offset_m, max(line.s0_m, 0.0), min(line.s1_m, length_m), line.kind, line.yellow, line.width_m, line.role
+    )
 
 
 def _placed(mark: _Line, boundary_m: float, at_edge: bool, side: float, role: LineRole) -> _Line:
@@ -348,9 +353,11 @@ def _spans(records: tuple[RoadMark, ...], section: LaneSection, length_m: float,
 
 
 def _outer_marks(
-    edge: sumolib.net.edge.Edge, lane: sumolib.net.lane.Lane, neighbour: sumolib.net.lane.Lane | None,
+    edge: sumolib.net.edge.Edge,
+    lane: sumolib.net.lane.Lane,
+    neighbour: sumolib.net.lane.Lane | None,
     marks: RoadMarks,
-) -> list[_Line]:  # fmt: skip
+) -> list[_Line]:
     found = _od_lane(lane, marks)
     if found is not None:
         section, lane_id = found
@@ -453,7 +460,9 @@ def _zebra(lane: sumolib.net.lane.Lane) -> ClassedMesh:
         return ClassedMesh.empty()
     count = int((length + ZEBRA_STRIPE_M) // (2 * ZEBRA_STRIPE_M))
     start = (length - (2 * count - 1) * ZEBRA_STRIPE_M) / 2.0  # stripes centred on the crossing
-    return merge([
-        ribbon(_cut(shape, a, a + ZEBRA_STRIPE_M), bar, SemanticClass.LANE_MARKING, CROSSING_PAINT_HEIGHT_M)
-        for a in start + 2 * ZEBRA_STRIPE_M * np.arange(count)
-    ])  # fmt: skip
+    return merge(
+        [
+            ribbon(_cut(shape, a, a + ZEBRA_STRIPE_M), bar, SemanticClass.LANE_MARKING, CROSSING_PAINT_HEIGHT_M)
+            for a in start + 2 * ZEBRA_STRIPE_M * np.arange(count)
+        ]
+    )

@@ -42,14 +42,15 @@ FURNITURE = {  # per sidewalk: chance of a bench and bin, of a row of bollards, 
     "residential": (0.4, 0.3, 0.25),
     "industrial": (0.1, 0.2, 0.1),
     "village": (0.35, 0.1, 0.15),
-}  # fmt: skip
+}
 
 
 def motorway_barriers(net: sumolib.net.Net, paved: shapely.Geometry) -> list[ClassedMesh]:
     """Guardrails along motorway carriageways' outer edges, median barriers between
     carriageways close together."""
-    edges = sorted((e for e in net.getEdges(withInternal=False) if not e.getFunction() and is_motorway(e)),
-                   key=lambda e: e.getID())  # fmt: skip
+    edges = sorted(
+        (e for e in net.getEdges(withInternal=False) if not e.getFunction() and is_motorway(e)), key=lambda e: e.getID()
+    )
     if not edges:
         return []
     footprints = {e.getID(): shapely.union_all([_lane_area(lane) for lane in e.getLanes()]) for e in edges}
@@ -242,8 +243,9 @@ def _furniture(
     for side in (-1.0, 1.0):
         normal = np.array([-math.sin(heading), math.cos(heading)]) * side
         centre = np.array([p0.x, p0.y]) + normal * offset_m
-        area = shapely.affinity.rotate(shapely.box(-along_m / 2, -deep_m / 2, along_m / 2, deep_m / 2), heading,
-                                       origin=(0, 0), use_radians=True)  # fmt: skip
+        area = shapely.affinity.rotate(
+            shapely.box(-along_m / 2, -deep_m / 2, along_m / 2, deep_m / 2), heading, origin=(0, 0), use_radians=True
+        )
         area = shapely.affinity.translate(area, *centre)
         if keep_out.intersects(area):  # type: ignore[attr-defined]
             continue
@@ -300,12 +302,14 @@ def _shelter(centre: np.ndarray, facing: float, z0: float) -> ClassedMesh:
     o = SemanticClass.OTHER_OBJECT
     fx, fy = math.cos(facing), math.sin(facing)
     pole_xy = centre + np.array([-fy, fx]) * 2.8 + np.array([fx, fy]) * 0.6
-    return merge([
-        _box(centre, facing, (0.0, -0.7), (4.0, 0.08, 2.4), z0, o),  # back wall
-        _box(centre, facing, (0.0, 0.0), (4.2, 1.6, 0.12), z0 + 2.4, o),  # roof
-        _box(centre, facing, (-2.0, 0.0), (0.08, 1.4, 2.4), z0, o),  # side walls
-        _box(centre, facing, (2.0, 0.0), (0.08, 1.4, 2.4), z0, o),
-        *_bench(centre, facing, z0, 0.0, -0.35),
-        prism(Point(*pole_xy).buffer(0.05, quad_segs=2), z0, 2.6, SemanticClass.POLE),
-        _box(pole_xy, facing, (0.0, 0.0), (0.45, 0.04, 0.45), z0 + 2.6, o),  # the stop's sign
-    ])  # fmt: skip
+    return merge(
+        [
+            _box(centre, facing, (0.0, -0.7), (4.0, 0.08, 2.4), z0, o),  # back wall
+            _box(centre, facing, (0.0, 0.0), (4.2, 1.6, 0.12), z0 + 2.4, o),  # roof
+            _box(centre, facing, (-2.0, 0.0), (0.08, 1.4, 2.4), z0, o),  # side walls
+            _box(centre, facing, (2.0, 0.0), (0.08, 1.4, 2.4), z0, o),
+            *_bench(centre, facing, z0, 0.0, -0.35),
+            prism(Point(*pole_xy).buffer(0.05, quad_segs=2), z0, 2.6, SemanticClass.POLE),
+            _box(pole_xy, facing, (0.0, 0.0), (0.45, 0.04, 0.45), z0 + 2.6, o),  # the stop's sign
+        ]
+    )

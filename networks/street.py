@@ -120,8 +120,9 @@ def street_objects(
                 found.append((SemanticClass.TRAFFIC_SIGN, SignKind.YIELD.value, edge_id, _lanes(links), -1.0, "", -1))
         for edge_id, kmh in _speed_changes(net):
             lanes = tuple(sorted(lane.getID() for lane in net.getEdge(edge_id).getLanes() if _drives(lane)))
-            found.append((SemanticClass.TRAFFIC_SIGN, speed_limit_subtype(kmh), edge_id, lanes, SPEED_SIGN_INTO_ROAD_M,
-                          "", -1))  # fmt: skip
+            found.append(
+                (SemanticClass.TRAFFIC_SIGN, speed_limit_subtype(kmh), edge_id, lanes, SPEED_SIGN_INTO_ROAD_M, "", -1)
+            )
     out = []
     for k, (cls, subtype, edge_id, lanes, from_start, tls, link) in enumerate(found):
         light = cls == SemanticClass.TRAFFIC_LIGHT

@@ -361,8 +361,9 @@ def _tree(spot: Point, z0_m: float, rng: np.random.Generator) -> ClassedMesh:
     trunk = prism(spot.buffer(0.18, quad_segs=1), z0_m, trunk_m, SemanticClass.VEGETATION)
     bumps = rng.uniform(0.82, 1.12, (TREE_RINGS - 1, TREE_SEGMENTS))
     centre = (spot.x, spot.y, z0_m + trunk_m + tall_m / 2.0)
-    crown = ellipsoid_mesh(centre, (crown_m / 2.0, crown_m / 2.0, tall_m / 2.0), SemanticClass.VEGETATION, bumps,
-                           TREE_RINGS, TREE_SEGMENTS)  # fmt: skip
+    crown = ellipsoid_mesh(
+        centre, (crown_m / 2.0, crown_m / 2.0, tall_m / 2.0), SemanticClass.VEGETATION, bumps, TREE_RINGS, TREE_SEGMENTS
+    )
     return merge([trunk, crown])
 
 

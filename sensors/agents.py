@@ -128,7 +128,7 @@ class Agents:
 
 def motion_over(
     velocity_map_mps: npt.ArrayLike, yaw_rate_rad_s: npt.ArrayLike, dt_s: npt.ArrayLike
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:  # fmt: skip
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """``(..., 3)`` shift of a box's centre and ``(...)`` turn of its heading (radians) over ``dt_s``
     for a body moving at ``velocity_map_mps`` (at ``dt_s`` 0) whose heading turns at
     ``yaw_rate_rad_s``: speed and rate of turn kept, so the centre runs along a circular arc
@@ -169,8 +169,9 @@ class EgoState:
     yaw_rate_rad_s: float = 0.0
 
     def __post_init__(self) -> None:
-        check_arrays(self, center_map_m=(np.float64, (3,)), lwh_m=(np.float64, (3,)),
-                     velocity_map_mps=(np.float64, (3,)))  # fmt: skip
+        check_arrays(
+            self, center_map_m=(np.float64, (3,)), lwh_m=(np.float64, (3,)), velocity_map_mps=(np.float64, (3,))
+        )
 
     @classmethod
     def at(cls, map_SE3_ego: SE3, lwh_m: tuple[float, float, float] = (4.5, 1.8, 1.5)) -> EgoState:

@@ -56,7 +56,7 @@ def surface_codes(hits: RayHits) -> npt.NDArray[np.int64]:
 
 def edge_shots(
     hits: RayHits, beams: int, azimuth_steps: int, left_out: npt.NDArray[np.bool_]
-) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:  # fmt: skip
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
     """The shots (``ring * azimuth_steps + column``) next to an edge across the grid (axis 0:
     a neighbour in the same ring) and up it (axis 1: in the same column), ``left_out`` never."""
     code = surface_codes(hits)
@@ -71,9 +71,7 @@ def edge_shots(
     return out[0], out[1]
 
 
-def spot_directions(
-    dirs_lidar: npt.NDArray[np.float64], axis: int, width_rad: float
-) -> npt.NDArray[np.float64]:  # fmt: skip
+def spot_directions(dirs_lidar: npt.NDArray[np.float64], axis: int, width_rad: float) -> npt.NDArray[np.float64]:
     """``(N * SLICES, 3)`` unit directions across each direction's spot (LiDAR frame), shot by
     shot: turned about the LiDAR's z axis (axis 0) or raised (axis 1) by each slice's offset."""
     az = np.arctan2(dirs_lidar[:, 1], dirs_lidar[:, 0])[:, None]
@@ -84,9 +82,11 @@ def spot_directions(
 
 
 def beam_echoes(
-    hits: RayHits, spots: list[tuple[npt.NDArray[np.intp], RayHits]],
-    power_of: Callable[[RayHits], npt.NDArray[np.float64]], dual: bool,
-) -> BeamEchoes:  # fmt: skip
+    hits: RayHits,
+    spots: list[tuple[npt.NDArray[np.intp], RayHits]],
+    power_of: Callable[[RayHits], npt.NDArray[np.float64]],
+    dual: bool,
+) -> BeamEchoes:
     """The echoes of a sweep's shots: ``hits`` are the shots' own, ``spots`` per axis the shots
     looked at closely and what their :data:`SLICES` rays each met (shot by shot), ``power_of``
     the received power of a whole spot on each hit (reflectance / range^2 in any unit);
@@ -154,8 +154,9 @@ def beam_echoes(
     met = np.isfinite(r_one)
     ratio = np.where(met, np.where(met, r_strong, 1.0) / np.maximum(np.where(met, r_one, 1.0), 1e-6), 1.0)
     whole = p_strong * ratio**2  # the stronger surface's whole-spot power at r_one
-    share[edge] = np.where(merge, (p_a + p_b) / np.maximum(whole, 1e-300), np.where(b_wins, best_other[edge],
-                                                                                     own_share[edge]))  # fmt: skip
+    share[edge] = np.where(
+        merge, (p_a + p_b) / np.maximum(whole, 1e-300), np.where(b_wins, best_other[edge], own_share[edge])
+    )
     out = RayHits(range_m, cls, inst, normal, part)
     ray_of = np.arange(n, dtype=np.intp)
     apart = np.flatnonzero(own_hit & ~merge)

@@ -757,8 +757,10 @@ def _recoloured(piece: Piece, parts: dict[int, int]) -> Piece:
 def work_truck(length: float = 7.0, width: float = 2.5, h: float = 3.2) -> Piece:
     """A construction site's truck: a box truck in safety yellow with retro-reflective stripes
     along its sides and an amber beacon on the cab roof."""
-    body = _recoloured(box_truck(length, width, h), {int(Part.PAINT): int(Part.SAFETY_YELLOW),
-                                                     int(Part.CARGO): int(Part.SAFETY_YELLOW)})  # fmt: skip
+    body = _recoloured(
+        box_truck(length, width, h),
+        {int(Part.PAINT): int(Part.SAFETY_YELLOW), int(Part.CARGO): int(Part.SAFETY_YELLOW)},
+    )
     hl, hw = length / 2, width / 2 - 0.01
     pieces = [body]
     for side in (-1.0, 1.0):  # stripes on the box's sides, standing 4 mm out of them

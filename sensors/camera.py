@@ -67,8 +67,9 @@ class CameraSpec:
 
     def __post_init__(self) -> None:
         if self.shading not in SHADING_STYLES:
-            raise SensorConfigError(f"camera {self.name}: shading must be one of {', '.join(SHADING_STYLES)}, "
-                                    f"got {self.shading!r}")  # fmt: skip
+            raise SensorConfigError(
+                f"camera {self.name}: shading must be one of {', '.join(SHADING_STYLES)}, got {self.shading!r}"
+            )
         if not (8 <= self.width_px <= 8192 and 8 <= self.height_px <= 8192):
             raise SensorConfigError(f"camera {self.name}: width_px and height_px must be 8..8192")
         if not 1.0 <= self.hfov_deg <= 170.0:
@@ -77,13 +78,17 @@ class CameraSpec:
             raise SensorConfigError(f"camera {self.name}: range_m and rate_hz must be > 0")
         longest = min(MAX_SHUTTER_S, 1.0 / self.rate_hz)
         if not (0.0 <= self.shutter_s <= longest):
-            raise SensorConfigError(f"camera {self.name}: shutter_s must be 0..{longest:g} s (at most one frame at "
-                                    f"rate_hz {self.rate_hz:g}), got {self.shutter_s}")  # fmt: skip
+            raise SensorConfigError(
+                f"camera {self.name}: shutter_s must be 0..{longest:g} s (at most one frame at "
+                f"rate_hz {self.rate_hz:g}), got {self.shutter_s}"
+            )
         if self.shutter_s > 0 and self.shading == "flat":
             raise SensorConfigError(f"camera {self.name}: shutter_s (motion blur) needs shading: realistic")
         if len(self.distortion) != 5:
-            raise SensorConfigError(f"camera {self.name}: distortion must be 5 numbers (OpenCV's k1, k2, p1, p2, k3), "
-                                    f"got {len(self.distortion)}")  # fmt: skip
+            raise SensorConfigError(
+                f"camera {self.name}: distortion must be 5 numbers (OpenCV's k1, k2, p1, p2, k3), "
+                f"got {len(self.distortion)}"
+            )
         why = self.pinhole.check_lens()
         if why is not None:
             raise SensorConfigError(
@@ -168,8 +173,9 @@ class Camera:
                               part=hits.part, origin_map_m=np.asarray(origin, np.float64), sun_lit=sun_lit,
                               boxes=boxes_in_view(scene.agents, hits.instance_id), extra=extra,
                               shutter_s=self.spec.shutter_s, ego_velocity_map_mps=ego.velocity_map_mps)  # fmt: skip
-        frame = CameraFrame(depth.reshape(h, w), hits.instance_id.reshape(h, w), hits.semantic_class.reshape(h, w),
-                            shading)  # fmt: skip
+        frame = CameraFrame(
+            depth.reshape(h, w), hits.instance_id.reshape(h, w), hits.semantic_class.reshape(h, w), shading
+        )
         return CameraOutput(self.spec, frame)
 
     def _supersamples(self, scene: Scene, map_SE3_cam: SE3, hits: RayHits, weather: Weather) -> Supersamples:
@@ -189,8 +195,9 @@ class Camera:
         sub = scene.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, dirs_cam)
         far = sub.range_m > np.float32(self.spec.range_m)
         sub.range_m[far] = np.inf
-        dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), map_SE3_cam.rotation.astype(np.float32)),
-                              np.float32).reshape(-1, 3)  # fmt: skip
+        dirs_map = np.asarray(
+            cv2.transform(dirs_cam.reshape(-1, 1, 3), map_SE3_cam.rotation.astype(np.float32)), np.float32
+        ).reshape(-1, 3)
         lit = sun_visibility(scene, map_SE3_cam.translation, dirs_map, sub.range_m, sub.normal, weather)
         return Supersamples(
             pixel, dirs_cam, sub.range_m, sub.semantic_class, sub.instance_id, sub.part, sub.normal, lit

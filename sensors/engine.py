@@ -39,9 +39,11 @@ class Scene(Protocol):
         ...
 
     def cast_from(
-        self, origin_map_m: npt.NDArray[np.float64], map_R_sensor: npt.NDArray[np.float64],
+        self,
+        origin_map_m: npt.NDArray[np.float64],
+        map_R_sensor: npt.NDArray[np.float64],
         dirs_sensor: npt.NDArray[np.float32],
-    ) -> RayHits:  # fmt: skip
+    ) -> RayHits:
         """Rays from one origin along unit directions ``(N, 3) float32`` given in a sensor's
         frame turned by ``map_R_sensor`` (a sensor passes the same directions array every
         frame: an engine may keep it)."""

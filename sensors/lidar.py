@@ -77,8 +77,9 @@ class LidarSpec:
         if self.elevations_deg:
             e = self.elevations_deg
             if len(e) != self.beams or any(b <= a for a, b in itertools.pairwise(e)) or not -90 <= e[0] <= e[-1] <= 90:
-                raise SensorConfigError(f"lidar {self.name}: elevations_deg must hold `beams` ({self.beams}) angles, "
-                                        "rising, within -90..90")  # fmt: skip
+                raise SensorConfigError(
+                    f"lidar {self.name}: elevations_deg must hold `beams` ({self.beams}) angles, rising, within -90..90"
+                )
         if not 1 <= self.beams <= 512:
             raise SensorConfigError(f"lidar {self.name}: beams must be 1..512, got {self.beams}")
         if not 8 <= self.azimuth_steps <= 16384:
@@ -92,8 +93,10 @@ class LidarSpec:
         if not 0.0 <= self.range_10pct_m <= self.range_m:
             raise SensorConfigError(f"lidar {self.name}: range_10pct_m must be in 0..range_m, got {self.range_10pct_m}")
         if (self.firing, self.beams) not in {("hdl64e", 64), ("hdl32e", 32)} and self.firing != "even":
-            raise SensorConfigError(f"lidar {self.name}: firing {self.firing} needs "
-                                    f"{64 if self.firing == 'hdl64e' else 32} beams, got {self.beams}")  # fmt: skip
+            raise SensorConfigError(
+                f"lidar {self.name}: firing {self.firing} needs "
+                f"{64 if self.firing == 'hdl64e' else 32} beams, got {self.beams}"
+            )
         self._check_beam()
 
     def _check_beam(self) -> None:
@@ -101,15 +104,20 @@ class LidarSpec:
         column_mrad = 2000.0 * np.pi / self.azimuth_steps
         ring_mrad = 1000.0 * float(np.diff(self.elevations_rad()).min()) if self.beams > 1 else np.inf
         if not (0.0 <= h < column_mrad and 0.0 <= v < min(ring_mrad, column_mrad)):
-            raise SensorConfigError(f"lidar {self.name}: beam_divergence_mrad must be >= 0 and narrower than the "
-                                    f"grid's spacing ({column_mrad:.2f} mrad across, {ring_mrad:.2f} mrad up), "
-                                    f"got {list(self.beam_divergence_mrad)}")  # fmt: skip
+            raise SensorConfigError(
+                f"lidar {self.name}: beam_divergence_mrad must be >= 0 and narrower than the "
+                f"grid's spacing ({column_mrad:.2f} mrad across, {ring_mrad:.2f} mrad up), "
+                f"got {list(self.beam_divergence_mrad)}"
+            )
         if self.returns == "dual" and self.firing == "hdl64e":
-            raise SensorConfigError(f"lidar {self.name}: returns dual: the HDL-64E S2 (firing hdl64e) reports "
-                                    "one return per shot")  # fmt: skip
+            raise SensorConfigError(
+                f"lidar {self.name}: returns dual: the HDL-64E S2 (firing hdl64e) reports one return per shot"
+            )
         if self.returns == "dual" and not h > 0 and not v > 0:
-            raise SensorConfigError(f"lidar {self.name}: returns dual needs beam_divergence_mrad (second echoes "
-                                    "come from beams straddling edges)")  # fmt: skip
+            raise SensorConfigError(
+                f"lidar {self.name}: returns dual needs beam_divergence_mrad (second echoes "
+                "come from beams straddling edges)"
+            )
 
     @property
     def ego_SE3_sensor(self) -> SE3:
@@ -244,12 +252,14 @@ class Lidar:
         still = np.zeros((0, 3), np.float32)
         if self.spec.deskew:
             still = deskewed(xyz, t_s, self._t_ref_s, ego, map_SE3_lidar) if timed else xyz.copy()
-        scan = LidarScan(xyz, intensity.astype(np.float32, copy=False), self._ring[shot], cls, hits.instance_id[idx],
-                         t_s, still)  # fmt: skip
+        scan = LidarScan(
+            xyz, intensity.astype(np.float32, copy=False), self._ring[shot], cls, hits.instance_id[idx], t_s, still
+        )
         return LidarOutput(self.spec, scan)
 
-    def _beam_echoes(self, scene: Scene, ego: EgoState, cast: CastSweep, hits: RayHits,
-                     left_out: npt.NDArray[np.bool_]) -> BeamEchoes:  # fmt: skip
+    def _beam_echoes(
+        self, scene: Scene, ego: EgoState, cast: CastSweep, hits: RayHits, left_out: npt.NDArray[np.bool_]
+    ) -> BeamEchoes:
         """The echoes of wide beams (:mod:`sensors.beam`): the shots next to edges looked at
         across their spots, with rays cast at their shots' times."""
         spec = self.spec
@@ -269,8 +279,9 @@ class Lidar:
         retro-reflectors) / range^2; 0 where nothing was met."""
         reflectance, retro = lidar_reflectance(hits.semantic_class, hits.part, hits.instance_id)
         r = np.where(hits.hit, hits.range_m, 1.0).astype(np.float64)
-        return np.asarray(np.where(hits.hit, reflectance * np.where(retro, RETRO_GAIN, 1.0) / np.maximum(r, 0.1) ** 2,
-                                   0.0))  # fmt: skip
+        return np.asarray(
+            np.where(hits.hit, reflectance * np.where(retro, RETRO_GAIN, 1.0) / np.maximum(r, 0.1) ** 2, 0.0)
+        )
 
     def _cast_beside(
         self, scene: Scene, ego: EgoState, cast: CastSweep, shot: npt.NDArray[np.intp],
@@ -295,12 +306,13 @@ class Lidar:
         by_agent = np.argsort(agent, kind="stable")
         sub, agent = sub[by_agent], agent[by_agent]
         dt_s = self._t_s[shot] - self._t_ref_s
-        return nearest(scene.cast_static(rays), scene.agents, sub, agent, scene.cast_agents_moving(rays, dt_s, sub,
-                                                                                                  agent))  # fmt: skip
+        return nearest(
+            scene.cast_static(rays), scene.agents, sub, agent, scene.cast_agents_moving(rays, dt_s, sub, agent)
+        )
 
     def detection_probability(
         self, hits: RayHits, rays: npt.NDArray[np.float32], share: npt.NDArray[np.float64] | None = None
-    ) -> npt.NDArray[np.float64]:  # fmt: skip
+    ) -> npt.NDArray[np.float64]:
         """``(N,)`` chance that each hit's echo rises above the sensor's noise floor: received
         power ``reflectance / range^2`` against that of a 10 % target at ``range_10pct_m``, which
         returns half the time; a logistic in log power (it falls from 0.9 to 0.1 as the power
@@ -317,7 +329,7 @@ class Lidar:
 
     def _power_ratio(
         self, reflectance: npt.NDArray[np.float32], retro: npt.NDArray[np.bool_], range_m: npt.NDArray[np.float32]
-    ) -> npt.NDArray[np.float64]:  # fmt: skip
+    ) -> npt.NDArray[np.float64]:
         """``(N,)`` received power against the noise floor's (that of a 10 % target at ``range_10pct_m``)."""
         power = reflectance * np.where(retro, RETRO_GAIN, 1.0) / np.maximum(range_m.astype(np.float64), 0.1) ** 2
         return np.asarray(power * (self.spec.range_10pct_m**2 / 0.1))
@@ -387,8 +399,7 @@ class Lidar:
         static = scene.cast_static(rays)
         agents = scene.agents
         dt_range = (-self._t_ref_s, self.spec.period_s - self._t_ref_s)
-        ray_i, agent_i = near_pairs(agents, ego, map_SE3_lidar, dt_range, self.spec.azimuth_steps,
-                                    self._elevation_rad)  # fmt: skip
+        ray_i, agent_i = near_pairs(agents, ego, map_SE3_lidar, dt_range, self.spec.azimuth_steps, self._elevation_rad)
         hits = nearest(static, agents, ray_i, agent_i, scene.cast_agents_moving(rays, dt_s, ray_i, agent_i))
         return CastSweep(rays, hits, map_SE3_lidar, (ray_i, agent_i), turn)
 

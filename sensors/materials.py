@@ -118,8 +118,9 @@ REFLECTIVITY_BY_CLASS = _table(_REFLECTIVITY)
 # incidence angles (glass beads in road paint, prismatic sheeting on signs: EN 1436, EN 12899-1):
 # their LiDAR return hardly weakens as the beam grazes them.
 RETRO_BY_CLASS = np.zeros(256, dtype=np.bool_)
-RETRO_BY_CLASS[[int(SemanticClass.LANE_MARKING), int(SemanticClass.LANE_MARKING_YELLOW),
-                int(SemanticClass.TRAFFIC_SIGN)]] = True  # fmt: skip
+RETRO_BY_CLASS[
+    [int(SemanticClass.LANE_MARKING), int(SemanticClass.LANE_MARKING_YELLOW), int(SemanticClass.TRAFFIC_SIGN)]
+] = True
 RADAR_REFLECTIVITY_BY_CLASS = _table(_RADAR_REFLECTIVITY)
 ALBEDO_BGR_BY_CLASS = np.full((256, 3), 0.5, dtype=np.float32)
 for _cls, _bgr in _ALBEDO_BGR.items():

@@ -57,8 +57,9 @@ class _Part:
         self.scene: Any = None
         if self.triangles:
             used, local = np.unique(triangles.ravel(), return_inverse=True)
-            mesh = mi.Mesh(name, int(used.shape[0]), self.triangles, has_vertex_normals=False,
-                           has_vertex_texcoords=False)  # fmt: skip
+            mesh = mi.Mesh(
+                name, int(used.shape[0]), self.triangles, has_vertex_normals=False, has_vertex_texcoords=False
+            )
             params = mi.traverse(mesh)
             params["vertex_positions"] = mi.Float(np.ascontiguousarray(vertices[used], dtype=np.float32).ravel())
             params["faces"] = mi.UInt32(local.astype(np.uint32))
@@ -139,9 +140,11 @@ class MitsubaScene:
         return self._hits(ray)
 
     def cast_from(
-        self, origin_map_m: npt.NDArray[np.float64], map_R_sensor: npt.NDArray[np.float64],
+        self,
+        origin_map_m: npt.NDArray[np.float64],
+        map_R_sensor: npt.NDArray[np.float64],
         dirs_sensor: npt.NDArray[np.float32],
-    ) -> RayHits:  # fmt: skip
+    ) -> RayHits:
         """The same ray directions as the reference engine's (turned by OpenCV in float32), one origin."""
         dirs = np.asarray(cv2.transform(dirs_sensor.reshape(-1, 1, 3), np.asarray(map_R_sensor, np.float32)))
         dirs = dirs.reshape(-1, 3)

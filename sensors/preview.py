@@ -82,8 +82,10 @@ def demo_scene() -> tuple[ClassedMesh, Agents]:
     road = flat_polygon(box(-20, -5, 200, 5), 0.0, SemanticClass.ROAD)
     walks = [prism(box(-20, s * 5, 200, s * 9), 0.0, 0.15, SemanticClass.SIDEWALK) for s in (-1, 1)]
     grass = [flat_polygon(box(-20, s * 9, 200, s * 60), 0.1, SemanticClass.TERRAIN) for s in (-1, 1)]
-    houses = [prism(Polygon([(x, y), (x + 14, y), (x + 14, y + 10), (x, y + 10)]), 0.0, h, SemanticClass.BUILDING)
-              for x, y, h in ((25, 11, 9), (45, -21, 14), (70, 12, 20))]  # fmt: skip
+    houses = [
+        prism(Polygon([(x, y), (x + 14, y), (x + 14, y + 10), (x, y + 10)]), 0.0, h, SemanticClass.BUILDING)
+        for x, y, h in ((25, 11, 9), (45, -21, 14), (70, 12, 20))
+    ]
     pole = prism(box(18, 6, 18.3, 6.3), 0.0, 6.0, SemanticClass.POLE)
     static = merge([road, *walks, *grass, *houses, pole])
     rows = [  # class, x, y, l, w, h, yaw

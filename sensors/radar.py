@@ -118,8 +118,9 @@ class RadarOutput:
     scan: RadarScan
 
 
-def strength_db(reflectivity: npt.NDArray[np.floating], cos_incidence: npt.NDArray[np.floating],
-                range_m: npt.NDArray[np.floating]) -> npt.NDArray[np.float64]:  # fmt: skip
+def strength_db(
+    reflectivity: npt.NDArray[np.floating], cos_incidence: npt.NDArray[np.floating], range_m: npt.NDArray[np.floating]
+) -> npt.NDArray[np.float64]:
     """RCS-like strength: ``10 log10(reflectivity * |cos(incidence)|) - 40 log10(range / 1 m)``
     (the radar equation's 1/R^4), floored at -200 dB."""
     rcs = np.maximum(np.asarray(reflectivity, np.float64) * np.abs(cos_incidence), 1e-20)
@@ -170,8 +171,9 @@ class Radar:
         """Which spheres this radar's rays may meet within its range (see :mod:`sensors.view`)."""
         radar_SE3_map = map_SE3_ego.compose(self.spec.ego_SE3_sensor).inverse()
         spec = self.spec
-        return spheres_in_view(radar_SE3_map, center_map_m, radius_m, spec.range_m, spec.hfov_deg, spec.vfov_deg,
-                               elevation_fov=True)  # fmt: skip
+        return spheres_in_view(
+            radar_SE3_map, center_map_m, radius_m, spec.range_m, spec.hfov_deg, spec.vfov_deg, elevation_fov=True
+        )
 
     def rays(self, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
         return sensor_rays(map_SE3_ego.compose(self.spec.ego_SE3_sensor), self._dirs32)

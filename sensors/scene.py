@@ -78,8 +78,10 @@ class StaticCrop:
             self._surfaces = RaycastingScene()
             crop = self._crop
             if crop.triangles.shape[0]:
-                self._surfaces.add_triangles(o3c.Tensor.from_numpy(np.ascontiguousarray(crop.vertices_m, np.float32)),
-                                             o3c.Tensor.from_numpy(crop.triangles.astype(np.uint32)))  # fmt: skip
+                self._surfaces.add_triangles(
+                    o3c.Tensor.from_numpy(np.ascontiguousarray(crop.vertices_m, np.float32)),
+                    o3c.Tensor.from_numpy(crop.triangles.astype(np.uint32)),
+                )
         rays = np.zeros((xyz_m.shape[0], 6), np.float32)
         rays[:, :3], rays[:, 5] = xyz_m, -1.0
         t_hit = self._surfaces.cast_rays(o3c.Tensor.from_numpy(rays))["t_hit"].numpy().astype(np.float64)
@@ -167,9 +169,11 @@ class FrameScene:
         return dict(self._scene.cast_rays(tensor, nthreads=self._nthreads))
 
     def cast_from(
-        self, origin_map_m: npt.NDArray[np.float64], map_R_sensor: npt.NDArray[np.float64],
+        self,
+        origin_map_m: npt.NDArray[np.float64],
+        map_R_sensor: npt.NDArray[np.float64],
         dirs_sensor: npt.NDArray[np.float32],
-    ) -> RayHits:  # fmt: skip
+    ) -> RayHits:
         return self.cast(sensor_rays(SE3(map_R_sensor, origin_map_m), dirs_sensor))
 
     def cast(self, rays: npt.NDArray[np.float32]) -> RayHits:
@@ -226,12 +230,15 @@ def _triangle_runs(triangle_instance: npt.NDArray[np.uint32]) -> dict[int, tuple
     return {int(i): (int(a), int(b)) for i, a, b in zip(triangle_instance[starts], starts, ends, strict=True)}
 
 
-def _cast_one(vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32],
-              rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:  # fmt: skip
+def _cast_one(
+    vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32], rays: npt.NDArray[np.float32]
+) -> npt.NDArray[np.bool_]:
     first, last = int(triangles.min()), int(triangles.max())
     scene = RaycastingScene()
-    scene.add_triangles(o3c.Tensor.from_numpy(np.ascontiguousarray(vertices[first : last + 1])),
-                        o3c.Tensor.from_numpy((triangles - first).astype(np.uint32)))  # fmt: skip
+    scene.add_triangles(
+        o3c.Tensor.from_numpy(np.ascontiguousarray(vertices[first : last + 1])),
+        o3c.Tensor.from_numpy((triangles - first).astype(np.uint32)),
+    )
     result = scene.cast_rays(o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32)), nthreads=1)
     return np.asarray(result["geometry_ids"].numpy() != np.uint32(INVALID_ID))
 
@@ -247,8 +254,10 @@ def _unit_scene(key: tuple[int, int, int]) -> tuple[Any, npt.NDArray[np.uint8]]:
     if key not in _UNIT_SCENES:
         template = template_of(*key)
         scene = RaycastingScene()
-        scene.add_triangles(o3c.Tensor.from_numpy(template.unit_vertices.astype(np.float32)),
-                            o3c.Tensor.from_numpy(template.triangles.astype(np.uint32)))  # fmt: skip
+        scene.add_triangles(
+            o3c.Tensor.from_numpy(template.unit_vertices.astype(np.float32)),
+            o3c.Tensor.from_numpy(template.triangles.astype(np.uint32)),
+        )
         _UNIT_SCENES[key] = (scene, np.append(template.triangle_part, np.uint8(0)).astype(np.uint8))
     return _UNIT_SCENES[key]
 

@@ -282,8 +282,9 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         )
         linear[extra.pixel] = (linear[extra.pixel] + sub_lin.reshape(-1, sub, 3).sum(axis=1)) / np.float32(sub + 1)
     if sh.shutter_s > 0 and sh.ego_velocity_map_mps is not None:
-        motion = image_motion_px(sh.pinhole, dirs_cam, range_m, instances, sh.map_R_cam, sh.boxes,
-                                 sh.ego_velocity_map_mps, sh.shutter_s)  # fmt: skip
+        motion = image_motion_px(
+            sh.pinhole, dirs_cam, range_m, instances, sh.map_R_cam, sh.boxes, sh.ego_velocity_map_mps, sh.shutter_s
+        )
         linear = motion_blur(linear.reshape(h, w, 3), motion.reshape(h, w, 2)).reshape(-1, 3)
     lens = np.asarray(cv2.GaussianBlur(linear.reshape(h, w, 3), (0, 0), LENS_BLUR_PX), np.float32)
     linear = bloom(lens).reshape(-1, 3)

@@ -139,7 +139,7 @@ def sensor_pose_at(ego: EgoState, map_SE3_sensor: SE3, dt_s: float) -> SE3:
 
 def sensor_origins(
     ego: EgoState, origin_map_m: npt.NDArray[np.float64], dt_s: npt.NDArray[np.float64]
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:  # fmt: skip
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """``(N, 3)`` where a point fixed to the ego (at ``origin_map_m`` at the reference time) is at
     each of ``dt_s`` and ``(N,)`` how far the ego has turned then (radians, counter-clockwise)."""
     shift, turn = motion_over(ego.velocity_map_mps, np.float64(ego.yaw_rate_rad_s), dt_s[:, None])
@@ -173,8 +173,9 @@ def _pairs_of(
     return (rings[:, None] * azimuth_steps + columns[None, :]).ravel()
 
 
-def nearest(static: RayHits, agents: Agents, ray_index: npt.NDArray[np.intp], agent_index: npt.NDArray[np.intp],
-            pairs: PairHits) -> RayHits:  # fmt: skip
+def nearest(
+    static: RayHits, agents: Agents, ray_index: npt.NDArray[np.intp], agent_index: npt.NDArray[np.intp], pairs: PairHits
+) -> RayHits:
     """Per ray, the nearer of its static hit and its agents' hits."""
     range_m = static.range_m.copy()
     hit = np.isfinite(pairs.range_m)

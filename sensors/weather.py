@@ -82,8 +82,10 @@ class Weather:
         if sun.shape != (3,) or not np.isclose(np.linalg.norm(sun), 1.0, atol=0.05):
             raise SensorConfigError(f"weather {self.name}: sun_dir_map must be a unit 3-vector")
         if self.sun_gain > 0 and sun[2] < SUN_MIN_Z:
-            raise SensorConfigError(f"weather {self.name}: the sun must stand at least 27 degrees high "
-                                    f"(sun_dir_map z >= {SUN_MIN_Z:.3f}), got z = {sun[2]:.3f}")  # fmt: skip
+            raise SensorConfigError(
+                f"weather {self.name}: the sun must stand at least 27 degrees high "
+                f"(sun_dir_map z >= {SUN_MIN_Z:.3f}), got z = {sun[2]:.3f}"
+            )
 
 
 PRESETS: dict[str, Weather] = {

@@ -33,8 +33,10 @@ STREET = 13.5  # a town street
 
 
 def _two_way(a: str, b: str, speed_mps: float, sidewalk_m: float = 2.5) -> tuple[PlainEdge, PlainEdge]:
-    return (PlainEdge(f"{a}_{b}", a, b, speed_mps=speed_mps, sidewalk_width_m=sidewalk_m),
-            PlainEdge(f"{b}_{a}", b, a, speed_mps=speed_mps, sidewalk_width_m=sidewalk_m))  # fmt: skip
+    return (
+        PlainEdge(f"{a}_{b}", a, b, speed_mps=speed_mps, sidewalk_width_m=sidewalk_m),
+        PlainEdge(f"{b}_{a}", b, a, speed_mps=speed_mps, sidewalk_width_m=sidewalk_m),
+    )
 
 
 def _motorway(a: str, b: str, lanes: int = 2, sidewalk: bool = True, spread: str = "right") -> PlainEdge:
@@ -126,8 +128,9 @@ def _rewrite(road: ElementTree.Element, how: dict[str, str]) -> None:
             speeds = how.get("lane_speeds", how["speed"]).split()
             anchor = next((k for k, c in enumerate(lane) if c.tag not in ("link", "width", "roadMark")), len(lane))
             for k, value in enumerate(speeds):
-                record = ElementTree.Element("speed", {"sOffset": f"{k * length / len(speeds):.2f}", "max": value,
-                                                       "unit": how["unit"]})  # fmt: skip
+                record = ElementTree.Element(
+                    "speed", {"sOffset": f"{k * length / len(speeds):.2f}", "max": value, "unit": how["unit"]}
+                )
                 lane.insert(anchor + k, record)
             if "lanes" in how:
                 lane.set("type", how["lanes"])

@@ -116,8 +116,9 @@ def render(nusc: NuScenes, out: Path) -> list[str]:
     lidar = sample["data"]["LIDAR_TOP"]
     for kind in ("lidarseg", "panoptic"):
         path = out / f"LIDAR_TOP_{kind}.png"
-        nusc.render_sample_data(lidar, show_lidarseg=kind == "lidarseg", show_panoptic=kind == "panoptic",
-                                out_path=str(path), verbose=False)  # fmt: skip
+        nusc.render_sample_data(
+            lidar, show_lidarseg=kind == "lidarseg", show_panoptic=kind == "panoptic", out_path=str(path), verbose=False
+        )
         written.append(str(path))
     return written
 
@@ -143,16 +144,19 @@ def point_labels(nusc: NuScenes, out: Path) -> dict[str, object]:
         sd = nusc.get("sample_data", record["sample_data_token"])
         cloud = LidarPointCloud.from_file(str(Path(nusc.dataroot) / sd["filename"]))
         labels = load_bin_file(str(Path(nusc.dataroot) / record["filename"]), type="lidarseg")
-        panoptic = load_bin_file(str(Path(nusc.dataroot) / nusc.get("panoptic", sd["token"])["filename"]),
-                                 type="panoptic")  # fmt: skip
+        panoptic = load_bin_file(
+            str(Path(nusc.dataroot) / nusc.get("panoptic", sd["token"])["filename"]), type="panoptic"
+        )
         assert len(labels) == len(panoptic) == cloud.nbr_points()
         per_category.update(nusc.lidarseg_idx2name_mapping[int(i)] for i in labels)
         same_semantics += int(np.sum(panoptic_to_lidarseg(panoptic) == labels))
         points += len(labels)
         scene = nusc.get("sample", sd["sample_token"])["scene_token"]
         instances |= {(scene, int(v % 1000)) for v in np.unique(panoptic) if v % 1000}
-    ours = {r["sample_data_token"]: load_bin_file(str(Path(nusc.dataroot) / r["filename"]), type="panoptic")
-            for r in nusc.panoptic}  # fmt: skip
+    ours = {
+        r["sample_data_token"]: load_bin_file(str(Path(nusc.dataroot) / r["filename"]), type="panoptic")
+        for r in nusc.panoptic
+    }
     generate_panoptic_labels(nusc, str(out / "devkit_panoptic"))
     agree = total = 0
     for sd_token, labels in ours.items():
@@ -207,8 +211,9 @@ def ground_truth_as_predictions(nusc: NuScenes, split: str, out: Path) -> dict[s
         detection_data_classes.DETECTION_NAMES = names
     config.class_names = present
     det_path = submission(out / "detection_results.json", gt, "detection_score", samples)
-    det = DetectionEval(nusc, config=config, result_path=str(det_path), eval_set=split,
-                        output_dir=str(out / "detection"), verbose=False)  # fmt: skip
+    det = DetectionEval(
+        nusc, config=config, result_path=str(det_path), eval_set=split, output_dir=str(out / "detection"), verbose=False
+    )
     metrics, _ = det.evaluate()
     summary = metrics.serialize()
 

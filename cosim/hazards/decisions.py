@@ -164,8 +164,10 @@ class Kerb:
 # --- pacing -------------------------------------------------------------------------------------
 def cut_in_gaps(hazard: HazardConfig, ego_speed: float) -> tuple[float, float]:
     """The gaps a cut-in may leave at this speed: within ``distance_m`` and ``time_gap_s``."""
-    return (max(hazard.distance_m[0], hazard.time_gap_s[0] * ego_speed),
-            min(hazard.distance_m[1], hazard.time_gap_s[1] * ego_speed))  # fmt: skip
+    return (
+        max(hazard.distance_m[0], hazard.time_gap_s[0] * ego_speed),
+        min(hazard.distance_m[1], hazard.time_gap_s[1] * ego_speed),
+    )
 
 
 def leader_change(wanted_m: float, gap_m: float, left_s: float) -> float:

@@ -62,8 +62,9 @@ class Sight:
         views = [(s.mount_xyz_m, s.mount_rpy_deg[2], 360.0, s.range_m) for s in rig.lidars]
         views += [(s.mount_xyz_m, s.mount_rpy_deg[2], s.hfov_deg, s.range_m) for s in rig.cameras]
         views += [(s.mount_xyz_m, s.mount_rpy_deg[2], s.hfov_deg, s.range_m) for s in rig.radars]
-        sensors = tuple((xyz[0], xyz[1], math.radians(yaw), math.radians(fov / 2.0), rng)
-                        for xyz, yaw, fov, rng in views)  # fmt: skip
+        sensors = tuple(
+            (xyz[0], xyz[1], math.radians(yaw), math.radians(fov / 2.0), rng) for xyz, yaw, fov, rng in views
+        )
         label = max((s.range_m for s in rig.lidars), default=max(v[3] for v in views))
         return cls(sensors, label)
 

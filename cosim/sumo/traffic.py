@@ -213,8 +213,9 @@ class Traffic:
         lane = lanes[zone.lane]
         libsumo.lane.setDisallowed(lane.getID(), ["all"])
         side = 1 if max(open_lanes) > zone.lane else -1  # the open lane beside it: left (+1) or right
-        layout = zone_layout(lane.getShape3D(), lane.getWidth(), side, zone.start_m, zone.length_m,
-                             zone.cone_spacing_m, zone.vehicle)  # fmt: skip
+        layout = zone_layout(
+            lane.getShape3D(), lane.getWidth(), side, zone.start_m, zone.length_m, zone.cone_spacing_m, zone.vehicle
+        )
         n = len(layout)
         agents = Agents.standing(np.arange(1, n + 1, dtype=np.uint32), layout.semantic_class, layout.center_map_m,
                                  layout.lwh_m, layout.yaw_map_rad)  # fmt: skip
@@ -304,8 +305,9 @@ class Traffic:
         self._serial += 1
         vid, rid = f"{kind}_{self._serial}", f"r_{self._serial}"
         libsumo.route.add(rid, edges)
-        libsumo.vehicle.add(vid, rid, typeID=variant.type_id, depart="now", departLane="best",
-                            departPos=depart_pos, departSpeed="max")  # fmt: skip
+        libsumo.vehicle.add(
+            vid, rid, typeID=variant.type_id, depart="now", departLane="best", departPos=depart_pos, departSpeed="max"
+        )
         self._demand_kind[vid] = kind
         self._size(vid, KINDS[kind])
 
@@ -496,8 +498,9 @@ class Traffic:
                 self.notices.append(f"note: no car is on a {start} road after the warm-up; the ego is a random car")
             cars = matching or cars
         if not cars:
-            self.notices.append("note: no car is driving after the warm-up; the ego enters at the start of the "
-                                "network's longest route")  # fmt: skip
+            self.notices.append(
+                "note: no car is driving after the warm-up; the ego enters at the start of the network's longest route"
+            )
             self._insert_ego(self._longest_route(), "the network's longest route")
             return
         if self._scenario.hazards:  # hazards need an ego that drives, not one queueing in a jam
@@ -535,8 +538,9 @@ class Traffic:
             return
         cars = [cars[i] for i in busiest(_positions(cars), _positions(), EGO_BUSY_RADIUS_M, EGO_BUSY_SHARE)]
         if self._watch_radius_m is not None:
-            libsumo.vehicle.unsubscribeContext(self._ego, libsumo.constants.CMD_GET_VEHICLE_VARIABLE,
-                                               self._watch_radius_m + CONTEXT_MARGIN_M)  # fmt: skip
+            libsumo.vehicle.unsubscribeContext(
+                self._ego, libsumo.constants.CMD_GET_VEHICLE_VARIABLE, self._watch_radius_m + CONTEXT_MARGIN_M
+            )
         libsumo.vehicle.setColor(self._ego, (200, 200, 200, 255))
         self._ego = cars[int(self._rng.integers(0, len(cars)))]
         self._stood_s = 0.0
@@ -695,8 +699,9 @@ class Traffic:
         sumo_signals[~self._turn_signal_shown(rows)] &= ~(SUMO_BLINKER_LEFT | SUMO_BLINKER_RIGHT)
         lamps = lamps_of(sumo_signals, np.isin(cls, LAMPED_CLASSES), parked, self._time(), track)
         agents = Agents(track, cls, center, lwh, yaw, pitch, velocity, parked, lamps)
-        agents = agents.joined(self._trailers_of([ids[i] for i in pulling], agents.select(np.asarray(pulling, np.intp)),
-                                                 front[pulling]))  # fmt: skip
+        agents = agents.joined(
+            self._trailers_of([ids[i] for i in pulling], agents.select(np.asarray(pulling, np.intp)), front[pulling])
+        )
         agents = agents.joined(self._works_now())
         agents = replace(agents, yaw_rate_rad_s=self._yaw_rates(agents.instance_id, agents.yaw_map_rad))
         is_ego = np.concatenate([is_ego, np.zeros(len(agents) - n, np.bool_)])

@@ -66,8 +66,9 @@ class FrameImages:
     def depth_png(self, camera: int, units_per_m: float) -> bytes:
         """z-depth as a 16-bit PNG in ``1 / units_per_m`` metres (0: nothing, or out of range)."""
         depth = self._cameras[camera].frame.depth_m
-        return self._once(("depth", camera, units_per_m),
-                          lambda: encode(".png", depth_to_uint16(depth, units_per_m), PNG_PARAMS))  # fmt: skip
+        return self._once(
+            ("depth", camera, units_per_m), lambda: encode(".png", depth_to_uint16(depth, units_per_m), PNG_PARAMS)
+        )
 
     def instance_png(self, camera: int) -> bytes:
         """Instance ids as a 16-bit PNG (0: static world or nothing)."""

@@ -239,8 +239,10 @@ class KittiSink:
             x, y, z = location[i]
             occluded = int(cam_labels.visibility.occluded[i])
             if kitti_type == "DontCare":  # a region: KITTI's DontCare lines carry no 3D box
-                rows.append(f"DontCare -1 -1 -10 {left:.2f} {top:.2f} {right:.2f} {bottom_px:.2f} -1 -1 -1 "
-                            "-1000 -1000 -1000 -10")  # fmt: skip
+                rows.append(
+                    f"DontCare -1 -1 -10 {left:.2f} {top:.2f} {right:.2f} {bottom_px:.2f} -1 -1 -1 "
+                    "-1000 -1000 -1000 -10"
+                )
                 continue
             rows.append(
                 f"{kitti_type} {boxes.truncated[i]:.2f} {occluded} {boxes.alpha_rad[i]:.2f} "

@@ -198,8 +198,10 @@ def planned_topics(
     out += [(topics.cloud(name), PointCloud) for kind, name in sensors if kind == SensorKind.RADAR]
     for name in (name for kind, name in sensors if kind == SensorKind.CAMERA):
         out += [(topics.camera(name, k), CompressedImage) for k in topics.CAMERA_IMAGES]
-        out += [(topics.camera(name, "calibration"), CameraCalibration),
-                (topics.camera(name, "annotations"), ImageAnnotations)]  # fmt: skip
+        out += [
+            (topics.camera(name, "calibration"), CameraCalibration),
+            (topics.camera(name, "annotations"), ImageAnnotations),
+        ]
     out.append((topics.BOXES, SceneUpdate))
     out += [(topics.OCCUPANCY, SceneUpdate)] if with_occupancy else []
     out += [(topics.MAP_VECTORS, SceneUpdate)] if with_map_vectors else []
@@ -307,8 +309,9 @@ class McapSink:
             if isinstance(record, Schema) and record.id not in schemas:  # a finished file lists them again
                 schemas[record.id] = self._writer.register_schema(record.name, record.encoding, record.data)
             elif isinstance(record, Channel) and record.id not in channels:
-                channel = self._writer.register_channel(record.topic, record.message_encoding,
-                                                        schemas.get(record.schema_id, 0))  # fmt: skip
+                channel = self._writer.register_channel(
+                    record.topic, record.message_encoding, schemas.get(record.schema_id, 0)
+                )
                 channels[record.id] = self._channels[record.topic] = channel
             elif isinstance(record, Message):
                 if not times or times[-1] != record.log_time:

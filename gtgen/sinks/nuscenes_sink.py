@@ -119,8 +119,9 @@ class NuscenesSink:
             stem = f"{where}/{channel}/{setup.name}__{channel}__{stamp_us}"
             entry: dict[str, Any] = {"channel": channel, "key": key, "width": 0, "height": 0}
             if isinstance(output, CameraOutput):
-                entry.update(filename=f"{stem}.jpg", fileformat="jpg", width=output.spec.width_px,
-                             height=output.spec.height_px)  # fmt: skip
+                entry.update(
+                    filename=f"{stem}.jpg", fileformat="jpg", width=output.spec.width_px, height=output.spec.height_px
+                )
                 files[entry["filename"]] = images.jpeg(camera_index[name], JPEG_QUALITY)
             elif isinstance(output, LidarOutput):
                 scan = output.scan
@@ -164,8 +165,7 @@ class NuscenesSink:
         and the traffic lights and signs (the extension table)."""
         labels, o = record.labels, record.labels.objects
         lidar = next((x for x in record.lidars if self._channels[x.spec.name] == self._lidar_channel), None)
-        lidar_pts = (count_hits(lidar.scan.instance_id, o.track_id) if lidar is not None
-                     else np.zeros(len(o), np.int32))  # fmt: skip
+        lidar_pts = count_hits(lidar.scan.instance_id, o.track_id) if lidar is not None else np.zeros(len(o), np.int32)
         fraction = np.zeros(len(o))
         for cam in labels.cameras:
             fraction = np.maximum(fraction, np.nan_to_num(cam.visibility.fraction))
@@ -179,9 +179,11 @@ class NuscenesSink:
         bodies = body_subtypes(o.semantic_class, o.lwh_m, o.track_id)
         for i in range(len(o)):
             length, width, height = (float(v) for v in o.lwh_m[i])
-            box = {"translation": [round(float(v), 6) for v in centre[i]],
-                   "size": [round(width, 6), round(length, 6), round(height, 6)],
-                   "rotation": quaternion_wxyz(rotations[i])}  # fmt: skip
+            box = {
+                "translation": [round(float(v), 6) for v in centre[i]],
+                "size": [round(width, 6), round(length, 6), round(height, 6)],
+                "rotation": quaternion_wxyz(rotations[i]),
+            }
             kind = TRAFFIC_CONTROL.get(SemanticClass(int(o.semantic_class[i])))
             if kind is not None:
                 track = int(o.track_id[i])
@@ -191,22 +193,25 @@ class NuscenesSink:
             category = category_of(int(o.semantic_class[i]), str(bodies[i]))
             if category is None:
                 continue
-            out.append({
-                "id": int(o.track_id[i]),
-                "category": category,
-                "attribute": attribute_of(category, bool(o.parked[i]), float(speed[i])),
-                **box,
-                "num_lidar_pts": int(lidar_pts[i]),
-                "visibility": visibility_level(float(fraction[i])),
-            })  # fmt: skip
+            out.append(
+                {
+                    "id": int(o.track_id[i]),
+                    "category": category,
+                    "attribute": attribute_of(category, bool(o.parked[i]), float(speed[i])),
+                    **box,
+                    "num_lidar_pts": int(lidar_pts[i]),
+                    "visibility": visibility_level(float(fraction[i])),
+                }
+            )
         return out, control
 
     def write(self, encoded: dict[str, bytes]) -> None:
         self._folder.write_files(encoded)
 
     def close(self) -> None:
-        write_tables(self._folder.partial, self._setup.name, self._setup.location, self._setup.map_json,
-                     self._lidar_channel)  # fmt: skip
+        write_tables(
+            self._folder.partial, self._setup.name, self._setup.location, self._setup.map_json, self._lidar_channel
+        )
         self._folder.commit()
 
     def abort(self) -> None:
@@ -223,8 +228,9 @@ def _calibration(channel: str, output: SensorOutput) -> dict[str, Any]:
     modality = (SensorKind.CAMERA if isinstance(output, CameraOutput)
                 else SensorKind.LIDAR if isinstance(output, LidarOutput) else SensorKind.RADAR)  # fmt: skip
     intrinsic = output.spec.pinhole.K.tolist() if isinstance(output, CameraOutput) else []
-    return calibration_record(channel, modality, [round(float(v), 9) for v in pose.translation],
-                              quaternion_wxyz(pose.rotation), intrinsic)  # fmt: skip
+    return calibration_record(
+        channel, modality, [round(float(v), 9) for v in pose.translation], quaternion_wxyz(pose.rotation), intrinsic
+    )
 
 
 def _point_classes(scan: LidarScan) -> bytes:

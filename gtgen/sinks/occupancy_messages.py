@@ -39,7 +39,7 @@ def with_flow(cloud: PointCloud, flow_m: npt.NDArray[np.float32]) -> PointCloud:
     fields = list(cloud.fields) + [
         PackedElementField(name=name, offset=_FLOW_OFFSET + 4 * axis, type=PackedElementField.FLOAT32)
         for axis, name in enumerate(FLOW_FIELDS)
-    ]  # fmt: skip
+    ]
     return PointCloud(timestamp=cloud.timestamp, frame_id=cloud.frame_id, pose=cloud.pose,
                       point_stride=LIDAR_FLOW_DTYPE.itemsize, fields=fields, data=packed.tobytes())  # fmt: skip
 
@@ -70,8 +70,9 @@ def occupancy_update(ns: int, occupancy: OccupancyFrame) -> SceneUpdate:
 
 def runs_along_x(
     classes: npt.NDArray[np.uint8],
-) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64],
-           npt.NDArray[np.uint8]]:  # fmt: skip
+) -> tuple[
+    npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.uint8]
+]:
     """Runs of equal values along x of ``(X, Y, Z)`` classes: first x index, length, y, z, value."""
     nx = classes.shape[0]
     rows = np.moveaxis(classes, 0, -1).reshape(-1, nx)  # one row per (y, z), x along it

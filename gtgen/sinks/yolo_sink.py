@@ -34,10 +34,12 @@ for _i, _c in enumerate(YOLO_CLASSES):
     _INDEX[int(_c)] = _i
 for _i, _c in enumerate(LATER_CLASSES):
     _INDEX[int(_c)] = LATER_FROM + _i
-YOLO_NAMES = {**{i: c.label for i, c in enumerate(YOLO_CLASSES)},
-              **{i: f"traffic_light_{lamp.value}" for lamp, i in LIGHT_CLASSES.items()},
-              **{i: f"traffic_sign_{kind.value}" for kind, i in SIGN_CLASSES.items()},
-              **{LATER_FROM + i: c.label for i, c in enumerate(LATER_CLASSES)}}  # fmt: skip
+YOLO_NAMES = {
+    **{i: c.label for i, c in enumerate(YOLO_CLASSES)},
+    **{i: f"traffic_light_{lamp.value}" for lamp, i in LIGHT_CLASSES.items()},
+    **{i: f"traffic_sign_{kind.value}" for kind, i in SIGN_CLASSES.items()},
+    **{LATER_FROM + i: c.label for i, c in enumerate(LATER_CLASSES)},
+}
 
 
 def _street_class(subtype: str, state: str) -> int:
@@ -64,8 +66,10 @@ class YoloSink:
         objects = record.labels.objects
         cls = _INDEX[objects.semantic_class]
         signals = record.signals
-        street = {int(i): _street_class(t, st) for i, t, st in zip(signals.track_id.tolist(), signals.subtype,
-                                                                   signals.state, strict=True)}  # fmt: skip
+        street = {
+            int(i): _street_class(t, st)
+            for i, t, st in zip(signals.track_id.tolist(), signals.subtype, signals.state, strict=True)
+        }
         for i in np.flatnonzero(cls < 0):
             cls[i] = street.get(int(objects.track_id[i]), -1)
         keep = (cam.visibility.visible_px >= self._min_visible_px) & (cls >= 0)

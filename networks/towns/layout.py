@@ -49,9 +49,10 @@ class TownBuilder:
         for src, dst, pts in ((a, b, shape), (b, a, tuple(reversed(shape)))):
             edge_id = f"{src}-{dst}"
             self.edges.append(
-                PlainEdge(edge_id, src, dst, style.lanes, style.speed_mps, style.sidewalk_width_m,
-                          style.lane_width_m, pts)
-            )  # fmt: skip
+                PlainEdge(
+                    edge_id, src, dst, style.lanes, style.speed_mps, style.sidewalk_width_m, style.lane_width_m, pts
+                )
+            )
             if parking:
                 self.parking.append(edge_id)
 

@@ -211,8 +211,10 @@ def test_lane_markings_are_bright_in_the_lidar_and_classed_in_the_camera(dataset
             road = band & (points["class"] == SemanticClass.ROAD)
             if (band & paint).sum() >= 10 and road.sum() >= 10:
                 assert points["intensity"][band & paint].mean() >= 2.0 * points["intensity"][road].mean()
-    masks = [cv2.imdecode(np.frombuffer(m.data, np.uint8), cv2.IMREAD_UNCHANGED)
-             for _, _, m in iter_messages(dataset / "run.mcap", ["/camera/class"])]  # fmt: skip
+    masks = [
+        cv2.imdecode(np.frombuffer(m.data, np.uint8), cv2.IMREAD_UNCHANGED)
+        for _, _, m in iter_messages(dataset / "run.mcap", ["/camera/class"])
+    ]
     assert len(masks) == 20
     assert all(np.sum(mask == SemanticClass.LANE_MARKING) > 200 for mask in masks)
 
@@ -254,8 +256,10 @@ def test_semantic_kitti_point_labels_match_the_point_cloud_and_poses_follow_the_
     def camera_in_map(t) -> np.ndarray:
         q = t.rotation
         return rotation_from_quaternion_xyzw(q.x, q.y, q.z, q.w) @ [0.41, 0.0, 1.64] + [
-            t.translation.x, t.translation.y, t.translation.z
-        ]  # fmt: skip
+            t.translation.x,
+            t.translation.y,
+            t.translation.z,
+        ]
 
     moved = np.linalg.norm(camera_in_map(tf[-1]) - camera_in_map(tf[0]))
     assert moved > 1.0
@@ -265,8 +269,10 @@ def test_semantic_kitti_point_labels_match_the_point_cloud_and_poses_follow_the_
 
 
 def test_every_further_camera_gets_its_own_label_columns(tmp_path):
-    cameras = ("sensors.cameras=[{name: front, shading: flat}, "  # their look is not under test here
-               "{name: rear, mount_xyz_m: [-1.0, 0, 1.6], mount_rpy_deg: [0, 0, 180], shading: flat}]")  # fmt: skip
+    cameras = (
+        "sensors.cameras=[{name: front, shading: flat}, "  # their look is not under test here
+        "{name: rear, mount_xyz_m: [-1.0, 0, 1.6], mount_rpy_deg: [0, 0, 180], shading: flat}]"
+    )
     overrides = ["frames=8", cameras, "outputs.kitti=false", "outputs.yolo=false"]
     run(load_scenario(str(DATA / "tiny.yaml"), overrides), tmp_path, progress=False)
     labels = load_labels(tmp_path / "labels.csv")
@@ -317,8 +323,9 @@ def test_kitti_boxes_hold_exactly_each_objects_lidar_points_under_a_strict_test(
         lines = (kitti / "calib" / label_file.name).read_text().splitlines()
         calib = {k: np.array(v.split(), float) for k, v in (line.split(": ", 1) for line in lines)}
         tr = np.vstack([calib["Tr_velo_to_cam"].reshape(3, 4), [0, 0, 0, 1]])
-        rect_to_velo = np.linalg.inv(np.vstack([np.hstack([calib["R0_rect"].reshape(3, 3), np.zeros((3, 1))]),
-                                                [0, 0, 0, 1]]) @ tr)  # fmt: skip
+        rect_to_velo = np.linalg.inv(
+            np.vstack([np.hstack([calib["R0_rect"].reshape(3, 3), np.zeros((3, 1))]), [0, 0, 0, 1]]) @ tr
+        )
         points = np.fromfile(kitti / "velodyne" / f"{label_file.stem}.bin", dtype="<f4").reshape(-1, 4)[:, :3]
         instance = np.fromfile(kitti / "labels" / f"{label_file.stem}.label", dtype="<u4") >> 16
         rows = labels[(labels["frame"] == frame) & labels["left"].notna() & (labels["seen"] == 1)]

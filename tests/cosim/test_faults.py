@@ -37,8 +37,9 @@ def command(out: Path, *extra: str, frames: int = FRAMES, progress: bool = False
 
 
 def start(out: Path, *extra: str, frames: int = FRAMES) -> subprocess.Popen[str]:
-    return subprocess.Popen(command(out, *extra, frames=frames), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)  # fmt: skip
+    return subprocess.Popen(
+        command(out, *extra, frames=frames), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
 
 
 def wait_for_frames(proc: subprocess.Popen[str], out: Path, frames: int) -> None:
@@ -190,8 +191,9 @@ def test_a_signal_during_a_long_warm_up_ends_the_run_and_its_traffic_process_at_
 def small_disk(folder: Path, size: str) -> Iterator[Path]:
     """A file system of ``size`` mounted at ``folder`` (needs the right to mount)."""
     folder.mkdir()
-    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)],
-                             capture_output=True, check=False)  # fmt: skip
+    mounted = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)], capture_output=True, check=False
+    )
     if mounted.returncode != 0:
         pytest.skip("mounting a small file system needs root")
     try:

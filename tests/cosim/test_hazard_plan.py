@@ -66,7 +66,8 @@ def test_a_rig_without_lidar_labels_as_far_as_its_farthest_sensor():
 
 
 def test_a_camera_turned_backwards_sees_behind():
-    rig = SensorsConfig(lidars=(LidarSpec(range_m=50.0),), cameras=(CameraSpec(mount_rpy_deg=(0.0, 0.0, 180.0)),),
-                        radars=())  # fmt: skip
+    rig = SensorsConfig(
+        lidars=(LidarSpec(range_m=50.0),), cameras=(CameraSpec(mount_rpy_deg=(0.0, 0.0, 180.0)),), radars=()
+    )
     sight = Sight.of_rig(rig)
     assert sight.sees(np.array([-150.0, 0.0]), 3.0) and not sight.sees(np.array([150.0, 0.0]), 3.0)

@@ -185,8 +185,10 @@ def test_actors_made_for_events_come_and_go_out_of_the_rigs_sight(monkeypatch, s
 @pytest.mark.slow
 def test_a_hazard_the_network_cannot_have_stops_the_run_before_frame_0_with_one_line(tmp_path):
     scene = tmp_path / "spiral.yaml"
-    scene.write_text(f"network: {DATA / 'xodr' / 'spiral_parampoly3.xodr'}\nframes: 5\n"
-                     "hazards: [{kind: red_light, per_minute: 2}]\n")  # fmt: skip
+    scene.write_text(
+        f"network: {DATA / 'xodr' / 'spiral_parampoly3.xodr'}\nframes: 5\n"
+        "hazards: [{kind: red_light, per_minute: 2}]\n"
+    )
     proc = subprocess.run([sys.executable, "-m", "cosim", "run", str(scene), "--out", str(tmp_path / "o")],
                           capture_output=True, text=True, cwd=ROOT, check=False)  # fmt: skip
     lines = [line for line in proc.stderr.strip().splitlines() if line.startswith("error")]

@@ -37,8 +37,10 @@ def _frames(run_dir: Path):
     for frame, (tf, cloud) in enumerate(zip(transforms, clouds, strict=True)):
         (t,) = [t for t in tf.transforms if t.child_frame_id == cloud.frame_id]
         q = t.rotation
-        ego_SE3_lidar = SE3(rotation_from_quaternion_xyzw(q.x, q.y, q.z, q.w),
-                            np.array([t.translation.x, t.translation.y, t.translation.z]))  # fmt: skip
+        ego_SE3_lidar = SE3(
+            rotation_from_quaternion_xyzw(q.x, q.y, q.z, q.w),
+            np.array([t.translation.x, t.translation.y, t.translation.z]),
+        )
         p = lidar_points(cloud)
         xyz = ego_SE3_lidar.transform_from(np.column_stack([p["x"], p["y"], p["z"]]).astype(np.float64))
         vectors, layers = load_map_frame(run_dir, frame)

@@ -186,8 +186,9 @@ def test_sensors_fire_at_their_own_rates_and_files_sit_where_the_tables_say(expo
     assert all((merged / d["filename"]).is_file() for d in data)
     keys = [d for d in data if d["is_key_frame"]]
     assert all(d["filename"].startswith("samples/") for d in keys) and len(keys) == 10 * 12
-    points = np.fromfile(merged / next(d["filename"] for d in keys if d["fileformat"] == "pcd"
-                                       and d["filename"].endswith(".bin")), "<f4").reshape(-1, 5)  # fmt: skip
+    points = np.fromfile(
+        merged / next(d["filename"] for d in keys if d["fileformat"] == "pcd" and d["filename"].endswith(".bin")), "<f4"
+    ).reshape(-1, 5)
     assert len(np.unique(points[:, 4])) > 16 and points[:, 4].max() <= 31  # HDL-32E rings
 
 

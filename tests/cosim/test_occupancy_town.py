@@ -115,8 +115,10 @@ def _not_through_glass(meshes: Any, map_SE3_ego: Any, start_ego: Any, end_ego: A
     if len(start_ego) == 0:
         return 0
     scene = RaycastingScene()
-    scene.add_triangles(o3c.Tensor.from_numpy(np.ascontiguousarray(meshes.vertices_m, np.float32)),
-                        o3c.Tensor.from_numpy(meshes.triangles.astype(np.uint32)))  # fmt: skip
+    scene.add_triangles(
+        o3c.Tensor.from_numpy(np.ascontiguousarray(meshes.vertices_m, np.float32)),
+        o3c.Tensor.from_numpy(meshes.triangles.astype(np.uint32)),
+    )
     start, end = map_SE3_ego.transform_from(start_ego), map_SE3_ego.transform_from(end_ego)
     length = np.linalg.norm(end - start, axis=1)
     rays = np.concatenate([start, (end - start) / length[:, None]], axis=1).astype(np.float32)
@@ -146,10 +148,12 @@ if __name__ == "__main__":
         "points not within half a voxel of a voxel of their Occ3D class, by class and their voxel's:",
         dict(sorted(((k, v) for k, v in c.items() if k.startswith("missed")), key=lambda kv: -kv[1])),
     )
-    print(f"{c['frames']} frames, {p} LiDAR points in the grid: in an occupied voxel {c['occupied'] / p:.5f}, "
-          f"own class in its voxel {c['own_class'] / p:.4f}, within half a voxel {c['near'] / p:.4f} "
-          f"(Occ3D classes {c['near_occ3d'] / p:.4f}); {c['crossed']} voxels crossed before a return: free "
-          f"{1 - c['crossed_occupied'] / c['crossed']:.4f}, the rest hold a surface the ray passed by, but "
-          f"{c['crossed_inside_solid']} inside a static solid and {c['crossed_inside_agent']} inside an agent's body "
-          f"({c['rays_into_agents']} rays, {c['rays_into_agents_not_through_glass']} of them not through the "
-          "agent's glass: glass returns nothing)")  # fmt: skip
+    print(
+        f"{c['frames']} frames, {p} LiDAR points in the grid: in an occupied voxel {c['occupied'] / p:.5f}, "
+        f"own class in its voxel {c['own_class'] / p:.4f}, within half a voxel {c['near'] / p:.4f} "
+        f"(Occ3D classes {c['near_occ3d'] / p:.4f}); {c['crossed']} voxels crossed before a return: free "
+        f"{1 - c['crossed_occupied'] / c['crossed']:.4f}, the rest hold a surface the ray passed by, but "
+        f"{c['crossed_inside_solid']} inside a static solid and {c['crossed_inside_agent']} inside an agent's body "
+        f"({c['rays_into_agents']} rays, {c['rays_into_agents_not_through_glass']} of them not through the "
+        "agent's glass: glass returns nothing)"
+    )

@@ -99,8 +99,10 @@ def test_resume_with_another_scenario_on_a_complete_dataset_is_one_line_and_exit
                           capture_output=True, text=True, check=False)  # fmt: skip
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
-    assert lines == [f"error: {out}: the complete dataset there was made from another scenario (seed differ); "
-                     "give its scenario and overrides, or another --out"]  # fmt: skip
+    assert lines == [
+        f"error: {out}: the complete dataset there was made from another scenario (seed differ); "
+        "give its scenario and overrides, or another --out"
+    ]
     assert proc.stdout == "" and (out / "manifest.json").read_text() == before
 
 

@@ -239,7 +239,9 @@ def test_the_nuscenes_preset_is_the_nuscenes_car_with_its_rates_and_its_export()
     (lidar,) = rig.lidars
     assert (lidar.name, lidar.beams, lidar.rate_hz) == ("LIDAR_TOP", 32, 20.0)
     assert lidar.elevations_deg == HDL32E_ELEVATIONS_DEG and (HDL32E_ELEVATIONS_DEG[0], HDL32E_ELEVATIONS_DEG[-1]) == (
-        -30.67, 10.67)  # fmt: skip
+        -30.67,
+        10.67,
+    )
     assert np.allclose(np.diff(HDL32E_ELEVATIONS_DEG), 4 / 3, atol=0.011)
     # nuScenes's LiDAR axes: x right, y forward
     assert lidar.ego_SE3_sensor.rotation[:, 1] @ [1, 0, 0] > 0.99
@@ -275,8 +277,9 @@ def test_a_sensor_faster_than_the_frames_is_named_in_a_notice():
     from sensors.lidar import Lidar, LidarSpec
 
     lines = rate_notices([Lidar(LidarSpec(rate_hz=20.0)), Camera(CameraSpec(rate_hz=10.0))], 0.1)
-    assert lines == ["notice: sensors: lidar is set to 20 Hz, above the frame rate (10 Hz, step_s 0.1): it fires "
-                     "every frame"]  # fmt: skip
+    assert lines == [
+        "notice: sensors: lidar is set to 20 Hz, above the frame rate (10 Hz, step_s 0.1): it fires every frame"
+    ]
 
 
 @pytest.mark.parametrize(
@@ -284,16 +287,17 @@ def test_a_sensor_faster_than_the_frames_is_named_in_a_notice():
     [
         (["rig=nuscenes", "sensors.lidars=[]"], "outputs.nuscenes: needs a LiDAR"),
         (["rig=nuscenes", "step_s=0.04"], "outputs.nuscenes: keyframes come every 0.5 s"),
-        (["rig=nuscenes", "sensors.cameras=[{name: CAM_FRONT, width_px: 1280, height_px: 720}]"],
-         "sensors: CAM_FRONT: 1280x720 px, 64.5615 deg conflicts with the nuscenes preset's CAM_FRONT"),
+        (
+            ["rig=nuscenes", "sensors.cameras=[{name: CAM_FRONT, width_px: 1280, height_px: 720}]"],
+            "sensors: CAM_FRONT: 1280x720 px, 64.5615 deg conflicts with the nuscenes preset's CAM_FRONT",
+        ),
         (["sensors.cameras=[{rate_hz: 10}]"], "outputs.kitti: KITTI pairs each image with a LiDAR sweep"),
         (["rig=pandaset"], "rig: expected one of 'default', 'kitti', 'nuscenes', got 'pandaset'"),
     ],
-)  # fmt: skip
+)
 def test_a_rig_or_export_that_cannot_work_is_one_line_and_writes_nothing(tmp_path, sets, message):
     args = [a for s in sets for a in ("--set", s)]
-    proc = run_cli("run", str(ROOT / "tests" / "data" / "tiny.yaml"), "--out",
-                   str(tmp_path / "o"), *args, cwd=ROOT)  # fmt: skip
+    proc = run_cli("run", str(ROOT / "tests" / "data" / "tiny.yaml"), "--out", str(tmp_path / "o"), *args, cwd=ROOT)
     assert proc.returncode != 0
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], lines

@@ -31,8 +31,10 @@ def ramps() -> PlainNetwork:
              PlainNode("d", 260, 260, 0), PlainNode("e", 0, 260, 0))  # fmt: skip
     edges = []
     for (a, b), shape in (("ab", up), ("bc", bend), ("cd", down), ("de", ()), ("ea", ())):
-        edges += [PlainEdge(f"{a}{b}", a, b, num_lanes=2, shape=shape),
-                  PlainEdge(f"{b}{a}", b, a, num_lanes=2, shape=shape[::-1])]  # fmt: skip
+        edges += [
+            PlainEdge(f"{a}{b}", a, b, num_lanes=2, shape=shape),
+            PlainEdge(f"{b}{a}", b, a, num_lanes=2, shape=shape[::-1]),
+        ]
     return PlainNetwork(nodes, tuple(edges))
 
 
@@ -45,8 +47,9 @@ def drive(tmp_path_factory: pytest.TempPathFactory) -> Path:
                  and e.getShape3D()[0][2] < 1.0 and e.getShape3D()[-1][2] > TOP_M - 1.0)  # fmt: skip
     scene = root / "ramps.yaml"
     traffic = "{vehicles: 30, pedestrians: 0, mix: {car: 0.4, truck: 0.3, bus: 0.3}}"
-    scene.write_text(f"network: {xodr}\nframes: {FRAMES}\nseed: 2\nwarmup_s: 40\ntraffic: {traffic}\n"
-                     f"ego: {{route: ['{uphill}']}}\n")  # fmt: skip
+    scene.write_text(
+        f"network: {xodr}\nframes: {FRAMES}\nseed: 2\nwarmup_s: 40\ntraffic: {traffic}\nego: {{route: ['{uphill}']}}\n"
+    )
     camera = "sensors.cameras=[{width_px: 320, height_px: 180, shading: flat}]"  # KITTI's boxes, not its look
     rig = [camera, "sensors.radars=[]", "outputs.yolo=false"]
     run(load_scenario(str(scene), rig), root / "out", progress=False)
@@ -62,8 +65,10 @@ def _frames(out: Path):
     for frame, (tf, cloud) in enumerate(zip(transforms, clouds, strict=True)):
         (t,) = [t for t in tf.transforms if t.child_frame_id == cloud.frame_id]
         q = t.rotation
-        ego_SE3_lidar = SE3(rotation_from_quaternion_xyzw(q.x, q.y, q.z, q.w),
-                            np.array([t.translation.x, t.translation.y, t.translation.z]))  # fmt: skip
+        ego_SE3_lidar = SE3(
+            rotation_from_quaternion_xyzw(q.x, q.y, q.z, q.w),
+            np.array([t.translation.x, t.translation.y, t.translation.z]),
+        )
         p = lidar_points(cloud)
         tagged = p[p["instance"] > 0]
         rows = labels[labels["frame"] == frame]

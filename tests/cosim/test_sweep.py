@@ -95,8 +95,9 @@ def test_a_run_whose_process_dies_is_tried_once_more_and_continues(tmp_path):
     import os
     import signal
 
-    proc = subprocess.Popen(sweep_cmd(tmp_path, [5], frames=60), cwd=ROOT, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE)  # fmt: skip
+    proc = subprocess.Popen(
+        sweep_cmd(tmp_path, [5], frames=60), cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
     wait_for_frames(tmp_path / "tiny-s5", 20, proc)
     workers = [int(p) for t in Path(f"/proc/{proc.pid}/task").glob("*/children") for p in t.read_text().split()]
     worker = next(p for p in workers if b"spawn_main" in Path(f"/proc/{p}/cmdline").read_bytes())

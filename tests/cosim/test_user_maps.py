@@ -106,5 +106,7 @@ def test_a_network_sumo_refuses_is_one_line_with_sumos_reason_and_the_file(tmp_p
                           env=env, capture_output=True, text=True, check=False)  # fmt: skip
     errors = [line for line in proc.stderr.splitlines() if line.startswith("error")]
     assert proc.returncode == 2
-    assert errors == [f"error: {net}: SUMO could not load the network: An unknown lane ('-41_0') was tried to be "
-                      "set as incoming to junction '41.end'."]  # fmt: skip
+    assert errors == [
+        f"error: {net}: SUMO could not load the network: An unknown lane ('-41_0') was tried to be "
+        "set as incoming to junction '41.end'."
+    ]

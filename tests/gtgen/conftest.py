@@ -45,8 +45,9 @@ def make_record(
 ) -> FrameRecord:  # fmt: skip
     """One frame with the ego ``frame_index`` metres along +x from the map origin; with
     ``second_camera``, a second camera 0.53 m right of the first (KITTI's stereo baseline)."""
-    ego = EgoState(np.array([float(frame_index), 0.0, 0.75]), np.array([4.5, 1.8, 1.5]), 0.0, 0.0,
-                   np.array([20.0, 0.0, 0.0]))  # fmt: skip
+    ego = EgoState(
+        np.array([float(frame_index), 0.0, 0.75]), np.array([4.5, 1.8, 1.5]), 0.0, 0.0, np.array([20.0, 0.0, 0.0])
+    )
     scene = FrameScene(GROUND, agents)
     rng = np.random.default_rng(frame_index)
     sensors: list[Sensor] = [Lidar(LidarSpec(beams=16, azimuth_steps=lidar_azimuth_steps))]

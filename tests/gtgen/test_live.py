@@ -53,8 +53,10 @@ def test_addresses_parse_with_localhost_and_8765_by_default():
 
 def test_the_planned_topics_are_the_topics_of_a_frame(records):
     planned = dict(planned_topics(RIG, with_map=False))
-    written = dict((topic, type(m) if not isinstance(m, dict) else None)
-                   for topic, m in frame_messages(records[0], FrameImages(records[0].cameras)))  # fmt: skip
+    written = dict(
+        (topic, type(m) if not isinstance(m, dict) else None)
+        for topic, m in frame_messages(records[0], FrameImages(records[0].cameras))
+    )
     assert planned == written
 
 
@@ -132,8 +134,9 @@ def test_frames_go_out_uncompressed_whatever_the_viewer_offers(records):
     65 %): the server declines it, so a viewer that offers it gets the payloads as they are."""
     live = LiveSink(LiveAddress("127.0.0.1", 0), None, RIG)
     try:
-        with connect(f"ws://127.0.0.1:{live.port}", subprotocols=["foxglove.sdk.v1"], open_timeout=5,
-                     compression="deflate") as ws:  # fmt: skip
+        with connect(
+            f"ws://127.0.0.1:{live.port}", subprotocols=["foxglove.sdk.v1"], open_timeout=5, compression="deflate"
+        ) as ws:
             assert "permessage-deflate" in ws.request.headers["Sec-WebSocket-Extensions"]
             assert ws.response.headers.get("Sec-WebSocket-Extensions") is None
             assert ws.protocol.extensions == []

@@ -45,8 +45,9 @@ def test_an_agents_mesh_lies_inside_its_box_and_its_box_inside_the_upright_box()
     upright = replace(level, lwh_m=boxes.upright_lwh_m())
     corners = box_corners(boxes.center_ego_m, boxes.lwh_m, boxes.rotations())
     assert np.all(points_in_boxes(corners.reshape(-1, 3), upright, np.repeat(np.arange(2), 8), tolerance_m=1e-9))
-    on_faces = np.abs(np.einsum("nji,nkj->nki", rotations_from_rpy(0, 0, boxes.yaw_ego_rad),
-                                corners - boxes.center_ego_m[:, None])).max(axis=1)  # fmt: skip
+    on_faces = np.abs(
+        np.einsum("nji,nkj->nki", rotations_from_rpy(0, 0, boxes.yaw_ego_rad), corners - boxes.center_ego_m[:, None])
+    ).max(axis=1)
     assert np.allclose(on_faces, boxes.upright_lwh_m() / 2.0)  # the tightest such box
 
 

@@ -31,8 +31,9 @@ SPEC = OccupancyGrid()
 def car(x, y, speed_mps=0.0):
     a = Agents.standing([4], [int(SemanticClass.CAR)], [[x, y, 0.75]], [[4.4, 1.8, 1.5]], [0.0])
     velocity = np.array([[speed_mps, 0.0, 0.0]])
-    return Agents(a.instance_id, a.semantic_class, a.center_map_m, a.lwh_m, a.yaw_map_rad, a.pitch_rad, velocity,
-                  a.parked)  # fmt: skip
+    return Agents(
+        a.instance_id, a.semantic_class, a.center_map_m, a.lwh_m, a.yaw_map_rad, a.pitch_rad, velocity, a.parked
+    )
 
 
 def frame(static, agents, lidar=True, camera=True, with_meshes=False):
@@ -45,8 +46,9 @@ def frame(static, agents, lidar=True, camera=True, with_meshes=False):
         hits = scene.cast(camera_rays(SPEC, spec, EGO.map_SE3_ego()))
         cameras = ((spec, hits.range_m.astype(np.float64)),)
     meshes = scene.agent_meshes if with_meshes else None
-    occupancy = occupancy_frame(SPEC, static, Solids(static), agents, EGO.map_SE3_ego(), EGO.velocity_map_mps, lidars,
-                                cameras, meshes)  # fmt: skip
+    occupancy = occupancy_frame(
+        SPEC, static, Solids(static), agents, EGO.map_SE3_ego(), EGO.velocity_map_mps, lidars, cameras, meshes
+    )
     return occupancy, lidars
 
 
@@ -92,13 +94,15 @@ def test_solids_insides_by_runs_agree_with_every_voxel_centre_cast_alone():
     from gtgen.occupancy import _solid_insides
     from networks.buildings import gabled
 
-    solids_mesh = merge([
-        prism(rect(6.0, 4.0, 14.0, 12.0), 1.0, 3.0, SemanticClass.BUILDING),
-        prism(rect(-20.0, -20.0, -6.0, -8.0), -0.05, 2.5, SemanticClass.BUILDING),
-        prism(rect(-17.0, -17.0, -9.0, -11.0), 2.45, 2.0, SemanticClass.BUILDING),
-        gabled(rect(10.0, -14.0, 18.0, -8.0), -0.05, 2.6, 1.8, SemanticClass.BUILDING),
-        _tree_for_test(-8.0, 10.0),
-    ])  # fmt: skip
+    solids_mesh = merge(
+        [
+            prism(rect(6.0, 4.0, 14.0, 12.0), 1.0, 3.0, SemanticClass.BUILDING),
+            prism(rect(-20.0, -20.0, -6.0, -8.0), -0.05, 2.5, SemanticClass.BUILDING),
+            prism(rect(-17.0, -17.0, -9.0, -11.0), 2.45, 2.0, SemanticClass.BUILDING),
+            gabled(rect(10.0, -14.0, 18.0, -8.0), -0.05, 2.6, 1.8, SemanticClass.BUILDING),
+            _tree_for_test(-8.0, 10.0),
+        ]
+    )
     world = merge([GROUND, solids_mesh])
     solids = Solids(world)
     grid = SPEC.grid
@@ -240,8 +244,9 @@ def test_the_planned_topics_name_the_deskewed_cloud_and_the_occupancy_in_write_o
     scene = FrameScene(GROUND, agents)
     lidar = Lidar(LidarSpec(deskew=True)).sense(scene, EGO, DAY, np.random.default_rng(0))
     occupancy, _ = frame(GROUND, agents, camera=False)
-    record = FrameRecord(0, 0, SE3.identity(), (lidar,), label_frame(0, 0, agents, EGO, (lidar,), scene, 120.0),
-                         occupancy=occupancy)  # fmt: skip
+    record = FrameRecord(
+        0, 0, SE3.identity(), (lidar,), label_frame(0, 0, agents, EGO, (lidar,), scene, 120.0), occupancy=occupancy
+    )
     messages = frame_messages(record, FrameImages(()))
     written = [(topic, None if isinstance(m, dict) else type(m)) for topic, m in messages]
     rig = ((SensorKind.LIDAR, "lidar"),)
@@ -256,8 +261,9 @@ def test_nuscenes_export_gets_occ3d_annotations_finding_each_keyframe_by_its_sam
     from gtgen.occ3d_export import write_occ3d_annotations
     from gtgen.sinks.nuscenes_sink import NuscenesSetup
 
-    setup = NuscenesSetup("run", 0.25, (("lidar", "lidar", 4.0), ("camera", "camera", 4.0), ("radar", "radar", 4.0)),
-                          "skeleton")  # fmt: skip
+    setup = NuscenesSetup(
+        "run", 0.25, (("lidar", "lidar", 4.0), ("camera", "camera", 4.0), ("radar", "radar", 4.0)), "skeleton"
+    )
     occupancy, _ = frame(GROUND, car(12.0, 0.0), lidar=False, camera=False)
     out = tmp_path / "run"
     out.mkdir()
@@ -330,8 +336,9 @@ def test_a_timed_sweep_from_a_moving_ego_puts_every_static_return_in_an_occupied
     spec = LidarSpec(sweep="timed")
     lidar = Lidar(spec).sense(scene, ego, DAY, np.random.default_rng(0))
     assert np.ptp(lidar.scan.t_s) > 0.04
-    occupancy = occupancy_frame(SPEC, static, Solids(static), Agents.empty(), ego.map_SE3_ego(), ego.velocity_map_mps,
-                                (lidar,))  # fmt: skip
+    occupancy = occupancy_frame(
+        SPEC, static, Solids(static), Agents.empty(), ego.map_SE3_ego(), ego.velocity_map_mps, (lidar,)
+    )
     from gtgen.occupancy import lidar_segments
 
     _, ends = lidar_segments(lidar, ego.velocity_map_mps)

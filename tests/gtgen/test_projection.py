@@ -53,8 +53,9 @@ def cv2_corners(cam, b):
     """The boxes' corners (turned by each box's roll, pitch, yaw written out as one rotation
     matrix) projected with OpenCV."""
     cam_SE3_ego = cam.ego_SE3_cam.inverse()
-    rotations = np.stack([rotation_from_rpy(r, p, y) for r, p, y in zip(b.roll_ego_rad, b.pitch_ego_rad, b.yaw_ego_rad,
-                                                                        strict=True)])  # fmt: skip
+    rotations = np.stack(
+        [rotation_from_rpy(r, p, y) for r, p, y in zip(b.roll_ego_rad, b.pitch_ego_rad, b.yaw_ego_rad, strict=True)]
+    )
     corners = box_corners(b.center_ego_m, b.lwh_m, rotations).reshape(-1, 3)
     rvec, _ = cv2.Rodrigues(cam_SE3_ego.rotation)
     uv, _ = cv2.projectPoints(corners, rvec, cam_SE3_ego.translation, cam.K, None)

@@ -64,13 +64,15 @@ def test_a_nuscenes_export_stopped_and_continued_is_the_export_never_stopped(rec
     from gtgen.sinks.nuscenes_sink import NuscenesSetup
 
     # frames 0.25 s apart: keyframes (every 0.5 s) at frames 0 and 2; every sensor every frame
-    setup = NuscenesSetup("run", 0.25, (("lidar", "lidar", 4.0), ("camera", "camera", 4.0), ("radar", "radar", 4.0)),
-                          "skeleton")  # fmt: skip
+    setup = NuscenesSetup(
+        "run", 0.25, (("lidar", "lidar", 4.0), ("camera", "camera", 4.0), ("radar", "radar", 4.0)), "skeleton"
+    )
 
     def export(out: Path, upto: int, keep: int = 0) -> None:
         out.mkdir(exist_ok=True)
-        with SinkGroup.open(SinkChoice(out, mcap=False, csv=False, kitti=False, yolo=False, nuscenes=setup,
-                                       keep_frames=keep)) as sinks:  # fmt: skip
+        with SinkGroup.open(
+            SinkChoice(out, mcap=False, csv=False, kitti=False, yolo=False, nuscenes=setup, keep_frames=keep)
+        ) as sinks:
             for record in records[keep:upto]:
                 sinks.write(record)
 
@@ -93,8 +95,10 @@ def test_merging_what_holds_no_nuscenes_export_is_one_line(tmp_path, capsys):
     (tmp_path / "a").mkdir()
     assert nuscenes.main(["merge", str(tmp_path / "out"), str(tmp_path / "a")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"error: {tmp_path / 'a'}: no nuScenes export (expected {tmp_path / 'a'}/nuscenes/v1.0-trainval; "
-                   "run it with outputs.nuscenes=true)"]  # fmt: skip
+    assert err == [
+        f"error: {tmp_path / 'a'}: no nuScenes export (expected {tmp_path / 'a'}/nuscenes/v1.0-trainval; "
+        "run it with outputs.nuscenes=true)"
+    ]
     assert not (tmp_path / "out").exists()
 
 
@@ -103,8 +107,10 @@ def test_events_of_a_run_stopped_and_continued_are_those_of_a_run_never_stopped(
 
     from gtgen.frame import ActiveHazard
 
-    marked = [replace(r, hazards=(ActiveHazard("hard_brake-1", HazardKind.HARD_BRAKE, (3, 5), 1),) if i else ())
-              for i, r in enumerate(records)]  # fmt: skip
+    marked = [
+        replace(r, hazards=(ActiveHazard("hard_brake-1", HazardKind.HARD_BRAKE, (3, 5), 1),) if i else ())
+        for i, r in enumerate(records)
+    ]
 
     def export(out: Path, upto: int, keep: int = 0) -> None:
         out.mkdir(exist_ok=True)
@@ -125,8 +131,9 @@ def test_events_of_a_run_stopped_and_continued_are_those_of_a_run_never_stopped(
 
 
 def test_the_summary_lists_every_hazard_kind_asked_with_its_rate_even_without_events(tmp_path):
-    events = pd.DataFrame({"event": ["cut_in-1"], "kind": ["cut_in"], "first_frame": [10], "min_ttc": [2.5],
-                           "ego_collided": [0]})  # fmt: skip
+    events = pd.DataFrame(
+        {"event": ["cut_in-1"], "kind": ["cut_in"], "first_frame": [10], "min_ttc": [2.5], "ego_collided": [0]}
+    )
     folder = tmp_path / "summary"
     folder.mkdir()
     event_summary(events, 0.5, folder, {"cut_in": 4.0, "red_light": 1.0})

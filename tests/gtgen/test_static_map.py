@@ -7,10 +7,12 @@ from networks.mesh import flat_polygon, merge, prism
 
 
 def test_static_map_keeps_every_classed_triangle_with_its_vertices():
-    mesh = merge([
-        flat_polygon(box(0, 0, 10, 10), 0.0, SemanticClass.ROAD),
-        prism(box(20, 0, 30, 8), 0.0, 12.0, SemanticClass.BUILDING),
-    ])  # fmt: skip
+    mesh = merge(
+        [
+            flat_polygon(box(0, 0, 10, 10), 0.0, SemanticClass.ROAD),
+            prism(box(20, 0, 30, 8), 0.0, 12.0, SemanticClass.BUILDING),
+        ]
+    )
     update = static_map_update(mesh, 1_500_000_000)
     (entity,) = update.entities
     assert entity.frame_id == "map" and entity.timestamp.seconds == 1 and entity.timestamp.nanos == 500_000_000

@@ -49,10 +49,12 @@ def test_pedestrian_half_hidden_behind_a_wall_is_half_visible():
 
 
 def test_pedestrian_partly_behind_a_car_is_partly_occluded():
-    scene_agents = agents([
-        (1, SemanticClass.CAR, 5.0, 0.6, 4.5, 1.9, 1.5, np.pi / 2),
-        (2, SemanticClass.PEDESTRIAN, 9.0, 0.0, 0.4, 0.6, 1.8, 0.0),
-    ])  # fmt: skip
+    scene_agents = agents(
+        [
+            (1, SemanticClass.CAR, 5.0, 0.6, 4.5, 1.9, 1.5, np.pi / 2),
+            (2, SemanticClass.PEDESTRIAN, 9.0, 0.0, 0.4, 0.6, 1.8, 0.0),
+        ]
+    )
     labels, frame = label(GROUND, scene_agents, lidar=False, radar=False)
     ped = int(np.flatnonzero(labels.objects.track_id == 2)[0])
     vis = labels.cameras[0].visibility

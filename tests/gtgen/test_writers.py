@@ -88,8 +88,9 @@ def test_kitti_labels_read_back_as_the_seen_objects_and_their_boxes_project_onto
             np.testing.assert_allclose([float(v) for v in row[8:11]], grown, atol=6e-5)
             uv = kitti_box_pixels(row, calib["P2"].reshape(3, 4), KITTI_MARGIN_M)
             if float(row[1]) == 0.0:  # not truncated: the projected box is the 2D box
-                np.testing.assert_allclose([uv[0].min(), uv[1].min(), uv[0].max(), uv[1].max()],
-                                           [float(v) for v in row[4:8]], atol=0.2)  # fmt: skip
+                np.testing.assert_allclose(
+                    [uv[0].min(), uv[1].min(), uv[0].max(), uv[1].max()], [float(v) for v in row[4:8]], atol=0.2
+                )
 
 
 def test_kitti_velodyne_and_semantic_kitti_labels_hold_every_lidar_point(records, written):
@@ -220,17 +221,20 @@ def test_mcap_messages_read_back_as_the_records(records, written):
         scan = record.lidars[0].scan
         np.testing.assert_array_equal(np.column_stack([cloud["x"], cloud["y"], cloud["z"]]), scan.xyz_lidar_m)
         np.testing.assert_array_equal(cloud["instance"], scan.instance_id)
-        np.testing.assert_array_equal(radar_points(messages["/radar"])["radial_velocity"],
-                                      record.radars[0].scan.radial_velocity_mps)  # fmt: skip
+        np.testing.assert_array_equal(
+            radar_points(messages["/radar"])["radial_velocity"], record.radars[0].scan.radial_velocity_mps
+        )
         ego = messages["/tf"].transforms[0]
         q, t = ego.rotation, ego.translation
-        np.testing.assert_allclose(rotation_from_quaternion_xyzw(q.x, q.y, q.z, q.w), record.map_SE3_ego.rotation,
-                                   atol=1e-12)  # fmt: skip
+        np.testing.assert_allclose(
+            rotation_from_quaternion_xyzw(q.x, q.y, q.z, q.w), record.map_SE3_ego.rotation, atol=1e-12
+        )
         np.testing.assert_allclose([t.x, t.y, t.z], record.map_SE3_ego.translation)
         labels = messages["/gt/labels"]
         assert [o["id"] for o in labels["objects"]] == record.labels.objects.track_id.tolist()
-        np.testing.assert_allclose([o["x"] for o in labels["objects"]], record.labels.objects.center_ego_m[:, 0],
-                                   atol=6e-6)  # fmt: skip
+        np.testing.assert_allclose(
+            [o["x"] for o in labels["objects"]], record.labels.objects.center_ego_m[:, 0], atol=6e-6
+        )
         boxes = messages["/gt/boxes"]
         assert [e.id for e in boxes.entities] == [str(i) for i in record.labels.objects.track_id]
         calibration = messages["/camera/calibration"]

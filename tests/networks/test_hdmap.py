@@ -33,8 +33,9 @@ WITH_HOLE = [(-12, -12), (12, -12), (12, 12), (-12, 12), (-12, 0), (-4, 0), (-4,
 def odd_junctions(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str]]:
     """The skeleton town with two junction outlines replaced: a figure eight and one with a hole."""
     text = import_opendrive(town_opendrive("skeleton")).read_text()
-    junctions = re.findall(r'<junction id="([^":]+)" type="(?:traffic_light|priority)" x="([-\d.]+)" y="([-\d.]+)"',
-                           text)  # fmt: skip
+    junctions = re.findall(
+        r'<junction id="([^":]+)" type="(?:traffic_light|priority)" x="([-\d.]+)" y="([-\d.]+)"', text
+    )
     (eight, ex, ey), (hole, hx, hy) = junctions[:2]
     shapes = {eight: _ring(FIGURE_EIGHT, (float(ex), float(ey))), hole: _ring(WITH_HOLE, (float(hx), float(hy)))}
     for jid, shape in shapes.items():

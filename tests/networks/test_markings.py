@@ -28,8 +28,9 @@ def _down(world: StaticWorld, xy: np.ndarray, z0: float = 200.0) -> np.ndarray:
     mesh = world.mesh
     if id(world) not in _SCENES:
         built = RaycastingScene()
-        built.add_triangles(o3c.Tensor.from_numpy(mesh.vertices_m),
-                            o3c.Tensor.from_numpy(mesh.triangles.astype(np.uint32)))  # fmt: skip
+        built.add_triangles(
+            o3c.Tensor.from_numpy(mesh.vertices_m), o3c.Tensor.from_numpy(mesh.triangles.astype(np.uint32))
+        )
         _SCENES[id(world)] = (world, built)  # the world is kept: its id is not reused
     scene = _SCENES[id(world)][1]
     rays = np.zeros((len(xy), 6), np.float32)
@@ -45,9 +46,11 @@ def _carla_style(source: Path, out: Path, centre_type: str = "solid solid") -> P
     text = source.read_text()
 
     def centre(match: re.Match[str]) -> str:
-        return re.sub(r"<roadMark [^>]*/>",
-                      f'<roadMark sOffset="0" type="{centre_type}" weight="standard" color="yellow" width="0.15"/>',
-                      match.group(0))  # fmt: skip
+        return re.sub(
+            r"<roadMark [^>]*/>",
+            f'<roadMark sOffset="0" type="{centre_type}" weight="standard" color="yellow" width="0.15"/>',
+            match.group(0),
+        )
 
     out.write_text(re.sub(r"<center>.*?</center>", centre, text, flags=re.DOTALL))
     return out

@@ -67,10 +67,12 @@ def _with_signals(tmp_path, records: str):
 
 def test_a_files_sign_records_are_placed_where_the_file_says(tmp_path):
     common = 't="-9" orientation="+" dynamic="no"'
-    records = (f'<signal id="s1" s="20" {common} zOffset="1.8" country="DE" type="206"/>'
-               f'<signal id="s2" s="40" {common} country="DE" type="274" value="30"/>'
-               f'<signal id="s3" s="60" {common} country="US" type="R2-1" value="25" unit="mph"/>'
-               f'<signal id="s4" s="70" {common} country="DE" type="274" value=""/>')  # fmt: skip
+    records = (
+        f'<signal id="s1" s="20" {common} zOffset="1.8" country="DE" type="206"/>'
+        f'<signal id="s2" s="40" {common} country="DE" type="274" value="30"/>'
+        f'<signal id="s3" s="60" {common} country="US" type="R2-1" value="25" unit="mph"/>'
+        f'<signal id="s4" s="70" {common} country="DE" type="274" value=""/>'
+    )
     xodr, (x0, y0, hdg), _ = _with_signals(tmp_path, records)
     assert "1 signal record(s) left out" in read_signs(xodr).problem
     net_path = import_opendrive(xodr)

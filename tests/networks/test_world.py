@@ -70,8 +70,9 @@ def test_buildings_along_a_road_of_200_km_stand_apart_and_off_the_road():
     assert (pairs[0] == pairs[1]).all()  # every building is near itself only
 
 
-BOXES = st.lists(st.tuples(st.floats(-300, 300), st.floats(-300, 300), st.floats(2, 40), st.floats(2, 40)),
-                 min_size=1, max_size=60)  # fmt: skip
+BOXES = st.lists(
+    st.tuples(st.floats(-300, 300), st.floats(-300, 300), st.floats(2, 40), st.floats(2, 40)), min_size=1, max_size=60
+)
 
 
 @settings(max_examples=40, deadline=None)
@@ -153,6 +154,7 @@ def test_each_district_builds_in_its_style():
     fp = box(0.0, 0.0, 12.0, 9.0)
     heights = {d: [_building(fp, STYLES[d], rng, 0.0).height_m for _ in range(200)] for d in STYLES}
     assert min(heights["downtown"]) >= 18.0 > max(heights["residential"])
-    pitched = {d: np.mean([len(_building(fp, STYLES[d], rng, 0.0).mesh.triangles) == 14 for _ in range(200)])
-               for d in STYLES}  # fmt: skip
+    pitched = {
+        d: np.mean([len(_building(fp, STYLES[d], rng, 0.0).mesh.triangles) == 14 for _ in range(200)]) for d in STYLES
+    }
     assert pitched["village"] > 0.8 and pitched["downtown"] == 0.0 and 0.5 < pitched["residential"] < 0.8

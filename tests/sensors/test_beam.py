@@ -89,10 +89,12 @@ def test_same_seed_same_bytes_and_thin_beams_change_nothing(synth: SimpleNamespa
 
 @pytest.mark.parametrize(
     ("kw", "message"),
-    [({"beams": 64, "firing": "hdl64e", "returns": "dual"}, "HDL-64E S2"),
-     ({"beam_divergence_mrad": (0.0, 0.0), "returns": "dual"}, "needs beam_divergence_mrad"),
-     ({"beam_divergence_mrad": (7.0, 1.0)}, "narrower than the grid")],
-)  # fmt: skip
+    [
+        ({"beams": 64, "firing": "hdl64e", "returns": "dual"}, "HDL-64E S2"),
+        ({"beam_divergence_mrad": (0.0, 0.0), "returns": "dual"}, "needs beam_divergence_mrad"),
+        ({"beam_divergence_mrad": (7.0, 1.0)}, "narrower than the grid"),
+    ],
+)
 def test_beam_options_the_sensor_cannot_have_are_refused(kw: dict, message: str) -> None:
     with pytest.raises(SensorConfigError, match=message):
         LidarSpec(**{**WIDE, **kw})

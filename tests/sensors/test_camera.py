@@ -36,8 +36,9 @@ def test_intrinsics_follow_fov_and_resolution() -> None:
 def test_the_optical_frame_looks_along_ego_x_with_y_down() -> None:
     cam_SE3_ego = CameraSpec().ego_SE3_sensor.inverse()
     ahead_left_up = np.array([[10.41, 0.0, 1.64], [10.41, 1.0, 1.64], [10.41, 0.0, 2.64]])
-    np.testing.assert_allclose(cam_SE3_ego.transform_from(ahead_left_up), [[0, 0, 10], [-1, 0, 10], [0, -1, 10]],
-                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        cam_SE3_ego.transform_from(ahead_left_up), [[0, 0, 10], [-1, 0, 10], [0, -1, 10]], atol=1e-12
+    )
 
 
 def test_out_of_range_specs_are_rejected() -> None:

@@ -43,8 +43,9 @@ def test_both_engines_give_the_same_hits(town):
     camera, lidar = Camera(CameraSpec(width_px=640, height_px=360)), Lidar(LidarSpec())
     map_SE3_cam = ego.map_SE3_ego().compose(camera.spec.ego_SE3_sensor)
     pairs = [(reference.cast(lidar.rays(ego.map_SE3_ego())), fast.cast(lidar.rays(ego.map_SE3_ego())))]
-    pairs.append(tuple(s.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, camera._dirs_cam)
-                       for s in (reference, fast)))  # fmt: skip
+    pairs.append(
+        tuple(s.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, camera._dirs_cam) for s in (reference, fast))
+    )
     for a, b in pairs:
         np.testing.assert_array_equal(a.hit, b.hit)
         both = a.hit & b.hit
@@ -64,8 +65,10 @@ def test_both_engines_give_the_same_timed_sweep(town):
                     agents.parked)  # fmt: skip
     driving = EgoState(ego.center_map_m, ego.lwh_m, ego.yaw_map_rad, 0.0, np.array([12.0, 4.0, 0.0]))
     lidar = Lidar(LidarSpec(sweep="timed"))
-    (_, a), (_, b) = (lidar.cast(s, driving) for s in (open_engine("open3d")[0].scene(static, moving),
-                                                        MitsubaEngine().scene(static, moving)))  # fmt: skip
+    (_, a), (_, b) = (
+        lidar.cast(s, driving)
+        for s in (open_engine("open3d")[0].scene(static, moving), MitsubaEngine().scene(static, moving))
+    )
     np.testing.assert_array_equal(a.hit, b.hit)
     both = a.hit & b.hit
     assert np.abs(a.range_m[both] - b.range_m[both]).max() < 1e-4

@@ -35,8 +35,9 @@ def test_rays_and_projection_are_opencvs_and_each_others_inverse() -> None:
     uv = np.stack([rng.uniform(0, 1391, 2000), rng.uniform(0, 511, 2000)], axis=1)
     rays = pinhole.pixel_directions(uv[:, 0], uv[:, 1])
     assert np.abs(pinhole.project(rays) - uv).max() < 1e-6
-    opencv, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), pinhole.K,
-                                  np.asarray(KITTI_RAW_LENS))  # fmt: skip
+    opencv, _ = cv2.projectPoints(
+        rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), pinhole.K, np.asarray(KITTI_RAW_LENS)
+    )
     assert np.abs(opencv.reshape(-1, 2) - uv).max() < 1e-6
 
 
@@ -133,10 +134,12 @@ def test_the_egos_own_motion_blurs_the_still_world() -> None:
 
 @pytest.mark.parametrize(
     ("options", "message"),
-    [({"shutter_s": 0.08}, r"shutter_s must be 0\.\.0\.05 s \(at most one frame at rate_hz 20\), got 0\.08"),
-     ({"shutter_s": -0.01}, r"shutter_s must be 0\.\.0\.05"),
-     ({"shutter_s": 0.01, "shading": "flat"}, r"shutter_s \(motion blur\) needs shading: realistic")],
-)  # fmt: skip
+    [
+        ({"shutter_s": 0.08}, r"shutter_s must be 0\.\.0\.05 s \(at most one frame at rate_hz 20\), got 0\.08"),
+        ({"shutter_s": -0.01}, r"shutter_s must be 0\.\.0\.05"),
+        ({"shutter_s": 0.01, "shading": "flat"}, r"shutter_s \(motion blur\) needs shading: realistic"),
+    ],
+)
 def test_a_shutter_longer_than_a_frame_or_on_the_flat_camera_is_refused(options: dict, message: str) -> None:
     with pytest.raises(SensorConfigError, match=r"camera front: " + message):
         CameraSpec(name="front", **options)

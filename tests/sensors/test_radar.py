@@ -105,17 +105,20 @@ def test_out_of_range_radar_specs_are_rejected() -> None:
 
 def test_cross_section_comes_from_the_material_table_metal_strong_people_weak(
     synth: SimpleNamespace, rng: np.random.Generator
-) -> None:  # fmt: skip
+) -> None:
     from sensors.parts import Part, radar_reflectivity
 
     metal = [Part.PAINT, Part.RIM, Part.CHROME, Part.CARGO, Part.FRAME, Part.LIVERY, Part.SAFETY_YELLOW]
     people = [Part.SKIN, Part.HAIR, Part.TOP, Part.TROUSERS, Part.SHOES]
-    table = radar_reflectivity(np.full(len(metal + people), int(SemanticClass.CAR), np.uint8),
-                               np.array(metal + people, np.uint8))  # fmt: skip
+    table = radar_reflectivity(
+        np.full(len(metal + people), int(SemanticClass.CAR), np.uint8), np.array(metal + people, np.uint8)
+    )
     assert table[: len(metal)].min() >= 0.8 and table[len(metal) :].max() <= 0.15
     # a car and a pedestrian side by side, 15 m ahead: the car's returns are about 8 times stronger
-    rows = [(CAR_ID, SemanticClass.CAR, 15.0, -2.0, 0.75, 4.5, 1.8, 1.5, np.pi / 2),
-            (9, SemanticClass.PEDESTRIAN, 15.0, 2.0, 0.9, 0.5, 0.6, 1.8, np.pi)]  # fmt: skip
+    rows = [
+        (CAR_ID, SemanticClass.CAR, 15.0, -2.0, 0.75, 4.5, 1.8, 1.5, np.pi / 2),
+        (9, SemanticClass.PEDESTRIAN, 15.0, 2.0, 0.9, 0.5, 0.6, 1.8, np.pi),
+    ]
     world = synth.scene([synth.ground(), synth.wall_at_x(120.0)], synth.agents(rows))
     returns = scan(Radar(RadarSpec(points_per_frame=2000)), world, synth, rng)  # enough to reach the person
     car, person = (returns.strength_db[returns.instance_id == k] for k in (CAR_ID, 9))

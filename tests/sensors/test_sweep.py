@@ -36,8 +36,10 @@ def room(synth: SimpleNamespace) -> list:
 def surface_distance_m(static: list, xyz_map: np.ndarray) -> np.ndarray:
     mesh = merge(static)
     scene = RaycastingScene()
-    scene.add_triangles(o3c.Tensor.from_numpy(mesh.vertices_m.astype(np.float32)),
-                        o3c.Tensor.from_numpy(mesh.triangles.astype(np.uint32)))  # fmt: skip
+    scene.add_triangles(
+        o3c.Tensor.from_numpy(mesh.vertices_m.astype(np.float32)),
+        o3c.Tensor.from_numpy(mesh.triangles.astype(np.uint32)),
+    )
     return np.asarray(scene.compute_distance(o3c.Tensor.from_numpy(xyz_map.astype(np.float32))).numpy())
 
 
@@ -48,7 +50,7 @@ def lidar_to_map(lidar: Lidar, ego: object, xyz: np.ndarray) -> np.ndarray:
 
 def test_deskewed_scan_of_a_static_world_from_a_moving_ego_lies_where_the_instant_scan_does(
     synth: SimpleNamespace,
-) -> None:  # fmt: skip
+) -> None:
     static = room(synth)
     ego = synth.ego((15.0, 3.0, 0.0))
     world = synth.scene(static)
@@ -66,7 +68,7 @@ def test_deskewed_scan_of_a_static_world_from_a_moving_ego_lies_where_the_instan
 @pytest.mark.parametrize("speed_mps", [-20.0, 12.0])
 def test_a_passing_car_is_distorted_by_its_speed_times_each_points_time(
     synth: SimpleNamespace, speed_mps: float
-) -> None:  # fmt: skip
+) -> None:
     car = synth.agents([(5, SemanticClass.CAR, 2.0, 7.0, 0.75, 4.5, 1.8, 1.5, 0.0)], [[speed_mps, 0.0, 0.0]])
     world = synth.scene([synth.ground()], car)
     lidar = kitti_lidar()
@@ -92,7 +94,7 @@ PATTERNS = [("hdl64e", HDL64E_ELEVATIONS_DEG), ("hdl32e", HDL32E_ELEVATIONS_DEG)
 @pytest.mark.parametrize(("firing", "elevations"), PATTERNS)
 def test_point_times_rise_clockwise_from_behind_as_the_firing_pattern_says(
     synth: SimpleNamespace, firing: str, elevations: tuple[float, ...]
-) -> None:  # fmt: skip
+) -> None:
     beams, steps, rate = len(elevations), 1084, 20.0
     lidar = Lidar(LidarSpec(beams=beams, elevations_deg=elevations, vertical_min_deg=elevations[0],
                             vertical_max_deg=elevations[-1], azimuth_steps=steps, rate_hz=rate, firing=firing,
@@ -141,7 +143,7 @@ def points_back_in_boxes(lidar: Lidar, ego: object, agents: object, scan: LidarS
 @pytest.mark.parametrize("reference", ["start", "middle", "end"])
 def test_object_points_moved_back_to_the_reference_time_lie_in_their_boxes(
     synth: SimpleNamespace, reference: str
-) -> None:  # fmt: skip
+) -> None:
     rows = [(3, SemanticClass.CAR, 12.0, 4.0, 0.75, 4.5, 1.8, 1.5, 0.3), (4, SemanticClass.TRUCK, -15.0, -5.0, 1.6,
             9.0, 2.5, 3.2, 3.0), (7, SemanticClass.PEDESTRIAN, 4.0, -6.0, 0.9, 0.5, 0.6, 1.8, 1.5),
             (9, SemanticClass.BICYCLE, -6.0, 8.0, 0.85, 1.8, 0.6, 1.7, -0.4)]  # fmt: skip
@@ -176,11 +178,13 @@ def rot_z(angle: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("reference", ["middle", "end"])
 def test_points_on_turning_cars_from_a_turning_ego_moved_back_along_their_arcs_lie_in_their_boxes(
     synth: SimpleNamespace, reference: str
-) -> None:  # fmt: skip
+) -> None:
     # a car behind on the left turning at 1.2 rad/s (10 m/s round a 8.3 m radius), a bus behind turning at -0.9 rad/s,
     # seen from an ego turning at 0.6 rad/s
-    rows = [(3, SemanticClass.CAR, -6.0, 7.0, 0.75, 4.5, 1.8, 1.5, 0.4),
-            (4, SemanticClass.BUS, -14.0, -2.0, 1.6, 12.0, 2.5, 3.2, 1.4)]  # fmt: skip
+    rows = [
+        (3, SemanticClass.CAR, -6.0, 7.0, 0.75, 4.5, 1.8, 1.5, 0.4),
+        (4, SemanticClass.BUS, -14.0, -2.0, 1.6, 12.0, 2.5, 3.2, 1.4),
+    ]
     speed, heading, rate = np.array([10.0, 8.0]), np.array([0.4, 1.4]), np.array([1.2, -0.9])
     velocity = np.stack([speed * np.cos(heading), speed * np.sin(heading), 0 * speed], -1)
     agents = synth.agents(rows, velocity, rate)
@@ -305,10 +309,14 @@ def test_returns_drop_with_received_power_none_from_the_sky_or_beyond_range(synt
 
 
 def test_a_timed_sweep_of_a_still_world_hits_what_the_instant_one_does(synth: SimpleNamespace) -> None:
-    rows = [(k + 1, SemanticClass.CAR, 12.0 * np.cos(k), 12.0 * np.sin(k) + 0.3 * k, 0.75, 4.5, 1.8, 1.5, 0.7 * k)
-            for k in range(8)]  # fmt: skip
-    rows += [(20, SemanticClass.PEDESTRIAN, 1.5, 2.0, 0.9, 0.5, 0.6, 1.8, 0.0), (21, SemanticClass.BUS, -4.0, -3.5,
-             1.6, 12.0, 2.5, 3.2, 0.2)]  # fmt: skip
+    rows = [
+        (k + 1, SemanticClass.CAR, 12.0 * np.cos(k), 12.0 * np.sin(k) + 0.3 * k, 0.75, 4.5, 1.8, 1.5, 0.7 * k)
+        for k in range(8)
+    ]
+    rows += [
+        (20, SemanticClass.PEDESTRIAN, 1.5, 2.0, 0.9, 0.5, 0.6, 1.8, 0.0),
+        (21, SemanticClass.BUS, -4.0, -3.5, 1.6, 12.0, 2.5, 3.2, 0.2),
+    ]
     world = synth.scene([synth.ground()], synth.agents(rows))
     _, timed = kitti_lidar().cast(world, synth.ego())
     _, instant = kitti_lidar(sweep="instant").cast(world, synth.ego())
@@ -321,10 +329,12 @@ def test_kitti_intensity_reads_like_real_kitti_scans(synth: SimpleNamespace) -> 
     """The ``kitti`` intensity against what seven real KITTI scans read (README, LiDAR against real
     KITTI scans): road about 0.26 near and 0 from about 30 m, lane paint about 1.6 times the road,
     most car points 0 (clear-coated paint mirrors the beam away), in KITTI's 0.01 steps up to 0.99."""
-    stripe = synth.quad([(5, 1, 0.001), (60, 1, 0.001), (60, 1.15, 0.001), (5, 1.15, 0.001)],
-                        SemanticClass.LANE_MARKING)  # fmt: skip
-    cars = synth.agents([(k + 1, SemanticClass.CAR, 9.0 + 4.0 * k, -4.0 + 1.5 * k, 0.75, 4.5, 1.8, 1.5, 0.4 * k)
-                         for k in range(6)])  # fmt: skip
+    stripe = synth.quad(
+        [(5, 1, 0.001), (60, 1, 0.001), (60, 1.15, 0.001), (5, 1.15, 0.001)], SemanticClass.LANE_MARKING
+    )
+    cars = synth.agents(
+        [(k + 1, SemanticClass.CAR, 9.0 + 4.0 * k, -4.0 + 1.5 * k, 0.75, 4.5, 1.8, 1.5, 0.4 * k) for k in range(6)]
+    )
     world = synth.scene([synth.ground(), stripe], cars)
     kitti = kitti_lidar(sweep="instant", range_10pct_m=50.0, intensity="kitti")
     scan = kitti.sense(world, synth.EGO, DAY, np.random.default_rng(4)).scan

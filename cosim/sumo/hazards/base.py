@@ -129,10 +129,12 @@ class Base:
         libsumo.vehicle.setSpeedFactor(vid, max(factor, SPEED_FACTOR))  # and wants to (passing slower ones)
         libsumo.vehicle.setLaneChangeMode(vid, KEEP_LANE)
         event.actors.append(vid)
-        event.restore += [lambda: libsumo.vehicle.setSpeed(vid, -1.0),
-                          lambda: libsumo.vehicle.setSpeedMode(vid, speed_mode),
-                          lambda: libsumo.vehicle.setSpeedFactor(vid, factor),
-                          lambda: libsumo.vehicle.setLaneChangeMode(vid, mode)]  # fmt: skip
+        event.restore += [
+            lambda: libsumo.vehicle.setSpeed(vid, -1.0),
+            lambda: libsumo.vehicle.setSpeedMode(vid, speed_mode),
+            lambda: libsumo.vehicle.setSpeedFactor(vid, factor),
+            lambda: libsumo.vehicle.setLaneChangeMode(vid, mode),
+        ]
 
 
 def free(lane: str, pos: float, margin_m: float) -> bool:

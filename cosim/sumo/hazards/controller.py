@@ -44,8 +44,10 @@ class HazardController(Vehicles, Jaywalkers, RedLights):
 
     def begin(self, start_s: float) -> None:
         """Events are due from ``start_s`` on (the first step's time, if not called)."""
-        self._schedules = [Schedule(60.0 / h.per_minute, start_s, np.random.default_rng([self._seed, 0x5C4E, i]))
-                           for i, h in enumerate(self._hazards)]  # fmt: skip
+        self._schedules = [
+            Schedule(60.0 / h.per_minute, start_s, np.random.default_rng([self._seed, 0x5C4E, i]))
+            for i, h in enumerate(self._hazards)
+        ]
 
     def step(self, ego: str, now: float) -> None:
         """Move the events under way and those being prepared, end those that are over,
@@ -65,8 +67,10 @@ class HazardController(Vehicles, Jaywalkers, RedLights):
 
     def active(self, track_id: Callable[[str], int], ego: str) -> tuple[ActiveHazard, ...]:
         shown = sorted((e for e in self._events if e.number), key=lambda e: e.number)
-        return tuple(ActiveHazard(f"{e.kind}-{e.number}", e.kind, tuple(track_id(a) for a in e.actors),
-                                  track_id(ego)) for e in shown)  # fmt: skip
+        return tuple(
+            ActiveHazard(f"{e.kind}-{e.number}", e.kind, tuple(track_id(a) for a in e.actors), track_id(ego))
+            for e in shown
+        )
 
     def _prepare(self, index: int, hazard: HazardConfig, ego: str, now: float) -> None:
         """Start preparing the next event of a kind when it is due within its lead time."""

@@ -199,8 +199,9 @@ class Jaywalkers(Base):
             self._place_waiting(event, ego)  # hidden by the parked car
         event.actors = event.actors[-1:]
         self._held.pop(event.actors[0], None)  # it walks
-        libsumo.person.moveToXY(event.actors[0], "", float(start[0]), float(start[1]), sumo_angle(direction),
-                                keepRoute=2)  # fmt: skip
+        libsumo.person.moveToXY(
+            event.actors[0], "", float(start[0]), float(start[1]), sumo_angle(direction), keepRoute=2
+        )
         event.path = (start, direction, length)
         decel = libsumo.vehicle.getDecel(ego)
         libsumo.vehicle.setDecel(ego, max(decel, EGO_STOP_DECEL))

@@ -126,8 +126,10 @@ class RedLights(Base):
         libsumo.vehicle.setSpeedMode(vid, IGNORE_RED_AND_RIGHT_OF_WAY)
         libsumo.vehicle.setSpeed(vid, speed)
         event.actors.append(vid)
-        event.restore += [lambda: libsumo.vehicle.setSpeed(vid, -1.0),
-                          lambda: libsumo.vehicle.setSpeedMode(vid, SPEED_DEFAULT)]  # fmt: skip
+        event.restore += [
+            lambda: libsumo.vehicle.setSpeed(vid, -1.0),
+            lambda: libsumo.vehicle.setSpeedMode(vid, SPEED_DEFAULT),
+        ]
         self._turn_on(event, now, now + max(RED_LIGHT_S, lasts_s))
         return True
 

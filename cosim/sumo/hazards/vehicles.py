@@ -214,8 +214,10 @@ class Vehicles(Base):
         libsumo.vehicle.setSpeed(vid, slower)
         libsumo.vehicle.setLaneChangeMode(ego, 0)  # the ego keeps its lane and brakes (no swerving around)
         event.restore.append(_react_late(ego))
-        event.restore += [lambda: libsumo.vehicle.setDecel(vid, decel),
-                          lambda: libsumo.vehicle.setMaxSpeedLat(vid, lateral)]  # fmt: skip
+        event.restore += [
+            lambda: libsumo.vehicle.setDecel(vid, decel),
+            lambda: libsumo.vehicle.setMaxSpeedLat(vid, lateral),
+        ]
 
     # --- hard braking --------------------------------------------------------------------------
     def _make_hard_brake(self, event: Event, ego: str, now: float) -> Event | None:
@@ -300,8 +302,10 @@ class Vehicles(Base):
         brake_s = braking_s(speed, hazard)
         libsumo.vehicle.slowDown(vid, hazard.to_speed_mps, brake_s)
         libsumo.vehicle.setSpeed(vid, hazard.to_speed_mps)
-        event.restore += [lambda: libsumo.vehicle.setDecel(vid, decel),
-                          lambda: libsumo.vehicle.setEmergencyDecel(vid, emergency)]  # fmt: skip
+        event.restore += [
+            lambda: libsumo.vehicle.setDecel(vid, decel),
+            lambda: libsumo.vehicle.setEmergencyDecel(vid, emergency),
+        ]
         return brake_s
 
 
