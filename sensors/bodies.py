@@ -707,9 +707,8 @@ def spoked_wheel(x: float, r: float, half_width: float, spokes: int = 5) -> list
     centre = np.array([x, 0.0, r])
     for k in range(spokes):
         a = 2 * math.pi * k / spokes + 0.3
-        out = centre + 0.64 * r * np.array([math.cos(a), 0.0, math.sin(a)])
-        inner = centre + 0.13 * r * np.array([math.cos(a), 0.0, math.sin(a)])
-        pieces.append(tube(inner, out, 0.022, 0.016, Part.RIM, sides=4))
+        along = np.array([math.cos(a), 0.0, math.sin(a)])
+        pieces.append(tube(centre + 0.13 * r * along, centre + 0.64 * r * along, 0.022, 0.016, Part.RIM, sides=4))
     return pieces
 
 

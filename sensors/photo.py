@@ -344,9 +344,6 @@ def radiance(
     sends out (:func:`lamp_light`). Each ray's on its own: many rays are taken
     :data:`STRIPE_PX` at a time, whose arrays stay in the CPU's cache through every step."""
     n = len(cls)
-    if n <= STRIPE_PX:
-        return _radiance(dirs_map, range_m, cls, instance, part, normal, sun_lit, forward, origin_map_m, weather,
-                         max_range_m, sky_open, lamp)  # fmt: skip
     out = np.empty((n, 3), np.float32)
     for start in range(0, n, STRIPE_PX):
         s = slice(start, start + STRIPE_PX)
@@ -604,6 +601,7 @@ def vignette(height: int, width: int) -> F32:
 
 
 STRIPE_PX = 1 << 15
+"""Rays shaded at a time: a stripe's arrays stay in the CPU cache through every step."""
 
 
 ROUNDING_M = 0.12

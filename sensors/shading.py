@@ -28,6 +28,7 @@ from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAIN
 from sensors.photo import (
     LENS_BLUR_PX,
     READ_NOISE,
+    STRIPE_PX,
     AgentBoxes,
     Supersamples,
     bloom,
@@ -231,24 +232,21 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     normal = rounded_normals(sh.normal, dirs_map, frame.instance_id, frame.depth_m, sh.pinhole.focal_px)
     sky_open = sky_light(dirs_map, range_m, classes, instances, sh.origin_map_m, sh.boxes)
     lamp = lamp_rays(dirs_map, range_m, instances, sh.part, sh.origin_map_m, sh.boxes, sh.weather, classes)
-    linear = np.empty((h * w, 3), np.float32)
-    for start in range(0, h * w, STRIPE_PX):
-        s = slice(start, start + STRIPE_PX)
-        linear[s] = radiance(
-            dirs_map[s],
-            range_m[s],
-            classes[s],
-            instances[s],
-            sh.part[s],
-            normal[s],
-            sh.sun_lit[s],
-            dirs_cam[s, 2],
-            sh.origin_map_m,
-            sh.weather,
-            sh.range_m,
-            sky_open[s],
-            lamp[s],
-        )
+    linear = radiance(
+        dirs_map,
+        range_m,
+        classes,
+        instances,
+        sh.part,
+        normal,
+        sh.sun_lit,
+        dirs_cam[:, 2],
+        sh.origin_map_m,
+        sh.weather,
+        sh.range_m,
+        sky_open,
+        lamp,
+    )
     extra = sh.extra
     if extra is not None and len(extra.pixel):
         sub = len(extra.range_m) // len(extra.pixel)
@@ -302,8 +300,6 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     return out.reshape(h, w, 3)
 
 
-STRIPE_PX = 1 << 15
-"""Pixels shaded at a time: a stripe's arrays stay in the CPU cache through every step."""
 FLAT_PARTS = np.zeros(STRIPE_PX, np.uint8)
 """The flat style colours by class: every pixel's part is the surface's."""
 
