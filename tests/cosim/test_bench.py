@@ -1,5 +1,7 @@
 """The benchmark's probe, table and targets (the runs themselves are `make bench`)."""
 
+import pytest
+
 from cosim.bench import MEMORY_FROM_FRAME, BenchProbe, table, targets
 
 
@@ -45,3 +47,14 @@ def test_the_occupancy_target_is_on_its_stages_cpu_time_not_its_wall_time():
                              "stages_cpu_ms": {"occupancy": 12.0}}}  # fmt: skip
     assert targets(results)["occupancy_ms"] == {"value": 12.0, "target": "<= 15.0", "met": True}
     assert "occupancy (CPU)" in table(results)
+
+
+def test_the_timed_sweep_target_is_the_frame_rate_it_takes_by_the_main_process_cpu():
+    results = {"lidar-kitti": {"frames": 5, "fps": 2.0, "cpu_ms_per_frame": {"main": 100.0, "helpers": 30.0}},
+               "lidar-kitti-instant": {"frames": 5, "fps": 4.0, "cpu_ms_per_frame": {"main": 80.0}}}  # fmt: skip
+    t = targets(results)["timed_sweep_cost_pct"]
+    assert t["value"] == pytest.approx(20.0) and t["met"] is True and t["target"] == "<= 25.0"
+    results["lidar-kitti"]["cpu_ms_per_frame"]["main"] = 120.0  # the rate falls by a third
+    assert targets(results)["timed_sweep_cost_pct"]["met"] is False
+    del results["lidar-kitti-instant"]
+    assert targets(results)["timed_sweep_cost_pct"]["met"] is None
