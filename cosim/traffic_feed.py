@@ -13,10 +13,13 @@ the run). :class:`TrafficInline` does the same in this process.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
 
 from cosim.errors import CosimError, TrafficError
 from cosim.scenario import Scenario
@@ -63,6 +66,8 @@ class TrafficInline(ClosedOnExit):
         self._traffic = Traffic(net_path, load_net(net_path), scenario)
         self._radius_m, self._clock, self._skip = radius_m, clock, skip_frames
         self._closed = False
+        self._before: npt.NDArray[np.uint32] | None = None  # the agents read the step before the next frame's
+        self._ahead: WorldState | None = None  # the step after the last frame handed out, read ahead
 
     def warm_up(self) -> list[str]:
         """The warm-up, then the frames to skip: simulated as for the frames handed out
@@ -72,14 +77,25 @@ class TrafficInline(ClosedOnExit):
         self._traffic.watch_near_ego(self._radius_m)
         for _ in range(self._skip):
             self._traffic.step()
-            self._traffic.world_state().near(self._radius_m)
+            self._before = self._traffic.world_state().agents.instance_id
         return list(self._traffic.notices)
 
     def next(self) -> WorldState:
+        """The next step's world state with its bodies' rates of turn before and after its time
+        (:func:`turn_rates_across`): the step after it is read ahead (the same steps and reads in
+        the same order; one step more at the end)."""
+        if self._ahead is None:
+            self._ahead = self._read()
+        now, self._ahead = self._ahead, self._read()
+        turning = turn_rates_across(now, self._ahead, self._before)
+        self._before = now.agents.instance_id
+        return turning.near(self._radius_m)
+
+    def _read(self) -> WorldState:
         with self._clock.stage("sumo step"):
             self._traffic.step()
         with self._clock.stage("world state"):
-            return self._traffic.world_state().near(self._radius_m)
+            return self._traffic.world_state()
 
     def close(self) -> None:
         if not self._closed:
@@ -88,6 +104,32 @@ class TrafficInline(ClosedOnExit):
 
     def abort(self) -> None:
         self.close()
+
+
+def turn_rates_across(now: WorldState, ahead: WorldState, before: npt.NDArray[np.uint32] | None) -> WorldState:
+    """``now`` with each body's rate of turn on both sides of its time: up to it, the heading's
+    change over the step that ended then (the traffic's own rate); from it on, that over the next
+    step (``ahead``'s), so a timed LiDAR sweep turns each body as its headings interpolated between
+    the steps do, from half a period before the frame's time to half after. An agent not read the
+    step before (``before``: the ids read then; None: none) takes the next step's rate on both
+    sides, one gone by the next step its own; the ego likewise across a scene cut (another ego
+    before or after)."""
+    a, b = now.agents, ahead.agents
+    order = np.argsort(b.instance_id, kind="stable")
+    ids = b.instance_id[order]
+    later = ids.shape[0] > 0
+    at = np.minimum(np.searchsorted(ids, a.instance_id), max(ids.shape[0] - 1, 0))
+    found = ids[at] == a.instance_id if later else np.zeros(a.instance_id.shape[0], np.bool_)
+    after = np.where(found, b.yaw_rate_rad_s[order[at]] if later else 0.0, a.yaw_rate_rad_s)
+    read_before = np.zeros(a.instance_id.shape[0], np.bool_) if before is None else np.isin(a.instance_id, before)
+    rates = replace(a, yaw_rate_rad_s=np.where(read_before, a.yaw_rate_rad_s, after), yaw_rate_after_rad_s=after)
+    ego_before, ego_after = now.ego.yaw_rate_rad_s, now.ego.yaw_rate_rad_s
+    if not ahead.scene_cut:
+        ego_after = ahead.ego.yaw_rate_rad_s
+        if now.scene_cut or before is None:
+            ego_before = ego_after
+    ego = replace(now.ego, yaw_rate_rad_s=ego_before, yaw_rate_after_rad_s=ego_after)
+    return replace(now, agents=rates, ego=ego)
 
 
 @dataclass(frozen=True, slots=True)

@@ -50,7 +50,10 @@ class Agents:
     ``pitch_rad: (N,) float64`` nose-up positive, ``velocity_map_mps: (N, 3) float64``,
     ``parked: (N,) bool`` (standing in a parking space for the whole scene), ``lamps: (N,)
     uint8`` :class:`Lamp` bits (all off where not given), ``yaw_rate_rad_s: (N,) float64`` the
-    heading's rate of turn, counter-clockwise positive (0 where not given).
+    heading's rate of turn up to the frame's time, counter-clockwise positive (0 where not given),
+    and ``yaw_rate_after_rad_s: (N,) float64`` its rate from then on (the same where not given):
+    the traffic's headings change step by step, a body turns between two steps at the rate of
+    that step (:func:`turn_rate_at`).
     """
 
     instance_id: npt.NDArray[np.uint32]
@@ -63,17 +66,20 @@ class Agents:
     parked: npt.NDArray[np.bool_]
     lamps: npt.NDArray[np.uint8] = field(default_factory=lambda: NO_LAMPS)
     yaw_rate_rad_s: npt.NDArray[np.float64] = field(default_factory=lambda: NOT_TURNING)
+    yaw_rate_after_rad_s: npt.NDArray[np.float64] = field(default_factory=lambda: NOT_TURNING)
 
     def __post_init__(self) -> None:
         if self.lamps is NO_LAMPS:
             object.__setattr__(self, "lamps", np.zeros(self.instance_id.shape[0], np.uint8))
         if self.yaw_rate_rad_s is NOT_TURNING:
             object.__setattr__(self, "yaw_rate_rad_s", np.zeros(self.instance_id.shape[0]))
+        if self.yaw_rate_after_rad_s is NOT_TURNING:
+            object.__setattr__(self, "yaw_rate_after_rad_s", self.yaw_rate_rad_s)
         check_arrays(
             self, instance_id=(np.uint32, ("N",)), semantic_class=(np.uint8, ("N",)),
             center_map_m=(np.float64, ("N", 3)), lwh_m=(np.float64, ("N", 3)), yaw_map_rad=(np.float64, ("N",)),
             pitch_rad=(np.float64, ("N",)), velocity_map_mps=(np.float64, ("N", 3)), parked=(np.bool_, ("N",)),
-            lamps=(np.uint8, ("N",)), yaw_rate_rad_s=(np.float64, ("N",)),
+            lamps=(np.uint8, ("N",)), yaw_rate_rad_s=(np.float64, ("N",)), yaw_rate_after_rad_s=(np.float64, ("N",)),
         )  # fmt: skip
         if len(self) and int(self.instance_id.min()) == 0:
             raise ValueError("Agents.instance_id: 0 is reserved for the static world")
@@ -102,12 +108,16 @@ class Agents:
         return Agents(
             self.instance_id[mask], self.semantic_class[mask], self.center_map_m[mask], self.lwh_m[mask],
             self.yaw_map_rad[mask], self.pitch_rad[mask], self.velocity_map_mps[mask], self.parked[mask],
-            self.lamps[mask], self.yaw_rate_rad_s[mask],
+            self.lamps[mask], self.yaw_rate_rad_s[mask], self.yaw_rate_after_rad_s[mask],
         )  # fmt: skip
 
     def joined(self, other: Agents) -> Agents:
         """These agents followed by ``other``'s."""
         return Agents(*(np.concatenate([getattr(self, f), getattr(other, f)]) for f in AGENT_FIELDS))
+
+    def turning(self) -> bool:
+        """Whether any heading turns, before the frame's time or after."""
+        return bool(self.yaw_rate_rad_s.any() or self.yaw_rate_after_rad_s.any())
 
     def rotations(self) -> npt.NDArray[np.float64]:
         """``(N, 3, 3)`` map_R_box: yaw about +z after pitch about the box's y axis."""
@@ -124,6 +134,13 @@ class Agents:
         found = ids[pos] == instance_id
         out[found] = self.velocity_map_mps[order[pos[found]]]
         return out
+
+
+def turn_rate_at(before: npt.ArrayLike, after: npt.ArrayLike, dt_s: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """The rate of turn ``dt_s`` from the frame's time (arguments broadcast): ``before`` it (the
+    rate over the traffic's step that ended then), ``after`` from it on (over the next step), so
+    a body's heading follows its headings interpolated between the steps."""
+    return np.where(np.asarray(dt_s) < 0.0, np.asarray(before, np.float64), np.asarray(after, np.float64))
 
 
 def motion_over(
@@ -152,14 +169,15 @@ def turned_about_z(vectors: npt.NDArray[np.float64], turn_rad: npt.NDArray[np.fl
 
 
 AGENT_FIELDS = ("instance_id", "semantic_class", "center_map_m", "lwh_m", "yaw_map_rad", "pitch_rad",
-                "velocity_map_mps", "parked", "lamps", "yaw_rate_rad_s")  # fmt: skip
+                "velocity_map_mps", "parked", "lamps", "yaw_rate_rad_s", "yaw_rate_after_rad_s")  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
 class EgoState:
     """The ego in the map frame: ``center_map_m: (3,) float64`` box centre, ``lwh_m: (3,)
     float64``, ``yaw_map_rad`` and ``pitch_rad`` (nose-up positive), ``velocity_map_mps: (3,)
-    float64``, ``yaw_rate_rad_s`` (counter-clockwise positive)."""
+    float64``, ``yaw_rate_rad_s`` up to the frame's time and ``yaw_rate_after_rad_s`` from then on
+    (counter-clockwise positive; None: the same, see :class:`Agents`)."""
 
     center_map_m: npt.NDArray[np.float64]
     lwh_m: npt.NDArray[np.float64]
@@ -167,11 +185,20 @@ class EgoState:
     pitch_rad: float
     velocity_map_mps: npt.NDArray[np.float64]
     yaw_rate_rad_s: float = 0.0
+    yaw_rate_after_rad_s: float | None = None
 
     def __post_init__(self) -> None:
         check_arrays(
             self, center_map_m=(np.float64, (3,)), lwh_m=(np.float64, (3,)), velocity_map_mps=(np.float64, (3,))
         )
+
+    def turn_rates(self) -> tuple[float, float]:
+        """The rate of turn before the frame's time and after it."""
+        after = self.yaw_rate_rad_s if self.yaw_rate_after_rad_s is None else self.yaw_rate_after_rad_s
+        return self.yaw_rate_rad_s, after
+
+    def turning(self) -> bool:
+        return any(rate != 0.0 for rate in self.turn_rates())
 
     @classmethod
     def at(cls, map_SE3_ego: SE3, lwh_m: tuple[float, float, float] = (4.5, 1.8, 1.5)) -> EgoState:

@@ -390,7 +390,7 @@ class Lidar:
         is then (rays move in place)."""
         dt_s = self._t_s - self._t_ref_s
         turn = None
-        if ego.yaw_rate_rad_s == 0.0:
+        if not ego.turning():
             rays[:, :3] += (dt_s[:, None] * ego.velocity_map_mps[None, :]).astype(np.float32)
         else:
             origins, turn = sensor_origins(ego, map_SE3_lidar.translation, dt_s)

@@ -24,6 +24,7 @@ from sensors.agents import (
     body_keys,
     motion_over,
     template_of,
+    turn_rate_at,
     turned_about_z,
 )
 from sensors.hits import PairHits, RayHits
@@ -286,11 +287,13 @@ def cast_agents_moving(
     for k in present.tolist():
         a, b = int(starts[k]), int(starts[k + 1])
         mine = ray_index[a:b]
-        if agents.yaw_rate_rad_s[k] == 0.0:
+        rates = (agents.yaw_rate_rad_s[k], agents.yaw_rate_after_rad_s[k])
+        if rates == (0.0, 0.0):
             moved = rays[mine, :3] - (centre[k] + dt_s[mine, None] * agents.velocity_map_mps[k])
             direction = rays[mine, 3:6].astype(np.float64)
         else:  # the ray taken back by the agent's turn about its centre, into its frame at the reference time
-            shift, turn = motion_over(agents.velocity_map_mps[k], agents.yaw_rate_rad_s[k], dt_s[mine])
+            rate = turn_rate_at(*rates, dt_s[mine])
+            shift, turn = motion_over(agents.velocity_map_mps[k], rate, dt_s[mine])
             box_centre = agents.center_map_m[k] + shift
             moved = turned_about_z(rays[mine, :3] - box_centre, -turn) - (centre[k] - agents.center_map_m[k])
             direction = turned_about_z(rays[mine, 3:6].astype(np.float64), -turn)

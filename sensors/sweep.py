@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from networks.geometry import SE3
-from sensors.agents import Agents, EgoState, motion_over, turned_about_z
+from sensors.agents import Agents, EgoState, motion_over, turn_rate_at, turned_about_z
 from sensors.errors import SensorConfigError
 from sensors.hits import PairHits, RayHits
 
@@ -106,11 +106,12 @@ def near_pairs(
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
     corners_box = np.stack(np.meshgrid([-0.5, 0.5], [-0.5, 0.5], [-0.5, 0.5], indexing="ij"), -1).reshape(-1, 3)
     arms = np.einsum("kij,kcj->kci", agents.rotations(), corners_box[None] * agents.lwh_m[:, None, :])
-    still = not agents.yaw_rate_rad_s.any() and ego.yaw_rate_rad_s == 0.0
+    still = not agents.turning() and not ego.turning()
     times = dt_range_s if still else tuple(np.linspace(dt_range_s[0], dt_range_s[1], SWEPT_SAMPLES).tolist())
     seen = []
     for dt in times:
-        shift, turn = motion_over(agents.velocity_map_mps, agents.yaw_rate_rad_s, np.full(len(agents), dt))
+        rate = turn_rate_at(agents.yaw_rate_rad_s, agents.yaw_rate_after_rad_s, dt)
+        shift, turn = motion_over(agents.velocity_map_mps, rate, np.full(len(agents), dt))
         corners = agents.center_map_m[:, None, :] + shift[:, None, :] + turned_about_z(arms, turn[:, None])
         lidar_SE3_map = sensor_pose_at(ego, map_SE3_lidar, dt).inverse()
         seen.append(lidar_SE3_map.transform_from(corners.reshape(-1, 3)).reshape(corners.shape))
@@ -142,7 +143,8 @@ def sensor_origins(
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """``(N, 3)`` where a point fixed to the ego (at ``origin_map_m`` at the reference time) is at
     each of ``dt_s`` and ``(N,)`` how far the ego has turned then (radians, counter-clockwise)."""
-    shift, turn = motion_over(ego.velocity_map_mps, np.float64(ego.yaw_rate_rad_s), dt_s[:, None])
+    rate = turn_rate_at(*ego.turn_rates(), dt_s[:, None])
+    shift, turn = motion_over(ego.velocity_map_mps, rate, dt_s[:, None])
     arm = np.asarray(origin_map_m, np.float64) - ego.center_map_m
     turned = turned_about_z(np.broadcast_to(arm, shift[:, 0].shape), turn[:, 0])
     return ego.center_map_m + shift[:, 0] + turned, turn[:, 0]
@@ -202,7 +204,7 @@ def deskewed(
     it is at ``map_SE3_lidar``), by the ego's motion (its velocity and rate of turn), as motion
     compensation does."""
     dt = t_s.astype(np.float64) - t_ref_s
-    if ego.yaw_rate_rad_s == 0.0:  # heading kept: a shift along the velocity
+    if not ego.turning():  # heading kept: a shift along the velocity
         velocity_lidar = map_SE3_lidar.rotation.T @ ego.velocity_map_mps
         return (xyz_lidar_m + dt[:, None] * velocity_lidar[None, :]).astype(np.float32)
     origins, turn = sensor_origins(ego, map_SE3_lidar.translation, dt)

@@ -703,7 +703,8 @@ class Traffic:
             self._trailers_of([ids[i] for i in pulling], agents.select(np.asarray(pulling, np.intp)), front[pulling])
         )
         agents = agents.joined(self._works_now())
-        agents = replace(agents, yaw_rate_rad_s=self._yaw_rates(agents.instance_id, agents.yaw_map_rad))
+        rates = self._yaw_rates(agents.instance_id, agents.yaw_map_rad)
+        agents = replace(agents, yaw_rate_rad_s=rates, yaw_rate_after_rad_s=rates)
         is_ego = np.concatenate([is_ego, np.zeros(len(agents) - n, np.bool_)])
         if not is_ego.any():
             raise TrafficError(f"the ego vehicle {self._ego!r} is not among the agents read at t={self._time():.2f} s")
@@ -720,7 +721,8 @@ class Traffic:
     def _yaw_rates(self, track: npt.NDArray[np.uint32], yaw: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Each agent's rate of turn: its heading's change since the last read (wrapped to +-pi)
         over the time between; 0 for agents not read then. Read every step, so a timed LiDAR
-        sweep turns a body between its last step and this one as SUMO turned it."""
+        sweep turns a body between its last step and this one as SUMO turned it (and between this
+        step and the next by the next one's: cosim.traffic_feed.turn_rates_across)."""
         now = self._time()
         then, last = self._headings
         rates = np.zeros(track.shape[0])

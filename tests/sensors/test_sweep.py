@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -221,6 +222,38 @@ def test_points_on_turning_cars_from_a_turning_ego_moved_back_along_their_arcs_l
     raw = map_SE3_lidar.transform_from(scan.xyz_lidar_m.astype(np.float64))
     np.testing.assert_allclose(still, xyz[ground], atol=0.02)
     assert np.abs(raw[ground] - xyz[ground]).max() > 0.3
+
+
+def test_bodies_turning_at_one_rate_before_the_frames_time_and_another_after_are_cast_on_both_arcs(
+    synth: SimpleNamespace,
+) -> None:
+    # cars entering a bend (0.3 rad/s over the step before the frame, 1.4 over the next), one on the
+    # left behind (swept before the frame's time), one on the right behind (after), seen from an ego straightening
+    # out (0.8 then 0.2 rad/s): each point moved back along the arc of its side of the frame's time
+    rows = [(3, SemanticClass.CAR, -6.0, 7.0, 0.75, 4.5, 1.8, 1.5, 0.4),
+            (5, SemanticClass.CAR, -6.0, -7.0, 0.75, 4.5, 1.8, 1.5, 0.4)]  # fmt: skip
+    speed, heading, before, after = 10.0, 0.4, 0.3, 1.4
+    velocity = np.array([[speed * np.cos(heading), speed * np.sin(heading), 0.0]] * 2)
+    agents = replace(synth.agents(rows, velocity, [before] * 2), yaw_rate_after_rad_s=np.full(2, after))
+    ego_speed, ego_before, ego_after = 9.0, 0.8, 0.2
+    ego = replace(synth.ego((ego_speed, 0.0, 0.0), ego_before), yaw_rate_after_rad_s=ego_after)
+    lidar = kitti_lidar(reference="middle")
+    scan = lidar.sense(synth.scene([synth.ground()], agents), ego, DAY, np.random.default_rng(3)).scan
+    dt = scan.t_s.astype(np.float64) - 0.05
+    map_SE3_lidar = ego.map_SE3_ego().compose(lidar.spec.ego_SE3_sensor)
+    ego_rate = np.where(dt < 0, ego_before, ego_after)
+    ego_at, ego_turned = on_circle(ego.center_map_m, np.zeros_like(dt), ego_speed, ego_rate, dt)
+    arm = map_SE3_lidar.translation - ego.center_map_m
+    origin = ego_at + np.einsum("kij,j->ki", rot_z(ego_turned), arm)
+    xyz = origin + np.einsum("kij,kj->ki", rot_z(ego_turned) @ map_SE3_lidar.rotation, scan.xyz_lidar_m)
+    for k, (tid, side, other) in enumerate(((3, -1, after), (5, 1, before))):
+        on = scan.instance_id == tid
+        assert on.sum() > 300 and (np.sign(dt[on]) == side).all()
+        for rate, most_m in ((np.where(dt[on] < 0, before, after), 0.02), (np.full(on.sum(), other), None)):
+            box_at, box_heading = on_circle(agents.center_map_m[k], heading, speed, rate, dt[on])
+            local = np.einsum("kji,kj->ki", rot_z(box_heading), xyz[on] - box_at)
+            outside = np.max(np.abs(local) - agents.lwh_m[k] / 2.0)
+            assert outside <= most_m if most_m else outside > 0.03  # the other side's rate misses
 
 
 def test_glass_gives_no_return_from_its_surface(synth: SimpleNamespace) -> None:
