@@ -56,8 +56,9 @@ def test_the_probe_sees_every_stage_of_every_frame(tmp_path):
     run(load_scenario(str(DATA / "tiny.yaml"), ["frames=5"]), tmp_path, progress=False, probe=probe)
     per_frame = ("sumo wait", "scene", "lidar", "camera", "radar", "labels", "handoff")
     assert all(probe.calls[name] == 5 for name in per_frame)
-    from_helpers = ("sumo step", "world state", "writer encode", "writer write")  # added when they close
+    from_helpers = ("writer encode", "writer write")  # added when they close
     assert all(probe.calls[name] == 5 for name in from_helpers) and probe.calls["close"] == 1
+    assert probe.calls["sumo step"] == probe.calls["world state"] == 6  # the traffic reads one step ahead
     assert probe.scenes == [0, 1, 2, 3, 4] and probe.done == [-1, 0, 1, 2, 3, 4, 5]
 
 
