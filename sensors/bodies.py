@@ -325,7 +325,7 @@ def car(s: CarShape) -> Piece:
         )
     )
     # body-colour skirt line, bumpers' black lower parts
-    pieces.append(box(bl - 0.12, hl - 0.005, -hw + 0.05, hw - 0.05, s.clearance + 0.02, s.clearance + 0.2, Part.TRIM))
+    pieces.append(box(bl - 0.11, hl - 0.005, -hw + 0.05, hw - 0.05, s.clearance + 0.02, s.clearance + 0.3, Part.TRIM))
     pieces.append(box(-hl + 0.005, -bl + 0.14, -hw + 0.05, hw - 0.05, s.clearance + 0.02, s.clearance + 0.2, Part.TRIM))
     # front: grille, headlamps, plate
     fz = s.clearance + 0.22
@@ -334,13 +334,13 @@ def car(s: CarShape) -> Piece:
     for side in (-1.0, 1.0):
         # headlamps out to the front corners, the indicator at their outer end
         y0, y1 = sorted((side * 0.48 * hw, side * 0.84 * hw))
-        pieces.append(box(bl - 0.12, hl - 0.015, y0, y1, nose - 0.2, nose - 0.03, Part.HEADLAMP))
+        pieces.append(box(bl - 0.12, hl - 0.015, y0, y1, nose - 0.26, nose - 0.03, Part.HEADLAMP))
         y0, y1 = sorted((side * (0.84 * hw + 0.01), side * 0.97 * hw))
         pieces.append(box(bl - 0.12, hl - 0.015, y0, y1, nose - 0.2, nose - 0.03, Part.INDICATOR))
         # tail lamps across the rear's outer thirds, wrapping round onto the flanks
-        ty0, ty1 = sorted((side * 0.56 * hw, side * 0.86 * hw))
+        ty0, ty1 = sorted((side * 0.42 * hw, side * 0.86 * hw))
         tz = min(s.deck_z - 0.16, s.belt_z) if not s.bed else s.belt_z - 0.2
-        pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.2, tz, Part.TAIL_LAMP))
+        pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.26, tz, Part.TAIL_LAMP))
         ty0, ty1 = sorted((side * (0.86 * hw + 0.01), side * 0.98 * hw))
         pieces.append(box(-hl + 0.005, -bl + 0.08, ty0, ty1, tz - 0.2, tz, Part.INDICATOR))
         wy0, wy1 = sorted((side * (hw - 0.02), side * (hw + 0.006)))
@@ -473,7 +473,15 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
     pieces.append(box(tank_x1 - 0.8, tank_x1, -hw + 0.12, -0.5, 0.45, 0.95, Part.TRIM))
     pieces.append(box(-hl + 0.01, -hl + 0.06, -hw + 0.05, hw - 0.05, box_z0 - 0.35, box_z0 - 0.05, Part.TRIM))
     pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, box_z0 - 0.48, box_z0 - 0.36, Part.PLATE))
+    # the rear doors in unpainted white whatever the box's colour
+    dy = hw - inset - 0.01
+    pieces.append(box(-hl + 0.011, -hl + 0.019, -dy, dy, box_z0 + 0.165, h - 0.105, Part.LIVERY))
     pieces += _rear_doors(-hl + 0.02, hw, box_z0 + 0.17, h - 0.11)
+    # mudflaps behind the rear wheels
+    for side in (-1.0, 1.0):
+        f0, f1 = sorted((side * (hw - 0.36), side * (hw - 0.04)))
+        x = rear_axles[0] - r - 0.15
+        pieces.append(box(x - 0.02, x, f0, f1, 0.25, 2 * r + 0.05, Part.TRIM))
     pieces.append(box(-hl + 0.12, -hl + 0.24, -hw + 0.2, hw - 0.2, 0.42, 0.56, Part.TRIM))  # underrun guard
     axles = [front_axle, *rear_axles]
     if trailer:

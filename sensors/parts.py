@@ -43,7 +43,7 @@ class Part(IntEnum):
     SAFETY_ORANGE = 19  # traffic cones' and barriers' orange-red plastic
     RETRO_WHITE = 20  # retro-reflective white sheeting: cone collars, barrier and work-vehicle stripes
     SAFETY_YELLOW = 21  # construction vehicles' yellow paint
-    LIVERY = 22  # emergency vehicles' white paint
+    LIVERY = 22  # white paint: emergency vehicles, box trucks' rear doors
     BEACON = 23  # emergency vehicles' blue light bars (not lit: SUMO drives them as cars)
 
 
