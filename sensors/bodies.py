@@ -587,8 +587,10 @@ def person(
             b = a - knee_bend
             ankle = knee + leg_len_shin * np.array([math.sin(b), 0.0, -math.cos(b)])
             ankle[2] = max(ankle[2], 0.07 * s)
-            pieces.append(tube(hip, knee, 0.085 * s * build, 0.06 * s * build, Part.TROUSERS))
-            pieces.append(tube(knee, ankle, 0.06 * s * build, 0.045 * s, Part.TROUSERS))
+            # trouser legs: about 20 cm across at the thigh (the two meet at the crotch), 15 cm
+            # at the knee, 12 cm at the hem
+            pieces.append(tube(hip, knee, 0.1 * s * build, 0.075 * s * build, Part.TROUSERS))
+            pieces.append(tube(knee, ankle, 0.075 * s * build, 0.058 * s, Part.TROUSERS))
             pieces.append(
                 box(
                     ankle[0] - 0.06 * s,

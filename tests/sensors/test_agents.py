@@ -9,7 +9,7 @@ from cosim.demand import KINDS, PEDESTRIAN
 from networks.classes import AGENT_CLASSES, SemanticClass
 from networks.geometry import SE3
 from sensors.agents import AGENT_LIFT_M, Agents, agent_meshes, body_keys, template_of
-from sensors.bodies import BODIES, GAIT_PHASES, STRIDE_M, body_of, pose_of
+from sensors.bodies import BODIES, GAIT_PHASES, STRIDE_M, body_of, pedestrian, pose_of
 from sensors.lidar import Lidar, LidarSpec
 from sensors.parts import Part
 from sensors.pinhole import box_corners
@@ -72,6 +72,17 @@ def test_vehicles_have_the_parts_detectors_learn() -> None:
             assert wanted <= parts, body.name
     walker = {Part(p) for p in np.unique(template_of(int(SemanticClass.PEDESTRIAN), 0, 1).triangle_part)}
     assert {Part.SKIN, Part.HAIR, Part.TOP, Part.TROUSERS, Part.SHOES} <= walker
+
+
+def test_a_standing_walker_wears_trousers_as_wide_as_real_ones() -> None:
+    # an adult's trouser legs are about 15 cm across at the knee and 12 cm at the hem; a
+    # detector finds a person 25-50 px tall by the outline of the legs
+    body = pedestrian(None)
+    left_leg = body.vertices[np.unique(body.triangles[body.parts == Part.TROUSERS])]
+    left_leg = left_leg[left_leg[:, 1] > 0]
+    for z_m, across_m in ((0.92 - 0.45, 0.135), (0.07, 0.105)):  # knee, hem
+        ring = left_leg[np.abs(left_leg[:, 2] - z_m) < 0.02]
+        assert np.ptp(ring[:, 1]) >= across_m, z_m
 
 
 def test_every_car_shows_a_windscreen_and_a_rear_window_of_glass() -> None:
