@@ -343,10 +343,12 @@ class Lidar:
         r = INTENSITY_RESPONSES[self.spec.intensity]
         cos64 = cos_inc.astype(np.float64)
         glossy = np.isin(part, GLOSSY_PARTS)
-        facing = np.where(retro, r.retro, np.where(glossy, cos64**r.gloss_exponent, cos64**r.incidence_exponent))
+        lobe = cos64**r.gloss_exponent
+        facing = np.where(retro, r.retro, np.where(glossy, lobe, cos64**r.incidence_exponent))
         value = r.gain * reflectance * facing * np.exp(range_m * (-1.0 / 200.0))
         if r.fade_above_floor > 0 and self.spec.range_10pct_m > 0:
-            above = np.log(np.maximum(self._power_ratio(reflectance, retro, range_m), 1e-30) / r.fade_above_floor)
+            echo = (reflectance * np.where(glossy, r.gloss_echo * lobe, 1.0)).astype(np.float32)
+            above = np.log(np.maximum(self._power_ratio(echo, retro, range_m), 1e-30) / r.fade_above_floor)
             value = value * np.clip(above / r.fade_width, 0.0, 1.0)
         if r.laser_spread > 0:
             value = value * self._laser_gain[ring]
@@ -434,13 +436,16 @@ class IntensityResponse:
     on glossy paint (a clear coat mirrors the beam away unless met nearly square) and ``retro`` on
     retro-reflective ones; faded to 0 as the received power falls from ``fade_above_floor *
     e^fade_width`` to ``fade_above_floor`` times the noise floor's (weak echoes are returned
-    with intensity 0); each laser's own gain (log-normal, ``laser_spread``, fixed per sensor)
+    with intensity 0), glossy paint's echo ``gloss_echo * |cos|^gloss_exponent`` times a matte
+    surface's of its reflectivity (met squarely the clear coat mirrors the beam straight back,
+    off the normal it sends it away); each laser's own gain (log-normal, ``laser_spread``, fixed per sensor)
     and each point's (``point_spread``); bright echoes compressed towards ``soft_top``
     (``soft_top * tanh(value / soft_top)``; 0: not); at most ``top``, in steps of ``step``."""
 
     gain: float = 1.0
     incidence_exponent: float = 1.0
     gloss_exponent: float = 1.0
+    gloss_echo: float = 1.0
     retro: float = 1.0
     fade_above_floor: float = 0.0
     fade_width: float = 1.0
@@ -461,7 +466,7 @@ class IntensityResponse:
 # surfaces compressed: buildings, poles and signs do not saturate).
 INTENSITY_RESPONSES: dict[str, IntensityResponse] = {
     "physical": IntensityResponse(),
-    "kitti": IntensityResponse(gain=2.7, incidence_exponent=0.0, gloss_exponent=14.0, retro=0.3,
+    "kitti": IntensityResponse(gain=2.7, incidence_exponent=0.0, gloss_exponent=30.0, gloss_echo=RETRO_GAIN, retro=0.3,
                                fade_above_floor=5.0, fade_width=1.0, laser_spread=0.2, point_spread=0.2,
                                soft_top=0.7, top=0.99, step=0.01),
 }  # fmt: skip

@@ -181,15 +181,16 @@ def lidar_reflectivity(semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[
 # Paint at 905 nm follows its colour (white about 0.7, black and dark blue under 0.1: Velodyne
 # calibrated-reflectivity notes; Kashani et al. 2015): the LiDAR reflectivity of painted parts
 # is 0.05 + k x the mean of the instance's albedo, k 0.7 for cargo bodies' matte panels. A car's
-# clear-coated body paint returns far less than its colour says: k 0.2, fitted to the car points
-# of seven real KITTI scans (README, "LiDAR intensity against real KITTI scans"; with 0.7 the
-# kitti reading put 16 % of the car points in 0.6-0.7 against the real 1 %, p90 0.68 against
-# 0.45; the bright ones were body paint met squarely, 80 % of the points at 0.6 or more: the
-# rear of the car ahead). The clear coat mirrors away what it does not send straight back, and
-# metallic flakes scatter forwards (glossy, so the kitti reading turns the paint's return down
-# off the normal: IntensityResponse.gloss_exponent).
+# clear-coated body paint returns less than its colour says: k 0.45 (white about 0.47), fitted
+# with the kitti reading's glossy lobe and echo (sensors.lidar.INTENSITY_RESPONSES) to the car
+# points of seven real KITTI scans (README, "LiDAR against real KITTI scans"; 0.7 put 16 % of
+# town03_day's car points in 0.6-0.7 against the real 1 % with the wider lobe then, 0.2 left the
+# brightest tenth of town10_crowded's and town05_crowded's at 0.33-0.37 against the real 0.45).
+# The clear coat mirrors away what it does not send straight back, and metallic flakes scatter
+# forwards (glossy, so the kitti reading turns the paint's return down off the normal:
+# IntensityResponse.gloss_exponent).
 PAINT_REFLECTIVITY_FLOOR = 0.05
-PAINT_REFLECTIVITY_PER_ALBEDO = {Part.PAINT: 0.2, Part.CARGO: 0.7}
+PAINT_REFLECTIVITY_PER_ALBEDO = {Part.PAINT: 0.45, Part.CARGO: 0.7}
 COLOURED_BY_PAINT = tuple(PAINT_REFLECTIVITY_PER_ALBEDO)
 RETRO_PARTS = (Part.PLATE, Part.RETRO_WHITE)
 

@@ -12,7 +12,7 @@ from networks.geometry import box_rotations
 from networks.mesh import merge
 from sensors.errors import SensorConfigError
 from sensors.hits import RayHits
-from sensors.lidar import Lidar, LidarScan, LidarSpec
+from sensors.lidar import INTENSITY_RESPONSES, Lidar, LidarScan, LidarSpec
 from sensors.o3d import RaycastingScene, o3c
 from sensors.parts import Part, lidar_reflectance, part_albedo
 from sensors.weather import DAY
@@ -288,8 +288,8 @@ def test_paint_returns_by_its_colour_plates_and_road_paint_retro_reflect() -> No
     car = np.full(ids.shape[0], int(SemanticClass.CAR), np.uint8)
     reflectance, retro = lidar_reflectance(car, paint, ids)
     albedo = part_albedo(paint, ids).mean(axis=1)
-    # black weak, white about 4 times stronger; body paint's clear coat keeps it under matte white cargo panels
-    assert reflectance[albedo < 0.1].max() < 0.08 and reflectance[albedo > 0.8].min() > 0.2
+    # black weak, white about 5 times stronger; body paint's clear coat keeps it under matte white cargo panels
+    assert reflectance[albedo < 0.1].max() < 0.09 and reflectance[albedo > 0.8].min() > 0.4
     assert not retro.any()
     cargo, _ = lidar_reflectance(np.full(2, int(SemanticClass.TRUCK), np.uint8), np.full(2, int(Part.CARGO), np.uint8),
                                  np.array([1, 2], np.uint32))  # fmt: skip
@@ -356,6 +356,29 @@ def test_a_timed_sweep_of_a_still_world_hits_what_the_instant_one_does(synth: Si
     assert (instant.instance_id > 0).sum() > 5000
     assert np.array_equal(timed.instance_id, instant.instance_id)
     np.testing.assert_allclose(timed.range_m, instant.range_m, atol=2e-3)
+
+
+def test_kitti_reading_keeps_the_rear_of_a_far_car_met_squarely_where_the_road_there_reads_0(
+    synth: SimpleNamespace,
+) -> None:
+    """Met squarely, a clear coat mirrors the beam straight back (an echo ``gloss_echo`` times a
+    matte surface's): the rear of a car 35 m ahead keeps a reading where the road at that range
+    (and the same car with a matte surface's echo) reads 0."""
+    ahead = synth.agents([(1, SemanticClass.CAR, 35.0, 0.0, 0.75, 4.5, 1.8, 1.5, 0.0)])
+    world = synth.scene([synth.ground()], ahead)
+    kitti = kitti_lidar(sweep="instant", range_10pct_m=50.0, intensity="kitti")
+    scan = kitti.sense(world, synth.EGO, DAY, np.random.default_rng(4)).scan
+    car = scan.intensity[scan.instance_id == 1]
+    r = np.hypot(scan.xyz_lidar_m[:, 0], scan.xyz_lidar_m[:, 1])
+    road = scan.intensity[(scan.semantic_class == SemanticClass.ROAD) & (r > 30) & (r < 40)]
+    assert car.size > 50 and np.percentile(car, 75) > 0.2 and np.median(road) == 0.0
+    matte_echo = replace(INTENSITY_RESPONSES["kitti"], gloss_echo=1.0)
+    try:
+        INTENSITY_RESPONSES["kitti"], kept = matte_echo, INTENSITY_RESPONSES["kitti"]
+        again = kitti.sense(world, synth.EGO, DAY, np.random.default_rng(4)).scan
+    finally:
+        INTENSITY_RESPONSES["kitti"] = kept
+    assert np.percentile(again.intensity[again.instance_id == 1], 75) == 0.0
 
 
 def test_kitti_intensity_reads_like_real_kitti_scans(synth: SimpleNamespace) -> None:
