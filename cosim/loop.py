@@ -232,7 +232,7 @@ def run(
         signals = StreetObjects(objects)
     occupancy = None
     if scenario.outputs.occupancy.enabled:
-        occupancy = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh, rig.engine.name)
+        occupancy = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh)
     loop = FrameLoop(
         scenario=scenario,
         net_path=prepared.net_path,

@@ -5,11 +5,10 @@ the frame's scene)."""
 from __future__ import annotations
 
 import numpy as np
-import numpy.typing as npt
 
 from cosim.state import WorldState
-from gtgen.occupancy import OccupancyFrame, Walker, camera_rays, occupancy_frame
-from gtgen.voxels import OccupancyGrid, SegmentWalk, VoxelGrid, walk_segments
+from gtgen.occupancy import OccupancyFrame, camera_rays, occupancy_frame
+from gtgen.voxels import OccupancyGrid
 from networks.mesh import ClassedMesh
 from sensors.camera import CameraOutput
 from sensors.engine import Scene
@@ -20,13 +19,11 @@ from sensors.solids import Solids
 
 class OccupancyStep:
     """Makes each frame's :class:`~gtgen.occupancy.OccupancyFrame` on ``grid`` (keeps the solids
-    of the whole static world ``world``). With ``engine`` ``mitsuba`` the rays' voxel walks run
-    compiled by Dr.Jit, else in numpy (the same voxels)."""
+    of the whole static world ``world``)."""
 
-    def __init__(self, grid: OccupancyGrid, world: ClassedMesh, engine: str = "open3d") -> None:
+    def __init__(self, grid: OccupancyGrid, world: ClassedMesh) -> None:
         self.grid = grid
         self._solids = Solids(world)
-        self._walker: Walker = _compiled_walker() if engine == "mitsuba" else walk_segments
 
     def frame(
         self, static: ClassedMesh, scene: Scene, state: WorldState, outputs: tuple[SensorOutput, ...]
@@ -38,13 +35,4 @@ class OccupancyStep:
             cameras.append((camera.spec, hits.range_m.astype(np.float64)))
         lidars = tuple(o for o in outputs if isinstance(o, LidarOutput))
         return occupancy_frame(self.grid, static, self._solids, state.agents, map_SE3_ego, state.ego.velocity_map_mps,
-                               lidars, tuple(cameras), scene.agent_meshes, self._walker)  # fmt: skip
-
-
-def _compiled_walker() -> Walker:
-    from sensors.mitsuba_engine import walk_segments_llvm
-
-    def walk(grid: VoxelGrid, segments: SegmentWalk, out: npt.NDArray[np.bool_]) -> None:
-        walk_segments_llvm(grid.shape, segments, out)
-
-    return walk
+                               lidars, tuple(cameras), scene.agent_meshes)  # fmt: skip

@@ -48,15 +48,15 @@ in the LiDAR frame's axes (0 on the static world; constant velocity, no turning)
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
+from gtgen import voxel_kernels
 from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, LIDARSEG_LUT
-from gtgen.voxels import OccupancyGrid, SegmentWalk, VoxelGrid, box_voxels, triangle_voxels, walk_segments
+from gtgen.voxels import OccupancyGrid, VoxelGrid, box_voxels, triangle_voxels, walk_voxels
 from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
 from networks.mesh import ClassedMesh
@@ -103,7 +103,6 @@ PRIORITY = (
     SemanticClass.BUS, SemanticClass.TRAILER, SemanticClass.CONSTRUCTION_VEHICLE, SemanticClass.TRAFFIC_CONE,
     SemanticClass.BARRIER, SemanticClass.NONE,
 )  # fmt: skip
-Walker = Callable[[VoxelGrid, SegmentWalk, npt.NDArray[np.bool_]], None]
 _RANK = np.full(256, len(PRIORITY), np.int64)
 for _rank, _cls in enumerate(PRIORITY):
     _RANK[int(_cls)] = _rank
@@ -167,25 +166,23 @@ def occupancy_frame(
     spec: OccupancyGrid, static: ClassedMesh, solids: Solids, agents: Agents, map_SE3_ego: SE3,
     ego_velocity_map_mps: npt.NDArray[np.float64], lidars: tuple[LidarOutput, ...],
     cameras: tuple[tuple[CameraSpec, npt.NDArray[np.float64]], ...] = (), agent_meshes: AgentMeshes | None = None,
-    walker: Walker = walk_segments,
 ) -> OccupancyFrame:  # fmt: skip
     """The occupancy of one frame. ``static``: the world mesh near the ego (map frame);
     ``solids``: the world's solids; ``agents`` in the map frame; ``cameras``: each camera's spec and the
     distance (m) its grid-resolution rays (:func:`camera_rays`) travelled, inf where they hit
     nothing; ``agent_meshes``: the posed meshes of (some of) the agents (their volumes; the
-    others fill their boxes); ``walker``: marks the voxels of a :class:`~gtgen.voxels.SegmentWalk`
-    (:func:`~gtgen.voxels.walk_segments`, or the same walk compiled)."""
+    others fill their boxes)."""
     grid = spec.grid
     ego_SE3_map = map_SE3_ego.inverse()
     native, instance = _classes(grid, static, solids, agents, map_SE3_ego, agent_meshes)
     mask_lidar = np.zeros(grid.size, np.bool_)
     for lidar in lidars:
         starts, ends = lidar_segments(lidar, ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64))
-        walker(grid, SegmentWalk.of(grid, starts, ends), mask_lidar)
+        walk_voxels(grid, starts, ends, mask_lidar)
     mask_camera = np.zeros(grid.size, np.bool_)
     for camera, distance_m in cameras:
         starts, ends = camera_segments(spec, camera, distance_m)
-        walker(grid, SegmentWalk.of(grid, starts, ends), mask_camera)
+        walk_voxels(grid, starts, ends, mask_camera)
     velocity = agents.velocity_map_mps @ ego_SE3_map.rotation.T
     relative = velocity - ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64)
     point_flow = tuple(point_flow_m(lidar, agents, map_SE3_ego) for lidar in lidars)
@@ -244,11 +241,13 @@ def _classes(
         classes.append(agents.semantic_class[source])
         instances.append(agents.instance_id[source])
     flat, cls, inst = np.concatenate(flats), np.concatenate(classes), np.concatenate(instances)
-    order = np.argsort(-_RANK[cls], kind="stable")  # lowest priority first: later writes win
     native = np.full(grid.size, FREE_NATIVE, np.uint8)
     instance = np.zeros(grid.size, np.uint32)
-    native[flat[order]] = cls[order]
-    instance[flat[order]] = inst[order]
+    best = np.full(grid.size, len(PRIORITY) + 1, np.int64)
+    rank = _RANK[cls]
+    voxel_kernels.paint(
+        flat.astype(np.int64), rank, cls.astype(np.uint8), inst.astype(np.uint32), native, instance, best
+    )
     return native, instance
 
 

@@ -99,32 +99,10 @@ def triangle_voxels(grid: VoxelGrid, triangles_m: F64) -> tuple[I64, I64]:
     the triangle inside that row is a convex polygon; its x extent, from the polygon's corners
     (the triangle's corners in the row, its edges' crossings of the row's four faces, the row's
     four edges' crossings of the triangle), names exactly the voxels of the row it meets."""
-    tri = grid.to_grid(np.asarray(triangles_m, np.float64).reshape(-1, 3, 3))
-    shape = np.asarray(grid.shape)
-    keep = np.all(tri.max(axis=1) >= -EPS, axis=1) & np.all(tri.min(axis=1) <= shape + EPS, axis=1)
-    tri, source = tri[keep], np.flatnonzero(keep).astype(np.int64)
-    low = np.clip(np.floor(tri.min(axis=1) - EPS).astype(np.int64), 0, shape - 1)
-    high = np.clip(np.floor(tri.max(axis=1) + EPS).astype(np.int64), 0, shape - 1)
-    one = np.all(low == high, axis=1)  # within one voxel (most triangles of a body): that voxel
-    if one.any():
-        rest_flat, rest_source = _rows(grid, tri[~one], source[~one], low[~one], high[~one])
-        return np.concatenate([grid.flat(low[one]), rest_flat]), np.concatenate([source[one], rest_source])
-    return _rows(grid, tri, source, low, high)
+    from gtgen import voxel_kernels
 
-
-def _rows(grid: VoxelGrid, tri: F64, source: I64, low: I64, high: I64) -> tuple[I64, I64]:
-    shape = np.asarray(grid.shape)
-    rows_y, layers = high[:, 1] - low[:, 1] + 1, high[:, 2] - low[:, 2] + 1
-    t, local = _ragged(rows_y * layers)
-    j, k = low[t, 1] + local // layers[t], low[t, 2] + local % layers[t]
-    x_min, x_max = _x_extent(tri[t], j.astype(np.float64), k.astype(np.float64))
-    met = (x_min <= x_max) & (x_max >= -EPS) & (x_min <= shape[0] + EPS)
-    t, j, k = t[met], j[met], k[met]
-    i0 = np.clip(np.floor(x_min[met] - EPS).astype(np.int64), 0, shape[0] - 1)
-    i1 = np.clip(np.floor(x_max[met] + EPS).astype(np.int64), 0, shape[0] - 1)
-    run, offset = _ragged(np.maximum(i1 - i0 + 1, 0))
-    ijk = np.stack([i0[run] + offset, j[run], k[run]], axis=-1)
-    return grid.flat(ijk), source[t[run]]
+    tri = np.ascontiguousarray(grid.to_grid(np.asarray(triangles_m, np.float64).reshape(-1, 3, 3)))
+    return voxel_kernels.triangle_voxels(tri, *grid.shape)
 
 
 def _ragged(count: I64) -> tuple[I64, I64]:
@@ -132,48 +110,6 @@ def _ragged(count: I64) -> tuple[I64, I64]:
     owner = np.repeat(np.arange(count.shape[0], dtype=np.int64), count)
     first = np.cumsum(count) - count
     return owner, np.arange(owner.shape[0], dtype=np.int64) - first[owner]
-
-
-def _x_extent(tri: F64, j: F64, k: F64) -> tuple[F64, F64]:
-    """``(x_min, x_max)`` of each triangle ``(P, 3, 3)`` within the row ``y in [j, j + 1], z in
-    [k, k + 1]`` (``x_min > x_max``: the triangle misses the row)."""
-    ylo, yhi, zlo, zhi = j - EPS, j + 1 + EPS, k - EPS, k + 1 + EPS
-
-    def in_row(y: F64, z: F64) -> npt.NDArray[np.bool_]:
-        return (y >= ylo[:, None]) & (y <= yhi[:, None]) & (z >= zlo[:, None]) & (z <= zhi[:, None])
-
-    xs, oks = [tri[:, :, 0]], [in_row(tri[:, :, 1], tri[:, :, 2])]
-    a, b = tri, tri[:, [1, 2, 0]]
-    d = b - a
-    for axis, planes in ((1, (j, j + 1)), (2, (k, k + 1))):
-        for plane in planes:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                s = (plane[:, None] - a[:, :, axis]) / d[:, :, axis]
-                p = a + d * s[:, :, None]
-            xs.append(p[:, :, 0])
-            oks.append((s >= -EPS) & (s <= 1 + EPS) & in_row(p[:, :, 1], p[:, :, 2]))
-    n = np.cross(d[:, 0], -d[:, 2])
-    corners_y = np.stack([j, j, j + 1, j + 1], axis=1)
-    corners_z = np.stack([k, k + 1, k, k + 1], axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = (np.einsum("ij,ij->i", n, a[:, 0])[:, None] - n[:, 1:2] * corners_y - n[:, 2:3] * corners_z) / n[:, 0:1]
-    xs.append(x)
-    oks.append((np.abs(n[:, 0:1]) > EPS) & _in_triangle_yz(tri, corners_y, corners_z))
-    x_all, ok = np.concatenate(xs, axis=1), np.concatenate(oks, axis=1)
-    ok &= np.isfinite(x_all)
-    return np.where(ok, x_all, np.inf).min(axis=1), np.where(ok, x_all, -np.inf).max(axis=1)
-
-
-def _in_triangle_yz(tri: F64, y: F64, z: F64) -> npt.NDArray[np.bool_]:
-    """Whether points ``(y, z)`` ``(P, C)`` lie in each triangle projected on the yz plane (closed)."""
-    signs = []
-    for a, b in ((0, 1), (1, 2), (2, 0)):
-        ay, az = tri[:, a, 1:2], tri[:, a, 2:3]
-        by, bz = tri[:, b, 1:2], tri[:, b, 2:3]
-        signs.append((by - ay) * (z - az) - (bz - az) * (y - ay))
-    s = np.stack(signs)
-    scale = EPS * np.maximum(1.0, np.abs(s).max(axis=0))
-    return np.asarray(np.all(s >= -scale, axis=0) | np.all(s <= scale, axis=0), np.bool_)
 
 
 # --- boxes --------------------------------------------------------------------------------------
@@ -280,6 +216,17 @@ def walk_segments(grid: VoxelGrid, walk: SegmentWalk, out: npt.NDArray[np.bool_]
         t_next[at, axis] += t_delta[rows, axis]
         go = (t_min <= t_end[rows]) & np.all((voxel >= 0) & (voxel < shape), axis=1)
         rows, voxel, t_next = rows[go], voxel[go], t_next[go]
+
+
+def walk_voxels(grid: VoxelGrid, start_m: F64, end_m: F64, out: npt.NDArray[np.bool_]) -> None:
+    """Set ``out`` (flat, ``grid.size``) at every voxel the walk of each segment ``start -> end``
+    (``(N, 3)`` each) visits: :meth:`SegmentWalk.of` and :func:`walk_segments`, compiled, one
+    segment at a time."""
+    from gtgen import voxel_kernels
+
+    s = np.ascontiguousarray(grid.to_grid(start_m))
+    e = np.ascontiguousarray(grid.to_grid(end_m))
+    voxel_kernels.walk(s, e, *grid.shape, out)
 
 
 def _segment_chunks(grid: VoxelGrid, start_m: F64, end_m: F64) -> Iterator[tuple[I64, I64]]:

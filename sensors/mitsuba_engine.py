@@ -197,38 +197,3 @@ class MitsubaScene:
 
     def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
         return _hits_alone(self.agent_meshes, rays, instance_id)
-
-
-def walk_segments_llvm(shape: tuple[int, int, int], walk: Any, out: npt.NDArray[np.bool_]) -> None:
-    """Set ``out`` (flat, of a grid of ``shape``) at every voxel a :class:`gtgen.voxels.SegmentWalk`
-    visits: the same walk as :func:`gtgen.voxels.walk_segments`, compiled by Dr.Jit (one kernel a
-    grid shape, kept) and run over all segments at once."""
-    n = int(walk.t_end.shape[0])
-    if n == 0:
-        return
-    nx, ny, nz = shape
-    visited = dr.zeros(mi.UInt32, nx * ny * nz)
-    ix, iy, iz = (mi.Int32(np.ascontiguousarray(walk.voxel[:, k])) for k in range(3))
-    sx, sy, sz = (mi.Int32(np.ascontiguousarray(walk.step[:, k])) for k in range(3))
-    tx, ty, tz = (mi.Float64(np.ascontiguousarray(walk.t_next[:, k])) for k in range(3))
-    dx, dy, dz = (mi.Float64(np.ascontiguousarray(walk.t_delta[:, k])) for k in range(3))
-    end = mi.Float64(np.ascontiguousarray(walk.t_end))
-    one = mi.UInt32(1)
-
-    def cond(*state: Any) -> Any:
-        return state[-1]
-
-    def body(ix: Any, iy: Any, iz: Any, tx: Any, ty: Any, tz: Any, active: Any) -> tuple[Any, ...]:
-        dr.scatter(visited, one, mi.UInt32((ix * ny + iy) * nz + iz))
-        on_x = (tx <= ty) & (tx <= tz)
-        on_y = ~on_x & (ty <= tz)
-        on_z = ~on_x & ~on_y
-        t_min = dr.select(on_x, tx, dr.select(on_y, ty, tz))  # (dr.minimum of float64 fails in some LLVMs)
-        ix, tx = dr.select(on_x, ix + sx, ix), dr.select(on_x, tx + dx, tx)
-        iy, ty = dr.select(on_y, iy + sy, iy), dr.select(on_y, ty + dy, ty)
-        iz, tz = dr.select(on_z, iz + sz, iz), dr.select(on_z, tz + dz, tz)
-        inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny) & (iz >= 0) & (iz < nz)
-        return ix, iy, iz, tx, ty, tz, (t_min <= end) & inside
-
-    dr.while_loop((ix, iy, iz, tx, ty, tz, dr.full(mi.Bool, True, n)), cond, body)
-    out |= visited.numpy().astype(np.bool_)

@@ -44,7 +44,7 @@ def check(frames: int, steps_between: int = 1, ray_step: int = 7) -> Counter[str
     prepared = prepare_network(scenario)
     rig = build_rig(scenario)
     crop = StaticCrop(prepared.world.mesh, rig.reach_m)
-    step = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh, rig.engine.name)
+    step = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh)
     grid = step.grid.grid
     traffic = Traffic(prepared.net_path, prepared.net, scenario)
     rng = np.random.default_rng(0)

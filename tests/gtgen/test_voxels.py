@@ -1,11 +1,10 @@
 """Exact voxel geometry against brute force: triangles, boxes, segments."""
 
 import numpy as np
-import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from gtgen.voxels import SegmentWalk, VoxelGrid, box_voxels, segment_voxels, triangle_voxels, walk_segments
+from gtgen.voxels import SegmentWalk, VoxelGrid, box_voxels, segment_voxels, triangle_voxels, walk_segments, walk_voxels
 from networks.geometry import box_rotations
 
 GRID = VoxelGrid((-4.0, -4.0, -1.0), 0.4, (20, 20, 10))
@@ -147,15 +146,18 @@ def _tie(start, end):
 
 
 def test_compiled_voxel_walk_visits_the_same_voxels_as_numpy():
-    pytest.importorskip("drjit")
-    try:
-        from sensors.mitsuba_engine import walk_segments_llvm
-    except (ImportError, RuntimeError, OSError) as err:
-        pytest.skip(f"no Dr.Jit LLVM backend: {err}")
     rng = np.random.default_rng(3)
     starts = np.broadcast_to([0.1, 0.2, 0.9], (5000, 3)) + rng.normal(0.0, 0.05, (5000, 3))
     ends = rng.uniform([-7, -7, -1.5], [7, 7, 4], (5000, 3))
+    ends[:500] = np.round(ends[:500] / GRID.voxel_m) * GRID.voxel_m  # ends on faces, edges and corners
+    starts[500:1000, 2] = ends[500:1000, 2] = 1.2  # in a plane of faces
     numpy_walk = _walked(lambda w, out: walk_segments(GRID, w, out), starts, ends)
-    compiled = _walked(lambda w, out: walk_segments_llvm(GRID.shape, w, out), starts, ends)
+    compiled = np.zeros(GRID.size, np.bool_)
+    walk_voxels(GRID, starts, ends, compiled)
     assert numpy_walk.sum() > 500
     assert np.array_equal(numpy_walk, compiled)
+    for i in range(0, 1000, 7):  # ray by ray
+        one = np.zeros(GRID.size, np.bool_)
+        walk_voxels(GRID, starts[i : i + 1], ends[i : i + 1], one)
+        reference = _walked(lambda w, out: walk_segments(GRID, w, out), starts[i : i + 1], ends[i : i + 1])
+        assert np.array_equal(one, reference)

@@ -1,0 +1,199 @@
+"""Compiled loops (Numba) of :mod:`gtgen.voxels` and :mod:`gtgen.occupancy`: the same arithmetic
+as their numpy forms, one triangle, row or ray at a time instead of one array pass per step.
+
+Grid coordinates throughout (voxel units, the grid's lowest corner at 0); voxels as flat indices
+into the C-ordered ``(nx, ny, nz)`` array. Compiled on first use and cached beside this file."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+EPS = 1e-9  # as gtgen.voxels.EPS
+
+I64 = npt.NDArray[np.int64]
+
+
+@njit(cache=True, nogil=True)
+def _grow(a: I64, n: int) -> I64:  # pragma: no cover - compiled
+    b = np.empty(max(2 * a.shape[0], n + 1024), np.int64)
+    b[: a.shape[0]] = a
+    return b
+
+
+@njit(cache=True, nogil=True)
+def _in_row(y: float, z: float, j: float, k: float) -> bool:  # pragma: no cover - compiled
+    return y >= j - EPS and y <= j + 1 + EPS and z >= k - EPS and z <= k + 1 + EPS
+
+
+@njit(cache=True, nogil=True)
+def _x_extent(
+    t: npt.NDArray[np.float64], j: float, k: float, n: npt.NDArray[np.float64]
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """As ``gtgen.voxels._x_extent`` for one triangle ``t: (3, 3)`` and the row ``(j, k)``;
+    ``n``: the triangle's normal, ``cross(t1 - t0, t2 - t0)``."""
+    lo, hi = math.inf, -math.inf
+    for v in range(3):
+        x = t[v, 0]
+        if _in_row(t[v, 1], t[v, 2], j, k) and math.isfinite(x):
+            lo, hi = min(lo, x), max(hi, x)
+    for axis in (1, 2):
+        base = j if axis == 1 else k
+        for plane in (base, base + 1.0):
+            for e in range(3):
+                a0, a1, a2 = t[e, 0], t[e, 1], t[e, 2]
+                b = (e + 1) % 3
+                d0, d1, d2 = t[b, 0] - a0, t[b, 1] - a1, t[b, 2] - a2
+                da = d1 if axis == 1 else d2
+                if da == 0.0:
+                    continue  # parallel to the plane: numpy's inf or nan, never finite
+                s = (plane - (a1 if axis == 1 else a2)) / da
+                p0, p1, p2 = a0 + d0 * s, a1 + d1 * s, a2 + d2 * s
+                if s >= -EPS and s <= 1 + EPS and _in_row(p1, p2, j, k) and math.isfinite(p0):
+                    lo, hi = min(lo, p0), max(hi, p0)
+    n0, n1, n2 = n[0], n[1], n[2]
+    if abs(n0) > EPS:
+        dot = n0 * t[0, 0] + n1 * t[0, 1] + n2 * t[0, 2]
+        for cy, cz in ((j, k), (j, k + 1.0), (j + 1.0, k), (j + 1.0, k + 1.0)):
+            x = (dot - n1 * cy - n2 * cz) / n0
+            if not math.isfinite(x):
+                continue
+            s0 = (t[1, 1] - t[0, 1]) * (cz - t[0, 2]) - (t[1, 2] - t[0, 2]) * (cy - t[0, 1])
+            s1 = (t[2, 1] - t[1, 1]) * (cz - t[1, 2]) - (t[2, 2] - t[1, 2]) * (cy - t[1, 1])
+            s2 = (t[0, 1] - t[2, 1]) * (cz - t[2, 2]) - (t[0, 2] - t[2, 2]) * (cy - t[2, 1])
+            scale = EPS * max(1.0, max(abs(s0), max(abs(s1), abs(s2))))
+            pos = s0 >= -scale and s1 >= -scale and s2 >= -scale
+            neg = s0 <= scale and s1 <= scale and s2 <= scale
+            if pos or neg:
+                lo, hi = min(lo, x), max(hi, x)
+    return lo, hi
+
+
+@njit(cache=True, nogil=True)
+def triangle_voxels(
+    tri: npt.NDArray[np.float64], nx: int, ny: int, nz: int
+) -> tuple[I64, I64]:  # pragma: no cover - compiled
+    """``(flat, source)`` of :func:`gtgen.voxels.triangle_voxels` for triangles ``(T, 3, 3)`` in
+    grid coordinates, in the same order (triangles within one voxel first, then row by row)."""
+    count = tri.shape[0]
+    flat = np.empty(max(1024, 4 * count), np.int64)
+    source = np.empty(flat.shape[0], np.int64)
+    m = 0
+    low = np.empty((count, 3), np.int64)
+    high = np.empty((count, 3), np.int64)
+    state = np.zeros(count, np.int8)  # 0: missed, 1: one voxel, 2: rows
+    shape = (nx, ny, nz)
+    for t in range(count):
+        keep = True
+        for a in range(3):
+            mn = min(tri[t, 0, a], min(tri[t, 1, a], tri[t, 2, a]))
+            mx = max(tri[t, 0, a], max(tri[t, 1, a], tri[t, 2, a]))
+            if not (mx >= -EPS and mn <= shape[a] + EPS):
+                keep = False
+            low[t, a] = min(max(math.floor(mn - EPS), 0), shape[a] - 1)
+            high[t, a] = min(max(math.floor(mx + EPS), 0), shape[a] - 1)
+        if keep:
+            one = low[t, 0] == high[t, 0] and low[t, 1] == high[t, 1] and low[t, 2] == high[t, 2]
+            state[t] = 1 if one else 2
+    for t in range(count):
+        if state[t] == 1:
+            if m >= flat.shape[0]:
+                flat, source = _grow(flat, m), _grow(source, m)
+            flat[m] = (low[t, 0] * ny + low[t, 1]) * nz + low[t, 2]
+            source[m] = t
+            m += 1
+    n = np.empty(3)
+    for t in range(count):
+        if state[t] != 2:
+            continue
+        v = tri[t]
+        e0 = (v[1, 0] - v[0, 0], v[1, 1] - v[0, 1], v[1, 2] - v[0, 2])
+        e2 = (-(v[0, 0] - v[2, 0]), -(v[0, 1] - v[2, 1]), -(v[0, 2] - v[2, 2]))
+        n[0] = e0[1] * e2[2] - e0[2] * e2[1]
+        n[1] = e0[2] * e2[0] - e0[0] * e2[2]
+        n[2] = e0[0] * e2[1] - e0[1] * e2[0]
+        for j in range(low[t, 1], high[t, 1] + 1):
+            for k in range(low[t, 2], high[t, 2] + 1):
+                x_min, x_max = _x_extent(v, float(j), float(k), n)
+                if not (x_min <= x_max and x_max >= -EPS and x_min <= nx + EPS):
+                    continue
+                i0 = min(max(math.floor(x_min - EPS), 0), nx - 1)
+                i1 = min(max(math.floor(x_max + EPS), 0), nx - 1)
+                if m + (i1 - i0 + 1) > flat.shape[0]:
+                    flat, source = _grow(flat, m + i1 - i0 + 1), _grow(source, m + i1 - i0 + 1)
+                for i in range(i0, i1 + 1):
+                    flat[m] = (i * ny + j) * nz + k
+                    source[m] = t
+                    m += 1
+    return flat[:m].copy(), source[:m].copy()
+
+
+@njit(cache=True, nogil=True)
+def _setup(s: float, d: float, t0: float, n: int) -> tuple[int, int, float, float]:  # pragma: no cover
+    """One axis of a walk: its first voxel, step, next face and face spacing (in ``t``)."""
+    voxel = min(max(math.floor(s + d * t0), 0), n - 1)
+    if d > 0:
+        return voxel, 1, (voxel + 1 - s) / d, 1.0 / abs(d)
+    if d < 0:
+        return voxel, -1, (voxel - s) / d, 1.0 / abs(d)
+    return voxel, 0, math.inf, math.inf
+
+
+@njit(cache=True, nogil=True)
+def walk(
+    s: npt.NDArray[np.float64], e: npt.NDArray[np.float64], nx: int, ny: int, nz: int, out: npt.NDArray[np.bool_]
+) -> None:  # pragma: no cover - compiled
+    """Set ``out`` (flat) at every voxel the segments ``s -> e`` (``(N, 3)``, grid coordinates)
+    cross: :meth:`gtgen.voxels.SegmentWalk.of` and :func:`gtgen.voxels.walk_segments` in one loop."""
+    upper = (float(nx), float(ny), float(nz))
+    for r in range(s.shape[0]):
+        lower_t, upper_t = -math.inf, math.inf  # _clip_to_box
+        for a in range(3):
+            sa, da = s[r, a], e[r, a] - s[r, a]
+            if da != 0:
+                ta, tb = (0.0 - sa) / da, (upper[a] - sa) / da
+                lower_t, upper_t = max(lower_t, min(ta, tb)), min(upper_t, max(ta, tb))
+            elif not (sa >= 0 and sa <= upper[a]):
+                lower_t, upper_t = math.inf, -math.inf
+        t0, t1 = max(lower_t, 0.0), min(upper_t, 1.0)
+        if not t0 < t1:
+            continue
+        x, sx, tx, dx = _setup(s[r, 0], e[r, 0] - s[r, 0], t0, nx)
+        y, sy, ty, dy = _setup(s[r, 1], e[r, 1] - s[r, 1], t0, ny)
+        z, sz, tz, dz = _setup(s[r, 2], e[r, 2] - s[r, 2], t0, nz)
+        while True:
+            out[(x * ny + y) * nz + z] = True
+            if tx <= ty and tx <= tz:  # the first of the nearest faces, as numpy's argmin
+                t_min, x, tx = tx, x + sx, tx + dx
+                inside = 0 <= x < nx
+            elif ty <= tz:
+                t_min, y, ty = ty, y + sy, ty + dy
+                inside = 0 <= y < ny
+            else:
+                t_min, z, tz = tz, z + sz, tz + dz
+                inside = 0 <= z < nz
+            if not (t_min <= t1 and inside):
+                break
+
+
+@njit(cache=True, nogil=True)
+def paint(
+    flat: I64,
+    rank: I64,
+    cls: npt.NDArray[np.uint8],
+    inst: npt.NDArray[np.uint32],
+    native: npt.NDArray[np.uint8],
+    instance: npt.NDArray[np.uint32],
+    best: I64,
+) -> None:  # pragma: no cover - compiled
+    """Each voxel takes the class and instance of its entry of lowest rank, the last such one in
+    the entries' order (a stable sort by falling rank, then every entry written in turn)."""
+    for n in range(flat.shape[0]):
+        v = flat[n]
+        if rank[n] <= best[v]:
+            best[v] = rank[n]
+            native[v] = cls[n]
+            instance[v] = inst[n]
