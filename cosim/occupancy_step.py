@@ -35,4 +35,5 @@ class OccupancyStep:
             cameras.append((camera.spec, hits.range_m.astype(np.float64)))
         lidars = tuple(o for o in outputs if isinstance(o, LidarOutput))
         return occupancy_frame(self.grid, static, self._solids, state.agents, map_SE3_ego, state.ego.velocity_map_mps,
-                               lidars, tuple(cameras), scene.agent_meshes)  # fmt: skip
+                               lidars, tuple(cameras), scene.agent_meshes,
+                               state.ego.yaw_rate_rad_s)  # fmt: skip

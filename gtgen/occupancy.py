@@ -39,11 +39,13 @@ a ray passes through occupied voxels only where it passes by a surface in them (
 that reflects points is occupied, one a beam passes through in the air is free) or through an
 agent's glass into its body (an agent's volume is solid, glass returns nothing).
 
-Flow: every agent voxel carries its agent's velocity in the ego frame's axes (``flow_mps``:
-the ego's motion taken out, the agent's velocity over the ground; ``flow_relative_mps``: minus
-the ego's velocity, as the ego sees it move; the ego's turning is not taken out). Every LiDAR
-point carries its scene flow to the next sweep: its object's velocity times the sweep period,
-in the LiDAR frame's axes (0 on the static world; constant velocity, no turning).
+Flow: every agent voxel carries the velocity of its agent's body at the voxel's centre, in the
+ego frame's axes (``flow_mps``: over the ground, the agent's velocity and its turning about its
+box's centre; ``flow_relative_mps``: as the ego sees it move, the velocity relative to the ego
+frame, which moves with the ego's velocity and turns with its rate of turn). Every LiDAR point
+carries its scene flow to the next sweep: where that point of its object is one sweep period
+later (the object's box moving along its arc, :func:`sensors.agents.motion_over`), in the LiDAR
+frame's axes (0 on the static world).
 """
 
 from __future__ import annotations
@@ -61,7 +63,7 @@ from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
 from networks.mesh import ClassedMesh
 from networks.records import check_arrays
-from sensors.agents import AgentMeshes, Agents
+from sensors.agents import AgentMeshes, Agents, motion_over, turned_about_z
 from sensors.camera import CameraSpec
 from sensors.lidar import LidarOutput
 from sensors.rays import sensor_rays
@@ -112,10 +114,13 @@ for _rank, _cls in enumerate(PRIORITY):
 class OccupancyFrame:
     """One frame's occupancy on ``grid``: ``semantics_native: (X, Y, Z) uint8`` (our classes, 255
     free), ``instance: (X, Y, Z) uint32`` (the agent's track id, 0: none), ``mask_lidar`` and
-    ``mask_camera: (X, Y, Z) bool``, each agent's velocity in the ego frame's axes
+    ``mask_camera: (X, Y, Z) bool``, each agent's motion in the ego frame's axes
     (``agent_id: (A,) uint32``, ``agent_velocity_mps`` over the ground and
-    ``agent_velocity_relative_mps`` minus the ego's: ``(A, 3) float32``; the voxels' flow is made
-    from them, :attr:`flow_mps`), ``point_flow_m``: one ``(N, 3) float32`` per LiDAR output."""
+    ``agent_velocity_relative_mps`` minus the ego's: ``(A, 3) float32``, its box's centre
+    ``agent_center_m: (A, 3) float32`` and its turning ``agent_spin_rad_s: (A, 3) float32``,
+    the angular velocity), the ego's turning ``ego_spin_rad_s: (3,) float32``
+    (the voxels' flow is made from them, :attr:`flow_mps`), ``point_flow_m``: one ``(N, 3)
+    float32`` per LiDAR output."""
 
     grid: VoxelGrid
     semantics_native: npt.NDArray[np.uint8]
@@ -125,6 +130,9 @@ class OccupancyFrame:
     agent_id: npt.NDArray[np.uint32]
     agent_velocity_mps: npt.NDArray[np.float32]
     agent_velocity_relative_mps: npt.NDArray[np.float32]
+    agent_center_m: npt.NDArray[np.float32]
+    agent_spin_rad_s: npt.NDArray[np.float32]
+    ego_spin_rad_s: npt.NDArray[np.float32]
     point_flow_m: tuple[npt.NDArray[np.float32], ...] = ()
 
     def __post_init__(self) -> None:
@@ -132,28 +140,39 @@ class OccupancyFrame:
         check_arrays(
             self, semantics_native=(np.uint8, s), instance=(np.uint32, s), mask_lidar=(np.bool_, s),
             mask_camera=(np.bool_, s), agent_id=(np.uint32, ("A",)), agent_velocity_mps=(np.float32, ("A", 3)),
-            agent_velocity_relative_mps=(np.float32, ("A", 3)),
+            agent_velocity_relative_mps=(np.float32, ("A", 3)), agent_center_m=(np.float32, ("A", 3)),
+            agent_spin_rad_s=(np.float32, ("A", 3)), ego_spin_rad_s=(np.float32, (3,)),
         )  # fmt: skip
 
     @property
     def flow_mps(self) -> npt.NDArray[np.float32]:
-        """``(X, Y, Z, 3) float32``: each agent voxel's velocity over the ground (m/s, ego axes), 0 elsewhere."""
-        return self._flow(self.agent_velocity_mps)
+        """``(X, Y, Z, 3) float32``: each agent voxel's velocity over the ground at its centre
+        (m/s, ego axes: the agent's velocity and its turning about its box's centre), 0 elsewhere."""
+        return self._flow(relative=False)
 
     @property
     def flow_relative_mps(self) -> npt.NDArray[np.float32]:
-        """``(X, Y, Z, 3) float32``: the same minus the ego's velocity."""
-        return self._flow(self.agent_velocity_relative_mps)
+        """``(X, Y, Z, 3) float32``: the same relative to the ego frame (the ego's velocity and its
+        turning taken out: how the voxel's centre moves as the ego sees it)."""
+        return self._flow(relative=True)
 
-    def _flow(self, velocity: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+    def _flow(self, relative: bool) -> npt.NDArray[np.float32]:
         flow = np.zeros((*self.grid.shape, 3), np.float32)
-        filled = self.instance != 0
+        instance = self.instance.ravel()
+        filled = np.flatnonzero(instance != 0)
         order = np.argsort(self.agent_id)
-        at = np.clip(np.searchsorted(self.agent_id[order], self.instance[filled]), 0, max(len(order) - 1, 0))
-        if len(order):
-            known = self.agent_id[order][at] == self.instance[filled]
-            values = np.where(known[:, None], velocity[order][at], 0.0)
-            flow[filled] = values
+        if not len(order) or not len(filled):
+            return flow
+        at = np.clip(np.searchsorted(self.agent_id[order], instance[filled]), 0, len(order) - 1)
+        known = self.agent_id[order][at] == instance[filled]
+        filled, row = filled[known], order[at[known]]
+        centre = self.grid.centers_m(filled)
+        velocity = (self.agent_velocity_relative_mps if relative else self.agent_velocity_mps)[row].astype(np.float64)
+        spin = self.agent_spin_rad_s[row].astype(np.float64)
+        velocity += np.cross(spin, centre - self.agent_center_m[row])
+        if relative:
+            velocity -= np.cross(self.ego_spin_rad_s.astype(np.float64), centre)
+        flow.reshape(-1, 3)[filled] = velocity
         return flow
 
     @property
@@ -166,12 +185,13 @@ def occupancy_frame(
     spec: OccupancyGrid, static: ClassedMesh, solids: Solids, agents: Agents, map_SE3_ego: SE3,
     ego_velocity_map_mps: npt.NDArray[np.float64], lidars: tuple[LidarOutput, ...],
     cameras: tuple[tuple[CameraSpec, npt.NDArray[np.float64]], ...] = (), agent_meshes: AgentMeshes | None = None,
+    ego_yaw_rate_rad_s: float = 0.0,
 ) -> OccupancyFrame:  # fmt: skip
     """The occupancy of one frame. ``static``: the world mesh near the ego (map frame);
     ``solids``: the world's solids; ``agents`` in the map frame; ``cameras``: each camera's spec and the
     distance (m) its grid-resolution rays (:func:`camera_rays`) travelled, inf where they hit
     nothing; ``agent_meshes``: the posed meshes of (some of) the agents (their volumes; the
-    others fill their boxes)."""
+    others fill their boxes); ``ego_yaw_rate_rad_s``: the ego's rate of turn (counter-clockwise)."""
     grid = spec.grid
     ego_SE3_map = map_SE3_ego.inverse()
     native, instance = _classes(grid, static, solids, agents, map_SE3_ego, agent_meshes)
@@ -185,10 +205,15 @@ def occupancy_frame(
         walk_voxels(grid, starts, ends, mask_camera)
     velocity = agents.velocity_map_mps @ ego_SE3_map.rotation.T
     relative = velocity - ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64)
+    up = ego_SE3_map.rotation[:, 2]  # the map's +z in the ego's axes: turning is about it
+    agent_spin = agents.yaw_rate_rad_s[:, None] * up
+    ego_spin = float(ego_yaw_rate_rad_s) * up
+    center = _transform(ego_SE3_map, agents.center_map_m)
     point_flow = tuple(point_flow_m(lidar, agents, map_SE3_ego) for lidar in lidars)
     s = grid.shape
     return OccupancyFrame(grid, native.reshape(s), instance.reshape(s), mask_lidar.reshape(s), mask_camera.reshape(s),
                           agents.instance_id, velocity.astype(np.float32), relative.astype(np.float32),
+                          center.astype(np.float32), agent_spin.astype(np.float32), ego_spin.astype(np.float32),
                           point_flow)  # fmt: skip
 
 
@@ -367,8 +392,9 @@ def _solid_insides(
 
 
 def point_flow_m(lidar: LidarOutput, agents: Agents, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
-    """``(N, 3) float32``: where each point of the sweep moves by the next sweep (its object's
-    velocity times the sweep period, LiDAR axes); 0 on the static world and on unknown ids."""
+    """``(N, 3) float32``: where each point of the sweep moves by the next sweep (its object's box
+    moved along its arc over the sweep period, :func:`~sensors.agents.motion_over`: velocity times
+    the period where it does not turn; LiDAR axes); 0 on the static world and on unknown ids."""
     scan = lidar.scan
     flow = np.zeros((len(scan), 3), np.float32)
     if len(agents) == 0 or len(scan) == 0:
@@ -377,9 +403,15 @@ def point_flow_m(lidar: LidarOutput, agents: Agents, map_SE3_ego: SE3) -> npt.ND
     ids = agents.instance_id[order]
     pos = np.clip(np.searchsorted(ids, scan.instance_id), 0, len(ids) - 1)
     known = (scan.instance_id != 0) & (ids[pos] == scan.instance_id)
-    lidar_R_map = map_SE3_ego.compose(lidar.spec.ego_SE3_sensor).rotation.T
-    velocity = agents.velocity_map_mps[order[pos[known]]] @ lidar_R_map.T
-    flow[known] = velocity / lidar.spec.rate_hz
+    map_SE3_lidar = map_SE3_ego.compose(lidar.spec.ego_SE3_sensor)
+    row = order[pos[known]]
+    flow[known] = agents.velocity_map_mps[row] @ map_SE3_lidar.rotation / lidar.spec.rate_hz
+    turning = np.flatnonzero(known)[agents.yaw_rate_rad_s[row] != 0.0]
+    if turning.size:  # along the arc: the centre's shift and the point turned about the centre
+        row = order[pos[turning]]
+        shift, turn = motion_over(agents.velocity_map_mps[row], agents.yaw_rate_rad_s[row], 1.0 / lidar.spec.rate_hz)
+        arm = _transform(map_SE3_lidar, scan.xyz_lidar_m[turning]) - agents.center_map_m[row]
+        flow[turning] = (shift + turned_about_z(arm, turn) - arm) @ map_SE3_lidar.rotation
     return flow
 
 
