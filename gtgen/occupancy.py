@@ -50,6 +50,7 @@ frame's axes (0 on the static world).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -278,13 +279,26 @@ def _classes(
 
 def _static_near_index(grid: VoxelGrid, static: ClassedMesh, map_SE3_ego: SE3) -> npt.NDArray[np.intp]:
     """The static triangles whose bounding circle reaches the grid's bounding circle (map frame)."""
-    tri = static.vertices_m[static.triangles]
-    centroid = tri.mean(axis=1)
-    radius = np.linalg.norm(tri - centroid[:, None, :], axis=2).max(axis=1)
+    centroid, radius = _bounding_circles(static)
     lo, hi = np.asarray(grid.lower_m), np.asarray(grid.upper_m)
     grid_center = map_SE3_ego.transform_from((lo + hi) / 2.0)
     reach = float(np.linalg.norm(hi - lo)) / 2.0
     return np.flatnonzero(np.linalg.norm(centroid - grid_center, axis=1) <= reach + radius)
+
+
+_CIRCLES: list[tuple[ClassedMesh, npt.NDArray[np.float64], npt.NDArray[np.float64]]] = []
+
+
+def _bounding_circles(static: ClassedMesh) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Each triangle's centroid and its farthest corner's distance from it (kept for the last
+    mesh: the frame loop's crop of the static world stays the same object for many frames)."""
+    if _CIRCLES and _CIRCLES[0][0] is static:
+        return _CIRCLES[0][1], _CIRCLES[0][2]
+    tri = static.vertices_m[static.triangles]
+    centroid = tri.mean(axis=1)
+    radius = np.linalg.norm(tri - centroid[:, None, :], axis=2).max(axis=1)
+    _CIRCLES[:] = [(static, centroid, radius)]
+    return centroid, radius
 
 
 def _agent_voxels(
@@ -322,33 +336,9 @@ def _agent_voxels(
 def _filled(grid: VoxelGrid, box: npt.NDArray[np.int64], surface: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
     """Which of a box's voxels its body fills: those its surface meets, and those no path of
     face-neighbouring voxels inside the box, free of the surface, joins to the box's outside."""
-    ijk = np.stack(np.unravel_index(box, grid.shape), axis=-1)
-    low = ijk.min(axis=0) - 1
-    local = ijk - low
-    shape = tuple((local.max(axis=0) + 2).tolist())
-    inside = np.zeros(shape, np.bool_)
-    inside[tuple(local.T)] = True
-    wall = np.zeros(shape, np.bool_)
-    s = np.stack(np.unravel_index(surface, grid.shape), axis=-1) - low
-    s = s[np.all((s >= 0) & (s < np.asarray(shape)), axis=1)]
-    wall[tuple(s.T)] = True
-    wall &= inside
-    open_ = ~inside  # the box's outside (the margin included)
-    passable = inside & ~wall
-    while True:
-        grown = open_.copy()
-        for axis in range(3):
-            lo = [slice(None)] * 3
-            hi = [slice(None)] * 3
-            lo[axis], hi[axis] = slice(1, None), slice(None, -1)
-            grown[tuple(lo)] |= open_[tuple(hi)]
-            grown[tuple(hi)] |= open_[tuple(lo)]
-        grown = open_ | (grown & passable)
-        if np.array_equal(grown, open_):
-            break
-        open_ = grown
-    filled = inside & ~open_
-    return np.asarray(filled[tuple(local.T)], np.bool_)
+    ijk = np.stack(np.unravel_index(box, grid.shape), axis=-1).astype(np.int64)
+    wall = np.stack(np.unravel_index(surface, grid.shape), axis=-1).astype(np.int64)
+    return np.asarray(voxel_kernels.enclosed(ijk, wall), np.bool_)
 
 
 def _solid_insides(
@@ -415,6 +405,7 @@ def point_flow_m(lidar: LidarOutput, agents: Agents, map_SE3_ego: SE3) -> npt.ND
     return flow
 
 
+@functools.lru_cache(maxsize=16)
 def camera_directions(spec: OccupancyGrid, camera: CameraSpec) -> npt.NDArray[np.float32]:
     """``(R, 3) float32`` unit rays of ``camera`` (optical frame) at the grid's resolution: the
     image sampled so that neighbouring rays lie one voxel apart at the grid's farthest corner."""
@@ -425,7 +416,9 @@ def camera_directions(spec: OccupancyGrid, camera: CameraSpec) -> npt.NDArray[np
     u = np.arange(step_px / 2.0, camera.width_px, step_px) - 0.5
     v = np.arange(step_px / 2.0, camera.height_px, step_px) - 0.5
     uu, vv = np.meshgrid(u, v)
-    return pinhole.pixel_directions(uu, vv).astype(np.float32)
+    directions = pinhole.pixel_directions(uu, vv).astype(np.float32)
+    directions.setflags(write=False)  # kept (lru_cache): the same camera's rays every frame
+    return directions
 
 
 def camera_rays(spec: OccupancyGrid, camera: CameraSpec, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:

@@ -197,3 +197,47 @@ def paint(
             best[v] = rank[n]
             native[v] = cls[n]
             instance[v] = inst[n]
+
+
+@njit(cache=True, nogil=True)
+def enclosed(box: npt.NDArray[np.int64], wall: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:  # pragma: no cover
+    """Which of a box's voxels ``box: (N, 3)`` (voxel indices) no path of face-neighbouring voxels
+    inside the box, free of ``wall: (M, 3)``, joins to the box's outside (a flood from outside)."""
+    out = np.zeros(box.shape[0], np.bool_)
+    if box.shape[0] == 0:
+        return out
+    low = np.empty(3, np.int64)
+    size = np.empty(3, np.int64)
+    for a in range(3):
+        low[a] = box[:, a].min() - 1
+        size[a] = box[:, a].max() - low[a] + 2
+    inside = np.zeros((size[0], size[1], size[2]), np.bool_)
+    for n in range(box.shape[0]):
+        inside[box[n, 0] - low[0], box[n, 1] - low[1], box[n, 2] - low[2]] = True
+    blocked = np.zeros_like(inside)
+    for n in range(wall.shape[0]):
+        i, j, k = wall[n, 0] - low[0], wall[n, 1] - low[1], wall[n, 2] - low[2]
+        if 0 <= i < size[0] and 0 <= j < size[1] and 0 <= k < size[2] and inside[i, j, k]:
+            blocked[i, j, k] = True
+    reached = ~inside  # the box's outside (the margin included)
+    queue = np.empty((size[0] * size[1] * size[2], 3), np.int64)
+    head, tail = 0, 0
+    for i in range(size[0]):
+        for j in range(size[1]):
+            for k in range(size[2]):
+                if reached[i, j, k]:
+                    queue[tail, 0], queue[tail, 1], queue[tail, 2] = i, j, k
+                    tail += 1
+    while head < tail:
+        i, j, k = queue[head, 0], queue[head, 1], queue[head, 2]
+        head += 1
+        for di, dj, dk in ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)):
+            a, b, c = i + di, j + dj, k + dk
+            inside = 0 <= a < size[0] and 0 <= b < size[1] and 0 <= c < size[2]
+            if inside and not reached[a, b, c] and not blocked[a, b, c]:
+                reached[a, b, c] = True
+                queue[tail, 0], queue[tail, 1], queue[tail, 2] = a, b, c
+                tail += 1
+    for n in range(box.shape[0]):
+        out[n] = not reached[box[n, 0] - low[0], box[n, 1] - low[1], box[n, 2] - low[2]]
+    return out
