@@ -21,7 +21,14 @@ z -1..5.4 m, 200 x 200 x 16). A voxel is occupied by every volume or surface tha
 
 Where several classes meet one voxel, the one earliest in :data:`PRIORITY` names it: the static
 world's objects (fences, trees, buildings, poles, lights, signs), then the ground (curbs,
-sidewalks, paint, crossings, road, terrain), then agents (small before large). A voxel the ground
+sidewalks, paint, crossings, road, terrain), then agents (small before large). Where the static
+world's surfaces of several Occ3D classes meet one voxel (a road at a curb, terrain at a
+building's foot), the voxel goes to the class that needs it (:func:`_shared_surfaces`): a point
+of a surface lies within half a voxel of its own voxel and of the 7 neighbours on its side of
+the voxel's middle, so a class needs the voxel for the area of its surface in the voxel's
+eighths whose 7 neighbours hold none of its voxels; the most such area wins, the priority names
+the voxel where no class needs it (the terrain, laid under the whole world, counts as hidden
+under paving). A voxel the ground
 runs through is ground, as in Occ3D, where a voxel takes the class of the points it reflects and
 the ground reflects most of them in its layer: an agent's voxels start above the ground's layer
 (a tyre's lowest 20 cm lie in the road's voxels, within half a voxel of the car's). ``semantics``
@@ -80,6 +87,8 @@ OCC3D_CLASSES = (
     "vegetation", "free",
 )  # fmt: skip
 OCC3D_FREE = OCC3D_CLASSES.index("free")
+OCC3D_TERRAIN = OCC3D_CLASSES.index("terrain")
+_PAVED_BITS = np.uint32(sum(1 << OCC3D_CLASSES.index(c) for c in ("driveable_surface", "other_flat", "sidewalk")))
 # nuScenes-lidarseg category -> Occ3D-nuScenes class (the lidarseg challenge's 16 classes).
 _OCC3D_OF_CATEGORY = {
     "human.pedestrian.adult": "pedestrian", "vehicle.bicycle": "bicycle", "vehicle.bus.rigid": "bus",
@@ -251,8 +260,10 @@ def _classes(
     flats, classes, instances = [], [], []
     near = _static_near_index(grid, static, map_SE3_ego)
     tri_m = np.asarray(static.vertices_m[static.triangles[near]], np.float64)
-    flat, source = triangle_voxels(grid, _transform(ego_SE3_map, tri_m.reshape(-1, 3)).reshape(-1, 3, 3))
+    tri_ego = _transform(ego_SE3_map, tri_m.reshape(-1, 3)).reshape(-1, 3, 3)
+    flat, source = triangle_voxels(grid, tri_ego)
     tri_class = static.triangle_class[near]
+    surface_flat, surface_source = flat, source
     flats.append(flat)
     classes.append(tri_class[source])
     instances.append(np.zeros(flat.shape[0], np.uint32))
@@ -267,14 +278,69 @@ def _classes(
         classes.append(agents.semantic_class[source])
         instances.append(agents.instance_id[source])
     flat, cls, inst = np.concatenate(flats), np.concatenate(classes), np.concatenate(instances)
+    native, instance = _paint(grid, flat, cls, inst)
+    shared_class = np.asarray(tri_class[surface_source], np.uint8)
+    keep = _shared_surfaces(grid, surface_flat, shared_class, tri_ego[surface_source], native)
+    if not keep.all():
+        kept = np.r_[keep, np.ones(flat.shape[0] - keep.shape[0], np.bool_)]
+        native, instance = _paint(grid, flat[kept], cls[kept], inst[kept])
+    return native, instance
+
+
+def _paint(
+    grid: VoxelGrid, flat: npt.NDArray[np.int64], cls: npt.NDArray[np.uint8], inst: npt.NDArray[np.uint32]
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32]]:
+    """Each voxel's class and instance: those of its entry earliest in :data:`PRIORITY`."""
     native = np.full(grid.size, FREE_NATIVE, np.uint8)
     instance = np.zeros(grid.size, np.uint32)
     best = np.full(grid.size, len(PRIORITY) + 1, np.int64)
-    rank = _RANK[cls]
     voxel_kernels.paint(
-        flat.astype(np.int64), rank, cls.astype(np.uint8), inst.astype(np.uint32), native, instance, best
+        flat.astype(np.int64), _RANK[cls], cls.astype(np.uint8), inst.astype(np.uint32), native, instance, best
     )
     return native, instance
+
+
+def _shared_surfaces(
+    grid: VoxelGrid, flat: npt.NDArray[np.int64], cls: npt.NDArray[np.uint8], tri_m: npt.NDArray[np.float64],
+    native: npt.NDArray[np.uint8], passes: int = 6,
+) -> npt.NDArray[np.bool_]:  # fmt: skip
+    """Which static surface entries (voxel ``flat``, class ``cls``, triangle ``tri_m`` in the ego
+    frame) keep their voxel where surfaces of several Occ3D classes meet one voxel: the voxel
+    goes to the class that needs it, the one with the most surface in the voxel that lies farther
+    than half a voxel from every other voxel of its class (a point on a surface is within half a
+    voxel of the voxel it lies in and of the 7 neighbours on its side of the voxel's middle, so
+    only the surface in the eighths of the voxel whose 7 neighbours hold no voxel of that class
+    needs this voxel). Where no class needs it, the priority names it. The voxels are chosen in
+    turn, each seeing the choices made before it, in up to ``passes`` sweeps (until none changes).
+    The terrain (under the whole world) counts as hidden in voxels with paving (road, sidewalk,
+    other flat ground). ``native``: every voxel's class so far."""
+    occ = OCC3D_LUT[cls].astype(np.int64)
+    n_occ = len(OCC3D_CLASSES)
+    bits = voxel_kernels.class_bits(flat.astype(np.int64), occ, grid.size)
+    paved = (bits & _PAVED_BITS) != 0
+    bits[paved] &= ~np.uint32(1 << OCC3D_TERRAIN)  # the terrain lies under the whole world: hidden under paving
+    hidden = (occ == OCC3D_TERRAIN) & paved[flat]
+    shared = (np.bitwise_count(bits)[flat] > 1) & ~hidden
+    keep = np.ones(flat.shape[0], np.bool_)
+    if not shared.any():
+        return keep
+    entries = np.flatnonzero(shared)
+    voxels, local = np.unique(flat[entries], return_inverse=True)
+    ijk = np.stack(np.unravel_index(voxels, grid.shape), axis=-1).astype(np.int64)
+    tri = np.ascontiguousarray(grid.to_grid(tri_m[entries].reshape(-1, 3)).reshape(-1, 3, 3))
+    areas = voxel_kernels.octant_areas(tri, ijk[local])
+    area = np.zeros((voxels.shape[0] * n_occ, 8))
+    row = local * n_occ + occ[entries]
+    for o in range(8):
+        area[:, o] = np.bincount(row, areas[:, o], minlength=area.shape[0])
+    area = area.reshape(voxels.shape[0], n_occ, 8)
+    label = OCC3D_LUT[native].astype(np.int64)
+    chosen = voxel_kernels.choose_shared(voxels.astype(np.int64), area, label, *grid.shape, passes)
+    mine = occ[entries] == chosen[local]
+    present = np.zeros(voxels.shape[0], np.bool_)
+    present[local[mine]] = True
+    keep[entries] = mine | ~present[local]  # (a voxel whose choice is none of its surfaces' keeps them all)
+    return keep
 
 
 def _static_near_index(grid: VoxelGrid, static: ClassedMesh, map_SE3_ego: SE3) -> npt.NDArray[np.intp]:

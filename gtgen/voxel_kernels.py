@@ -241,3 +241,110 @@ def enclosed(box: npt.NDArray[np.int64], wall: npt.NDArray[np.int64]) -> npt.NDA
     for n in range(box.shape[0]):
         out[n] = not reached[box[n, 0] - low[0], box[n, 1] - low[1], box[n, 2] - low[2]]
     return out
+
+
+@njit(cache=True, nogil=True)
+def octant_areas(
+    tri: npt.NDArray[np.float64], ijk: npt.NDArray[np.int64]
+) -> npt.NDArray[np.float64]:  # pragma: no cover
+    """``(P, 8)``: the area (voxel units squared) of each triangle ``tri: (P, 3, 3)`` (grid
+    coordinates) within each eighth of its voxel ``ijk: (P, 3)``; eighth ``4 hx + 2 hy + hz``
+    spans ``[i + hx / 2, i + hx / 2 + 1 / 2]`` along x (and so on)."""
+    out = np.zeros((tri.shape[0], 8))
+    poly = np.empty((12, 3))
+    work = np.empty((12, 3))
+    for p in range(tri.shape[0]):
+        for o in range(8):
+            n = 3
+            for v in range(3):
+                for a in range(3):
+                    poly[v, a] = tri[p, v, a]
+            for a in range(3):
+                half = (o >> (2 - a)) & 1
+                lo = ijk[p, a] + 0.5 * half
+                for side in range(2):  # keep x_a >= lo, then x_a <= lo + 1/2
+                    bound = lo if side == 0 else lo + 0.5
+                    m = 0
+                    for v in range(n):
+                        w = (v + 1) % n
+                        dv = poly[v, a] - bound if side == 0 else bound - poly[v, a]
+                        dw = poly[w, a] - bound if side == 0 else bound - poly[w, a]
+                        if dv >= 0:
+                            work[m] = poly[v]
+                            m += 1
+                        if (dv >= 0) != (dw >= 0):
+                            t = dv / (dv - dw)
+                            for c in range(3):
+                                work[m, c] = poly[v, c] + t * (poly[w, c] - poly[v, c])
+                            m += 1
+                    n = m
+                    poly[:n] = work[:n]
+                    if n < 3:
+                        break
+                if n < 3:
+                    break
+            if n < 3:
+                continue
+            sx, sy, sz = 0.0, 0.0, 0.0
+            for v in range(1, n - 1):
+                ux, uy, uz = poly[v, 0] - poly[0, 0], poly[v, 1] - poly[0, 1], poly[v, 2] - poly[0, 2]
+                wx, wy, wz = poly[v + 1, 0] - poly[0, 0], poly[v + 1, 1] - poly[0, 1], poly[v + 1, 2] - poly[0, 2]
+                sx += uy * wz - uz * wy
+                sy += uz * wx - ux * wz
+                sz += ux * wy - uy * wx
+            out[p, o] = 0.5 * math.sqrt(sx * sx + sy * sy + sz * sz)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def choose_shared(
+    voxels: I64, area: npt.NDArray[np.float64], label: I64, nx: int, ny: int, nz: int, sweeps: int
+) -> I64:  # pragma: no cover - compiled
+    """The class of each shared voxel ``voxels: (M,)`` (flat): the class with the most area
+    ``area: (M, C, 8)`` in the voxel's eighths whose 7 neighbours on that eighth's side hold no
+    voxel of that class in ``label`` (flat, every voxel's class; updated as each voxel is chosen,
+    in order, sweep after sweep until none changes); where none needs it, its class in ``label``."""
+    chosen = np.empty(voxels.shape[0], np.int64)
+    for m in range(voxels.shape[0]):
+        chosen[m] = label[voxels[m]]
+    need = np.zeros(area.shape[1])
+    for _ in range(sweeps):
+        changed = 0
+        for m in range(voxels.shape[0]):
+            v = voxels[m]
+            i, j, k = v // (ny * nz), (v // nz) % ny, v % nz
+            need[:] = 0.0
+            for c in range(area.shape[1]):
+                for o in range(8):
+                    if area[m, c, o] <= 0.0:
+                        continue
+                    covered = False
+                    for step in range(1, 8):
+                        qi = i + ((1 if o & 4 else -1) if step & 4 else 0)
+                        qj = j + ((1 if o & 2 else -1) if step & 2 else 0)
+                        qk = k + ((1 if o & 1 else -1) if step & 1 else 0)
+                        ok = 0 <= qi < nx and 0 <= qj < ny and 0 <= qk < nz
+                        if ok and label[(qi * ny + qj) * nz + qk] == c:
+                            covered = True
+                            break
+                    if not covered:
+                        need[c] += area[m, c, o]
+            best = chosen[m]
+            if need.max() > 0.0:
+                best = np.argmax(need)
+            if best != chosen[m]:
+                chosen[m] = best
+                label[v] = best
+                changed += 1
+        if changed == 0:
+            break
+    return chosen
+
+
+@njit(cache=True, nogil=True)
+def class_bits(flat: I64, cls: I64, size: int) -> npt.NDArray[np.uint32]:  # pragma: no cover - compiled
+    """``(size,)``: each voxel's classes among the entries ``(flat, cls)`` as bits ``1 << cls``."""
+    bits = np.zeros(size, np.uint32)
+    for n in range(flat.shape[0]):
+        bits[flat[n]] |= np.uint32(1) << np.uint32(cls[n])
+    return bits

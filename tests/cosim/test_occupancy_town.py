@@ -132,7 +132,7 @@ def test_lidar_points_lie_in_occupied_voxels_and_rays_cross_only_free_or_surface
     counts = check(frames=3, steps_between=10, ray_step=3)
     assert counts["points"] > 50_000
     assert counts["occupied"] == counts["points"]
-    assert counts["near_occ3d"] >= 0.99 * counts["points"]
+    assert counts["near_occ3d"] >= 0.999 * counts["points"]
     assert counts["crossed"] > 100_000
     assert counts["crossed_inside_solid"] == 0
     assert counts["crossed_inside_agent"] <= 1e-3 * counts["crossed"]  # through a car's windows into its cabin

@@ -9,7 +9,7 @@ from shapely.geometry import box as rect
 from gtgen.frame import FrameRecord
 from gtgen.labels import label_frame
 from gtgen.load import load_occupancy
-from gtgen.occupancy import FREE_NATIVE, OCC3D_CLASSES, camera_rays, occupancy_frame
+from gtgen.occupancy import FREE_NATIVE, OCC3D_CLASSES, OCC3D_LUT, camera_rays, occupancy_frame
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.mcap_sink import frame_messages, planned_topics
@@ -87,6 +87,34 @@ def test_building_is_solid_inside_not_only_its_walls():
     inside = occupancy.semantics_native[125:150, 125:150, 3:]  # x, y 10..20 m, z 0.2..5.4 m
     assert np.all(inside == SemanticClass.BUILDING)
     assert np.all(occupancy.semantics_native[100:124, 100:124, 3:] == FREE_NATIVE)
+
+
+@pytest.mark.parametrize("edge_x", [10.1, 10.3])  # the curb near either side of its voxels (10.0-10.4 m)
+def test_every_point_lies_within_half_a_voxel_of_a_voxel_of_its_class_where_a_road_meets_a_curb(edge_x):
+    """Road, curb and sidewalk share the voxels along the curb; each of those goes to the class whose
+    surface in it lies farther than half a voxel from every other voxel of its class, so every LiDAR
+    point has a voxel of its Occ3D class within half a voxel (by priority alone, the curb's class
+    took them and road points in their far half had none). The terrain under them stays hidden."""
+    road = flat_polygon(rect(-200, -200, edge_x, 200), 0.0, SemanticClass.ROAD)
+    curb = prism(rect(edge_x, -200, 200, 200), 0.0, 0.15, SemanticClass.CURB)
+    terrain = flat_polygon(rect(-250, -250, 250, 250), -0.05, SemanticClass.TERRAIN)
+    static = merge([road, curb, terrain])
+    occupancy, lidars = frame(static, Agents.empty(), camera=False)
+    scan = lidars[0].scan
+    xyz = scan.xyz_lidar_m.astype(np.float64) + LidarSpec().ego_SE3_sensor.translation
+    g = SPEC.grid.to_grid(xyz)
+    inside = SPEC.grid.inside(np.floor(g).astype(int))
+    g, cls = g[inside], OCC3D_LUT[scan.semantic_class[inside]]
+    near_curb = np.abs(xyz[inside, 0] - edge_x) < 1.0
+    assert near_curb.sum() > 100 and set(np.unique(cls[near_curb]).tolist()) == {
+        OCC3D_CLASSES.index("driveable_surface"), OCC3D_CLASSES.index("sidewalk")}  # fmt: skip
+    semantics = occupancy.semantics
+    found = np.zeros(len(cls), np.bool_)
+    for offset in np.ndindex(3, 3, 3):
+        q = np.clip(np.floor(g + (np.asarray(offset) - 1) * 0.5).astype(int), 0, np.asarray(SPEC.grid.shape) - 1)
+        found |= semantics[tuple(q.T)] == cls
+    assert found.all()
+    assert not (occupancy.semantics == OCC3D_CLASSES.index("terrain")).any()
 
 
 def test_solids_insides_by_runs_agree_with_every_voxel_centre_cast_alone():
@@ -384,7 +412,13 @@ def test_a_timed_sweep_from_a_moving_ego_puts_every_static_return_in_an_occupied
     ijk = SPEC.grid.ijk_of(ends)
     on_wall = SPEC.grid.inside(ijk) & (lidar.scan.semantic_class == SemanticClass.BUILDING)
     assert on_wall.sum() > 500
-    assert np.all(occupancy.semantics_native[tuple(ijk[on_wall].T)] == SemanticClass.BUILDING)
+    assert np.all(occupancy.semantics_native[tuple(ijk[on_wall].T)] != FREE_NATIVE)
+    g = SPEC.grid.to_grid(ends[on_wall])
+    building = np.zeros(len(g), np.bool_)  # a building voxel within half a voxel (the wall's foot shares the road's)
+    for offset in np.ndindex(3, 3, 3):
+        q = np.clip(np.floor(g + (np.asarray(offset) - 1) * 0.5).astype(int), 0, np.asarray(SPEC.grid.shape) - 1)
+        building |= occupancy.semantics_native[tuple(q.T)] == SemanticClass.BUILDING
+    assert building.all()
     assert np.all(occupancy.mask_lidar[tuple(ijk[on_wall].T)])
     # the correction matters: the sensor moved up to 15 m/s x 0.025 s = 0.375 m from the frame's place
     raw = spec.ego_SE3_sensor.transform_from(lidar.scan.xyz_lidar_m.astype(float))
