@@ -201,7 +201,8 @@ def occupancy_frame(
     ``solids``: the world's solids; ``agents`` in the map frame; ``cameras``: each camera's spec and the
     distance (m) its grid-resolution rays (:func:`camera_rays`) travelled, inf where they hit
     nothing; ``agent_meshes``: the posed meshes of (some of) the agents (their volumes; the
-    others fill their boxes); ``ego_yaw_rate_rad_s``: the ego's rate of turn (counter-clockwise)."""
+    others fill their boxes); ``ego_yaw_rate_rad_s``: the ego's rate of turn from the frame's time
+    on (counter-clockwise)."""
     grid = spec.grid
     ego_SE3_map = map_SE3_ego.inverse()
     native, instance = _classes(grid, static, solids, agents, map_SE3_ego, agent_meshes)
@@ -216,7 +217,7 @@ def occupancy_frame(
     velocity = agents.velocity_map_mps @ ego_SE3_map.rotation.T
     relative = velocity - ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64)
     up = ego_SE3_map.rotation[:, 2]  # the map's +z in the ego's axes: turning is about it
-    agent_spin = agents.yaw_rate_rad_s[:, None] * up
+    agent_spin = agents.yaw_rate_after_rad_s[:, None] * up  # the rates of turn from the frame's time on
     ego_spin = float(ego_yaw_rate_rad_s) * up
     center = _transform(ego_SE3_map, agents.center_map_m)
     point_flow = tuple(point_flow_m(lidar, agents, map_SE3_ego) for lidar in lidars)
@@ -462,10 +463,12 @@ def point_flow_m(lidar: LidarOutput, agents: Agents, map_SE3_ego: SE3) -> npt.ND
     map_SE3_lidar = map_SE3_ego.compose(lidar.spec.ego_SE3_sensor)
     row = order[pos[known]]
     flow[known] = agents.velocity_map_mps[row] @ map_SE3_lidar.rotation / lidar.spec.rate_hz
-    turning = np.flatnonzero(known)[agents.yaw_rate_rad_s[row] != 0.0]
+    turning = np.flatnonzero(known)[agents.yaw_rate_after_rad_s[row] != 0.0]
     if turning.size:  # along the arc: the centre's shift and the point turned about the centre
         row = order[pos[turning]]
-        shift, turn = motion_over(agents.velocity_map_mps[row], agents.yaw_rate_rad_s[row], 1.0 / lidar.spec.rate_hz)
+        shift, turn = motion_over(
+            agents.velocity_map_mps[row], agents.yaw_rate_after_rad_s[row], 1.0 / lidar.spec.rate_hz
+        )
         arm = _transform(map_SE3_lidar, scan.xyz_lidar_m[turning]) - agents.center_map_m[row]
         flow[turning] = (shift + turned_about_z(arm, turn) - arm) @ map_SE3_lidar.rotation
     return flow

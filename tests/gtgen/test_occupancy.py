@@ -207,18 +207,22 @@ def test_a_turning_ego_sees_a_standing_car_sweep_round_it_and_a_turning_car_s_po
     left at 0.5 rad/s moves, as the ego sees it, at -omega x r (to the right, faster the farther);
     over the ground it stands. A car turning at 0.8 rad/s: its voxels' flow is its velocity plus its
     turning about its centre, its points move along the arc over a sweep period."""
-    ego = replace(EGO, yaw_rate_rad_s=0.5, velocity_map_mps=np.array([5.0, 0.0, 0.0]))
-    standing, turning = car(12.0, 0.0), replace(car(-12.0, 6.0, speed_mps=8.0), yaw_rate_rad_s=np.array([0.8]))
+    ego = replace(EGO, yaw_rate_rad_s=0.5, yaw_rate_after_rad_s=0.5, velocity_map_mps=np.array([5.0, 0.0, 0.0]))
+    rate = np.array([0.8])  # before the frame's time and after it
+    standing, turning = (
+        car(12.0, 0.0),
+        replace(car(-12.0, 6.0, speed_mps=8.0), yaw_rate_rad_s=rate, yaw_rate_after_rad_s=rate),
+    )
     for agents in (standing, turning):
         scene = FrameScene(GROUND, agents)
         lidars = (Lidar(LidarSpec()).sense(scene, ego, DAY, np.random.default_rng(0)),)
         occupancy = occupancy_frame(SPEC, GROUND, Solids(GROUND), agents, ego.map_SE3_ego(), ego.velocity_map_mps,
-                                    lidars, ego_yaw_rate_rad_s=ego.yaw_rate_rad_s)  # fmt: skip
+                                    lidars, ego_yaw_rate_rad_s=ego.turn_rates()[1])  # fmt: skip
         cars = np.flatnonzero(occupancy.semantics_native.ravel() == SemanticClass.CAR)
         assert cars.size > 50
         centre = SPEC.grid.centers_m(cars)
         flow, relative = occupancy.flow_mps.reshape(-1, 3)[cars], occupancy.flow_relative_mps.reshape(-1, 3)[cars]
-        spin = np.cross([0.0, 0.0, agents.yaw_rate_rad_s[0]], centre - agents.center_map_m[0])
+        spin = np.cross([0.0, 0.0, agents.yaw_rate_after_rad_s[0]], centre - agents.center_map_m[0])
         assert np.allclose(flow, agents.velocity_map_mps[0] + spin, atol=1e-5)
         ego_moves = ego.velocity_map_mps + np.cross([0.0, 0.0, 0.5], centre)  # the ego frame's motion at each centre
         assert np.allclose(relative, flow - ego_moves, atol=1e-5)
@@ -227,13 +231,13 @@ def test_a_turning_ego_sees_a_standing_car_sweep_round_it_and_a_turning_car_s_po
         assert on_car.sum() > 50
         period = 1.0 / LidarSpec().rate_hz
         xyz = scan.xyz_lidar_m[on_car].astype(np.float64) + LidarSpec().ego_SE3_sensor.translation
-        turn = agents.yaw_rate_rad_s[0] * period
+        turn = agents.yaw_rate_after_rad_s[0] * period
         c, s = np.cos(turn), np.sin(turn)
         arm = xyz - agents.center_map_m[0]
         speed = agents.velocity_map_mps[0, 0]
         # the centre runs along the arc of radius speed / rate; the point turns with the body
         shift = speed * period * np.array([1.0, 0.0, 0.0]) if turn == 0 else (
-            speed / agents.yaw_rate_rad_s[0] * np.array([np.sin(turn), 1.0 - np.cos(turn), 0.0]))  # fmt: skip
+            speed / agents.yaw_rate_after_rad_s[0] * np.array([np.sin(turn), 1.0 - np.cos(turn), 0.0]))  # fmt: skip
         moved = shift + np.stack([c * arm[:, 0] - s * arm[:, 1], s * arm[:, 0] + c * arm[:, 1], arm[:, 2]], axis=1)
         assert np.allclose(point_flow[on_car], moved - arm, atol=1e-5)
     assert np.abs(relative[:, 1]).max() > 0.5  # turning shows as sideways flow
