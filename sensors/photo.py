@@ -1,5 +1,6 @@
 """The realistic camera image: materials per part, sun and sky light with shadows, textures,
-reflections, lamps, anti-aliased edges, exposure, a filmic tone curve, vignetting and noise.
+reflections, lamps, anti-aliased edges, exposure, a filmic tone curve, the camera's auto
+contrast and colour saturation, vignetting and noise.
 
 Light is computed in linear units and tone-mapped at the end. Per sample (a pixel's centre ray,
 plus four sub-pixel rays where the pixel holds an edge):
@@ -55,6 +56,15 @@ second to first derivative across the strongest edges (0.116) lies between our i
 by 0.5 px (0.185) and by 0.8 px (0.089); unblurred 0.262."""
 READ_NOISE = 1.2
 """Sensor noise (0..255) of every image, on top of the weather's."""
+BLACK_PERCENTILE = 2.0
+"""The camera's auto contrast: the frame's darkest this many per cent (by grey level) are set
+to black and the rest stretched over 0..255, as a camera's processing sets its black level
+from the frame. Without it our frames' darkest 5 % sat at 37-74 of 255 (real KITTI frames:
+9-10): a veil of ambient and sky light over everything."""
+SATURATION = np.float32(1.3)
+"""The camera's colour processing: colours this much further from their grey than the scene's
+linear light gives (cameras' colour matrices saturate; our frames' mean saturation was 27-33
+against 72-85 in real KITTI frames)."""
 MAX_REFLECTION = 0.45
 """The most of the surroundings a surface mirrors, even at grazing angles (clear coat and
 glass are not perfect mirrors: dirt, curvature and roughness blur and dim what they show)."""
@@ -588,6 +598,23 @@ def tone_map(linear: F32, exposure: float) -> F32:
         x * (np.float32(2.43) * x + np.float32(0.59)) + np.float32(0.14)
     )
     return np.asarray(np.clip(y, 0.0, 1.0) ** (np.float32(1.0) / GAMMA) * np.float32(255.0), np.float32)
+
+
+def auto_levels(image: F32) -> F32:
+    """``(N, 3)`` display values 0..255 (from :func:`tone_map`) with the frame's black level
+    set (:data:`BLACK_PERCENTILE`) and colours saturated (:data:`SATURATION`); in place."""
+    grey = image.mean(axis=1)
+    black = np.float32(np.percentile(grey[::7], BLACK_PERCENTILE))
+    if black > 0:
+        scale = np.float32(255.0) / (np.float32(255.0) - black)
+        image -= black
+        image *= scale
+        grey -= black
+        grey *= scale
+    image -= grey[:, None]
+    image *= SATURATION
+    image += grey[:, None]
+    return image
 
 
 @functools.lru_cache(maxsize=4)
