@@ -61,10 +61,6 @@ BLACK_PERCENTILE = 2.0
 to black and the rest stretched over 0..255, as a camera's processing sets its black level
 from the frame. Without it our frames' darkest 5 % sat at 37-74 of 255 (real KITTI frames:
 9-10): a veil of ambient and sky light over everything."""
-SATURATION = np.float32(1.3)
-"""The camera's colour processing: colours this much further from their grey than the scene's
-linear light gives (cameras' colour matrices saturate; our frames' mean saturation was 27-33
-against 72-85 in real KITTI frames)."""
 MAX_REFLECTION = 0.45
 """The most of the surroundings a surface mirrors, even at grazing angles (clear coat and
 glass are not perfect mirrors: dirt, curvature and roughness blur and dim what they show)."""
@@ -600,9 +596,12 @@ def tone_map(linear: F32, exposure: float) -> F32:
     return np.asarray(np.clip(y, 0.0, 1.0) ** (np.float32(1.0) / GAMMA) * np.float32(255.0), np.float32)
 
 
-def auto_levels(image: F32) -> F32:
+def auto_levels(image: F32, saturation: float) -> F32:
     """``(N, 3)`` display values 0..255 (from :func:`tone_map`) with the frame's black level
-    set (:data:`BLACK_PERCENTILE`) and colours saturated (:data:`SATURATION`); in place."""
+    set (:data:`BLACK_PERCENTILE`) and colours ``saturation`` times further from their grey, as
+    a camera's colour processing does (the weather's; by day 1.3: our frames' mean saturation
+    was 27-33 against 72-85 in real KITTI frames; at night 1.0, where cameras' colour fades);
+    in place."""
     grey = image.mean(axis=1)
     black = np.float32(np.percentile(grey[::7], BLACK_PERCENTILE))
     if black > 0:
@@ -612,7 +611,7 @@ def auto_levels(image: F32) -> F32:
         grey -= black
         grey *= scale
     image -= grey[:, None]
-    image *= SATURATION
+    image *= np.float32(saturation)
     image += grey[:, None]
     return image
 

@@ -288,7 +288,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     lens = np.asarray(cv2.GaussianBlur(linear.reshape(h, w, 3), (0, 0), LENS_BLUR_PX), np.float32)
     linear = bloom(lens).reshape(-1, 3)
     linear *= vignette(h, w)[:, None]
-    image = auto_levels(tone_map(linear, sh.weather.exposure))
+    image = auto_levels(tone_map(linear, sh.weather.exposure), sh.weather.saturation)
     rng = np.random.default_rng(sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w))
     sigma = np.float32(np.hypot(READ_NOISE, sh.weather.noise_sigma))
     image += rng.standard_normal((h * w, 1), dtype=np.float32) * sigma

@@ -64,6 +64,7 @@ class Weather:
     sky_zenith_bgr: BGR = (200.0, 130.0, 70.0)
     exposure: float = 1.0
     noise_sigma: float = 0.0
+    saturation: float = 1.3
 
     def __post_init__(self) -> None:
         if not 0.0 < self.lidar_range_scale <= 1.0 or not 0.0 < self.lidar_intensity_scale <= 1.0:
@@ -76,6 +77,8 @@ class Weather:
             raise SensorConfigError(f"weather {self.name}: extinction, noise and ambient must be >= 0")
         if self.lamp_key_gain < 0:
             raise SensorConfigError(f"weather {self.name}: lamp_key_gain must be >= 0")
+        if not 0.0 <= self.saturation <= 3.0:
+            raise SensorConfigError(f"weather {self.name}: saturation must be in [0, 3], got {self.saturation}")
         if self.haze_m <= 0 or self.headlight_range_m <= 0 or self.exposure <= 0:
             raise SensorConfigError(f"weather {self.name}: haze_m, headlight_range_m and exposure must be > 0")
         sun = np.asarray(self.sun_dir_map, dtype=np.float64)
@@ -94,7 +97,7 @@ PRESETS: dict[str, Weather] = {
         "night", sun_gain=0.0, lamp_key_gain=0.5, sun_dir_map=(-0.3, 0.24, 0.92325),
         ambient=0.05, headlight_gain=0.6, headlight_range_m=18.0, haze_m=400.0,
         haze_bgr=(40.0, 25.0, 20.0), sky_horizon_bgr=(45.0, 30.0, 25.0), sky_zenith_bgr=(20.0, 8.0, 5.0),
-        exposure=1.0, noise_sigma=6.0,
+        exposure=1.0, noise_sigma=6.0, saturation=1.0,
     ),
     # rain: haze_m 300 m puts the 5 % contrast visibility near 900 m, moderate rain's (WMO: 1-5 km
     # light to moderate, under 1 km heavy); the camera's own spray and wet glass are not modelled

@@ -18,7 +18,7 @@ from networks.mesh import box_mesh, merge
 from sensors.agents import Agents
 from sensors.camera import Camera, CameraSpec
 from sensors.errors import SensorConfigError
-from sensors.photo import BLACK_PERCENTILE, SATURATION, auto_levels
+from sensors.photo import BLACK_PERCENTILE, auto_levels
 from sensors.pinhole import Pinhole
 from sensors.scene import FrameScene
 from sensors.weather import DAY
@@ -155,13 +155,13 @@ def test_auto_contrast_sets_the_frames_black_level_and_keeps_its_order() -> None
     grey = rng.uniform(60.0, 250.0, 10_000).astype(np.float32)
     image = np.repeat(grey[:, None], 3, axis=1)
     image[:, 2] += 6.0  # a little red
-    out = auto_levels(image.copy())
+    out = auto_levels(image.copy(), 1.3)
     out_grey = out.mean(axis=1)
     assert np.percentile(out_grey, BLACK_PERCENTILE) == pytest.approx(0.0, abs=2.0)  # the darkest 2 % at black
     assert np.all(np.diff(out_grey[np.argsort(grey)]) >= -1e-3)  # darker stays darker
     assert np.all(out_grey <= image.mean(axis=1) + 1e-3)  # it never brightens
     red_before = image[:, 2] - image.mean(axis=1)
-    assert np.all(out[:, 2] - out_grey >= float(SATURATION) * red_before - 1e-3)  # further from grey
+    assert np.all(out[:, 2] - out_grey >= 1.3 * red_before - 1e-3)  # further from grey
     # a frame whose darkest pixels are black already keeps its greys
     dark = np.repeat(np.concatenate([np.zeros(100), np.linspace(0.0, 255.0, 900)]).astype(np.float32)[:, None], 3, 1)
-    np.testing.assert_allclose(auto_levels(dark.copy()), dark, atol=1e-3)
+    np.testing.assert_allclose(auto_levels(dark.copy(), 1.0), dark, atol=1e-3)
