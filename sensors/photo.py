@@ -125,6 +125,30 @@ class Supersamples:
     sun_lit: npt.NDArray[np.bool_]
 
 
+@dataclass(frozen=True, slots=True)
+class ShadedRays:
+    """What :func:`radiance` shades, one row per ray: unit directions ``dirs_map (N, 3)`` (map
+    frame), ``range_m (N,)`` (inf: nothing hit), class, instance, part, ``normal (N, 3)`` (map
+    frame), ``sun_lit (N,)``, ``forward (N,)`` (the ray's cosine to the optical axis),
+    ``sky_open (N,)`` (the share of sky light reaching each hit, :func:`contact_light`) and
+    ``lamp (N,)`` (the light its lamp sends out, :func:`lamp_light`)."""
+
+    dirs_map: F32
+    range_m: F32
+    cls: npt.NDArray[np.uint8]
+    instance: npt.NDArray[np.uint32]
+    part: npt.NDArray[np.uint8]
+    normal: F32
+    sun_lit: npt.NDArray[np.bool_]
+    forward: F32
+    sky_open: F32
+    lamp: F32
+
+    def rows(self, s: slice) -> ShadedRays:
+        """The rays in ``s`` (views, no copies)."""
+        return ShadedRays(*(getattr(self, name)[s] for name in self.__dataclass_fields__))
+
+
 SUBPIXEL_OFFSETS = np.array([[-0.25, -0.25], [0.25, -0.25], [-0.25, 0.25], [0.25, 0.25]], np.float64)
 """Sub-ray offsets in pixels (a 2x2 grid) at edge pixels."""
 
@@ -330,49 +354,21 @@ def night_of(weather: Weather) -> float:
     return float(1.0 - np.clip(weather.sun_gain / 0.3, 0.0, 1.0))
 
 
-def radiance(
-    dirs_map: F32,
-    range_m: F32,
-    cls: npt.NDArray[np.uint8],
-    instance: npt.NDArray[np.uint32],
-    part: npt.NDArray[np.uint8],
-    normal: F32,
-    sun_lit: npt.NDArray[np.bool_],
-    forward: F32,
-    origin_map_m: npt.NDArray[np.float64],
-    weather: Weather,
-    max_range_m: float,
-    sky_open: F32,
-    lamp: F32,
-) -> F32:
-    """``(N, 3)`` linear BGR radiance reaching the camera along each ray; ``sky_open`` is the
-    share of sky light reaching each hit (:func:`contact_light`), ``lamp`` the light its lamp
-    sends out (:func:`lamp_light`). Each ray's on its own: many rays are taken
-    :data:`STRIPE_PX` at a time, whose arrays stay in the CPU's cache through every step."""
-    n = len(cls)
+def radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float) -> F32:
+    """``(N, 3)`` linear BGR radiance reaching the camera along each ray. Each ray's on its own:
+    many rays are taken :data:`STRIPE_PX` at a time, whose arrays stay in the CPU's cache
+    through every step."""
+    n = len(rays.cls)
     out = np.empty((n, 3), np.float32)
     for start in range(0, n, STRIPE_PX):
         s = slice(start, start + STRIPE_PX)
-        out[s] = _radiance(dirs_map[s], range_m[s], cls[s], instance[s], part[s], normal[s], sun_lit[s], forward[s],
-                           origin_map_m, weather, max_range_m, sky_open[s], lamp[s])  # fmt: skip
+        out[s] = _radiance(rays.rows(s), origin_map_m, weather, max_range_m)
     return out
 
 
-def _radiance(
-    dirs_map: F32,
-    range_m: F32,
-    cls: npt.NDArray[np.uint8],
-    instance: npt.NDArray[np.uint32],
-    part: npt.NDArray[np.uint8],
-    normal: F32,
-    sun_lit: npt.NDArray[np.bool_],
-    forward: F32,
-    origin_map_m: npt.NDArray[np.float64],
-    weather: Weather,
-    max_range_m: float,
-    sky_open: F32,
-    lamp: F32,
-) -> F32:
+def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float) -> F32:
+    dirs_map, range_m, cls, instance, part = rays.dirs_map, rays.range_m, rays.cls, rays.instance, rays.part
+    normal, sun_lit, forward, sky_open, lamp = rays.normal, rays.sun_lit, rays.forward, rays.sky_open, rays.lamp
     n = len(cls)
     out = np.empty((n, 3), np.float32)
     hit = np.isfinite(range_m) & (range_m <= np.float32(max_range_m))

@@ -30,6 +30,7 @@ from sensors.photo import (
     READ_NOISE,
     STRIPE_PX,
     AgentBoxes,
+    ShadedRays,
     Supersamples,
     auto_levels,
     bloom,
@@ -234,19 +235,10 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     sky_open = sky_light(dirs_map, range_m, classes, instances, sh.origin_map_m, sh.boxes)
     lamp = lamp_rays(dirs_map, range_m, instances, sh.part, sh.origin_map_m, sh.boxes, sh.weather, classes)
     linear = radiance(
-        dirs_map,
-        range_m,
-        classes,
-        instances,
-        sh.part,
-        normal,
-        sh.sun_lit,
-        dirs_cam[:, 2],
+        ShadedRays(dirs_map, range_m, classes, instances, sh.part, normal, sh.sun_lit, dirs_cam[:, 2], sky_open, lamp),
         sh.origin_map_m,
         sh.weather,
         sh.range_m,
-        sky_open,
-        lamp,
     )
     extra = sh.extra
     if extra is not None and len(extra.pixel):
@@ -255,30 +247,13 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         sub_open = sky_light(
             sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, sh.origin_map_m, sh.boxes
         )
-        sub_lin = radiance(
-            sub_dirs,
-            extra.range_m,
+        sub_lamp = lamp_rays(
+            sub_dirs, extra.range_m, extra.instance_id, extra.part, sh.origin_map_m, sh.boxes, sh.weather,
             extra.semantic_class,
-            extra.instance_id,
-            extra.part,
-            extra.normal,
-            extra.sun_lit,
-            extra.dirs_cam[:, 2],
-            sh.origin_map_m,
-            sh.weather,
-            sh.range_m,
-            sub_open,
-            lamp_rays(
-                sub_dirs,
-                extra.range_m,
-                extra.instance_id,
-                extra.part,
-                sh.origin_map_m,
-                sh.boxes,
-                sh.weather,
-                extra.semantic_class,
-            ),
-        )
+        )  # fmt: skip
+        sub_rays = ShadedRays(sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, extra.part,
+                              extra.normal, extra.sun_lit, extra.dirs_cam[:, 2], sub_open, sub_lamp)  # fmt: skip
+        sub_lin = radiance(sub_rays, sh.origin_map_m, sh.weather, sh.range_m)
         linear[extra.pixel] = (linear[extra.pixel] + sub_lin.reshape(-1, sub, 3).sum(axis=1)) / np.float32(sub + 1)
     if sh.shutter_s > 0 and sh.ego_velocity_map_mps is not None:
         motion = image_motion_px(
