@@ -16,7 +16,7 @@ endif
 
 RUN_FLAGS := $(if $(FRAMES),--frames "$$FRAMES") $(if $(SEED),--seed "$$SEED") $(if $(OUT),--out "$$OUT")
 
-.PHONY: venv nuscenes-devkit scenario list test test-fast bench lint format clean
+.PHONY: venv nuscenes-devkit scenario list test test-fast bench figure lint format clean
 
 venv: $(STAMP)
 
@@ -50,6 +50,10 @@ test-fast: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) -m cosim.bench $(ARGS)
+
+# The README's flat/realistic camera figure (sensors/images/flat_vs_realistic.jpg), remade from a run.
+figure: $(STAMP)
+	$(PY) -m cosim.figure $(ARGS)
 
 lint: $(STAMP)
 	$(PY) -m ruff check cosim gtgen networks sensors tests
