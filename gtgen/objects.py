@@ -12,6 +12,15 @@ from networks.geometry import rotations_from_rpy, rpy_from_rotations
 from networks.records import check_arrays
 from sensors.agents import NO_LAMPS, Agents, EgoState
 
+EXPORT_MARGIN_M = 0.015
+"""The KITTI and nuScenes exports write each box this much longer at the front and back and
+wider on each side, and lifted by it off the road (its height kept: agents' meshes stand
+:data:`sensors.agents.AGENT_LIFT_M` above their box's bottom). A body's surface may touch its
+box, and once the points are stored as float32 a strict point-in-box test (the nuScenes
+devkit's ``points_in_box``, OpenPCDet's ``points_in_boxes_cpu``) puts about half of the points
+on a face outside; with the margin it finds exactly the object's LiDAR points, and none of the
+road's."""
+
 
 @dataclass(frozen=True, slots=True)
 class ObjectBoxes:

@@ -39,6 +39,7 @@ import numpy.typing as npt
 from gtgen.errors import SinkError
 from gtgen.frame import FrameRecord
 from gtgen.labels import CameraLabels
+from gtgen.objects import EXPORT_MARGIN_M
 from gtgen.sinks.folder import PartialFolder, cut_to, kept_lines
 from gtgen.sinks.images import FrameImages
 from gtgen.splits import SPLITS, split_units
@@ -71,10 +72,6 @@ KITTI_TYPES = {
     SemanticClass.BARRIER: "DontCare",
 }
 NATIVE_TYPES = {cls: cls.label.capitalize() for cls in KITTI_TYPES}
-KITTI_MARGIN_M = 0.015
-"""A KITTI box is the object's box grown by this on each side, and lifted by it off the road
-(agents' meshes stand higher, see ``sensors.agents.AGENT_LIFT_M``): a strict point-in-box
-test of a label finds exactly the object's LiDAR points."""
 
 
 # Our classes as SemanticKITTI's label ids (its semantic-kitti.yaml): bicycles and
@@ -221,13 +218,13 @@ class KittiSink:
         """One line per object the camera's image holds and a sensor saw. The 3D box (metres,
         4 decimals) is the box turned by yaw only that holds the object's box (KITTI has no
         pitch or roll: on a slope it is longer and taller than the object), grown by
-        ``KITTI_MARGIN_M`` on every side and lifted by it; the 2D box, truncation and alpha keep
+        ``EXPORT_MARGIN_M`` on every side and lifted by it; the 2D box, truncation and alpha keep
         KITTI's 2 decimals."""
         labels, o = record.labels, record.labels.objects
         upright = o.upright_lwh_m()
-        lifted_bottom = upright[:, 2] / 2 - KITTI_MARGIN_M
+        lifted_bottom = upright[:, 2] / 2 - EXPORT_MARGIN_M
         location = cam_SE3_ego.transform_from(o.center_ego_m - np.column_stack([np.zeros((len(o), 2)), lifted_bottom]))
-        dims = upright + np.array([2 * KITTI_MARGIN_M, 2 * KITTI_MARGIN_M, 0.0])
+        dims = upright + np.array([2 * EXPORT_MARGIN_M, 2 * EXPORT_MARGIN_M, 0.0])
         boxes = cam_labels.boxes
         rows = []
         for i in np.flatnonzero(np.isfinite(boxes.clipped_px[:, 0]) & labels.seen):

@@ -39,6 +39,7 @@ from gtgen.nuscenes import (
     visibility_level,
     write_tables,
 )
+from gtgen.objects import EXPORT_MARGIN_M
 from gtgen.sinks.folder import PartialFolder
 from gtgen.sinks.images import JPEG_QUALITY, FrameImages
 from gtgen.table import subtypes as body_subtypes
@@ -161,7 +162,8 @@ class NuscenesSink:
         self, record: FrameRecord, ego_velocity_ego: npt.NDArray[np.float64]
     ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
         """One annotation per labelled object of a class nuScenes names: the box in the map
-        frame, LiDAR points of the keyframe LiDAR, visibility from the cameras of the frame;
+        frame (grown and lifted by ``EXPORT_MARGIN_M``), LiDAR points of the keyframe LiDAR,
+        visibility from the cameras of the frame;
         and the traffic lights and signs (the extension table)."""
         labels, o = record.labels, record.labels.objects
         lidar = next((x for x in record.lidars if self._channels[x.spec.name] == self._lidar_channel), None)
@@ -170,15 +172,15 @@ class NuscenesSink:
         for cam in labels.cameras:
             fraction = np.maximum(fraction, np.nan_to_num(cam.visibility.fraction))
         map_SE3_ego: SE3 = record.map_SE3_ego
-        centre = map_SE3_ego.transform_from(o.center_ego_m)
         rotations = map_SE3_ego.rotation @ o.rotations()
+        centre = map_SE3_ego.transform_from(o.center_ego_m) + rotations[:, :, 2] * EXPORT_MARGIN_M
         speed = np.linalg.norm((o.velocity_ego_mps + ego_velocity_ego)[:, :2], axis=1)
         out, control = [], []
         states = record.signals.state_of()
         subtypes = dict(zip(record.signals.track_id.tolist(), record.signals.subtype, strict=True))
         bodies = body_subtypes(o.semantic_class, o.lwh_m, o.track_id)
         for i in range(len(o)):
-            length, width, height = (float(v) for v in o.lwh_m[i])
+            length, width, height = (float(v) for v in o.lwh_m[i] + np.array([2, 2, 0]) * EXPORT_MARGIN_M)
             box = {
                 "translation": [round(float(v), 6) for v in centre[i]],
                 "size": [round(width, 6), round(length, 6), round(height, 6)],

@@ -10,8 +10,9 @@ import pytest
 import yaml
 
 from gtgen.load import iter_messages, lidar_points, radar_points
+from gtgen.objects import EXPORT_MARGIN_M
 from gtgen.sinks.group import SinkChoice, SinkGroup
-from gtgen.sinks.kitti_sink import KITTI_MARGIN_M, KITTI_TYPES, SEMANTIC_KITTI_LUT
+from gtgen.sinks.kitti_sink import KITTI_TYPES, SEMANTIC_KITTI_LUT
 from gtgen.sinks.yolo_sink import YOLO_CLASSES
 from gtgen.table import label_table, table_columns
 from networks.classes import SemanticClass
@@ -84,9 +85,9 @@ def test_kitti_labels_read_back_as_the_seen_objects_and_their_boxes_project_onto
             assert row[0] == KITTI_TYPES[SemanticClass(int(objects.semantic_class[i]))]
             assert int(row[2]) == cam.visibility.occluded[i]
             np.testing.assert_allclose([float(v) for v in row[4:8]], cam.boxes.clipped_px[i], atol=0.006)
-            grown = objects.lwh_m[i, [2, 1, 0]] + np.array([0.0, 2, 2]) * KITTI_MARGIN_M  # h, w, l
+            grown = objects.lwh_m[i, [2, 1, 0]] + np.array([0.0, 2, 2]) * EXPORT_MARGIN_M  # h, w, l
             np.testing.assert_allclose([float(v) for v in row[8:11]], grown, atol=6e-5)
-            uv = kitti_box_pixels(row, calib["P2"].reshape(3, 4), KITTI_MARGIN_M)
+            uv = kitti_box_pixels(row, calib["P2"].reshape(3, 4), EXPORT_MARGIN_M)
             if float(row[1]) == 0.0:  # not truncated: the projected box is the 2D box
                 np.testing.assert_allclose(
                     [uv[0].min(), uv[1].min(), uv[0].max(), uv[1].max()], [float(v) for v in row[4:8]], atol=0.2
