@@ -36,4 +36,4 @@ class OccupancyStep:
         lidars = tuple(o for o in outputs if isinstance(o, LidarOutput))
         return occupancy_frame(self.grid, static, self._solids, state.agents, map_SE3_ego, state.ego.velocity_map_mps,
                                lidars, tuple(cameras), scene.agent_meshes,
-                               state.ego.turn_rates()[1])  # fmt: skip
+                               state.ego.turn_rates()[1], state.ego)  # fmt: skip

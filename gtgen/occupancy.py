@@ -71,11 +71,11 @@ from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
 from networks.mesh import ClassedMesh
 from networks.records import check_arrays
-from sensors.agents import AgentMeshes, Agents, motion_over, turned_about_z
+from sensors.agents import AgentMeshes, Agents, EgoState, motion_over, turn_rate_at, turned_about_z
 from sensors.camera import CameraSpec
 from sensors.lidar import LidarOutput
 from sensors.rays import sensor_rays
-from sensors.sweep import reference_s
+from sensors.sweep import reference_s, sensor_origins
 
 if TYPE_CHECKING:  # Open3D loads only where rays are cast, not in the writer process
     from sensors.solids import Solids
@@ -195,14 +195,15 @@ def occupancy_frame(
     spec: OccupancyGrid, static: ClassedMesh, solids: Solids, agents: Agents, map_SE3_ego: SE3,
     ego_velocity_map_mps: npt.NDArray[np.float64], lidars: tuple[LidarOutput, ...],
     cameras: tuple[tuple[CameraSpec, npt.NDArray[np.float64]], ...] = (), agent_meshes: AgentMeshes | None = None,
-    ego_yaw_rate_rad_s: float = 0.0,
+    ego_yaw_rate_rad_s: float = 0.0, ego: EgoState | None = None,
 ) -> OccupancyFrame:  # fmt: skip
     """The occupancy of one frame. ``static``: the world mesh near the ego (map frame);
     ``solids``: the world's solids; ``agents`` in the map frame; ``cameras``: each camera's spec and the
     distance (m) its grid-resolution rays (:func:`camera_rays`) travelled, inf where they hit
     nothing; ``agent_meshes``: the posed meshes of (some of) the agents (their volumes; the
     others fill their boxes); ``ego_yaw_rate_rad_s``: the ego's rate of turn from the frame's time
-    on (counter-clockwise)."""
+    on (counter-clockwise); ``ego``: the ego's state, which places a timed sweep's points where
+    the LiDAR was at each point's time for their flow (without it, at the frame's time)."""
     grid = spec.grid
     ego_SE3_map = map_SE3_ego.inverse()
     native, instance = _classes(grid, static, solids, agents, map_SE3_ego, agent_meshes)
@@ -220,7 +221,7 @@ def occupancy_frame(
     agent_spin = agents.yaw_rate_after_rad_s[:, None] * up  # the rates of turn from the frame's time on
     ego_spin = float(ego_yaw_rate_rad_s) * up
     center = _transform(ego_SE3_map, agents.center_map_m)
-    point_flow = tuple(point_flow_m(lidar, agents, map_SE3_ego) for lidar in lidars)
+    point_flow = tuple(point_flow_m(lidar, agents, map_SE3_ego, ego) for lidar in lidars)
     s = grid.shape
     return OccupancyFrame(grid, native.reshape(s), instance.reshape(s), mask_lidar.reshape(s), mask_camera.reshape(s),
                           agents.instance_id, velocity.astype(np.float32), relative.astype(np.float32),
@@ -448,10 +449,16 @@ def _solid_insides(
     return inside.astype(np.int64), flat_out[inside]
 
 
-def point_flow_m(lidar: LidarOutput, agents: Agents, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:
-    """``(N, 3) float32``: where each point of the sweep moves by the next sweep (its object's box
-    moved along its arc over the sweep period, :func:`~sensors.agents.motion_over`: velocity times
-    the period where it does not turn; LiDAR axes); 0 on the static world and on unknown ids."""
+def point_flow_m(
+    lidar: LidarOutput, agents: Agents, map_SE3_ego: SE3, ego: EgoState | None = None
+) -> npt.NDArray[np.float32]:
+    """``(N, 3) float32``: where each point of the sweep moves by the next sweep, in the LiDAR's
+    axes at the point's time (the frame its ``xyz`` is in): the point's surface carried by its
+    object's box from the point's time ``t`` to ``t`` plus the sweep period, along the box's arc
+    (:func:`~sensors.agents.motion_over`, the rate of turn before the frame's time and after it as
+    the sweep casts them; velocity times the period where the box does not turn); 0 on the
+    static world and on unknown ids. In a timed sweep the point is placed where the LiDAR was
+    at its time (by ``ego``'s motion; without ``ego``, and in an instant sweep, at the frame's)."""
     scan = lidar.scan
     flow = np.zeros((len(scan), 3), np.float32)
     if len(agents) == 0 or len(scan) == 0:
@@ -462,15 +469,31 @@ def point_flow_m(lidar: LidarOutput, agents: Agents, map_SE3_ego: SE3) -> npt.ND
     known = (scan.instance_id != 0) & (ids[pos] == scan.instance_id)
     map_SE3_lidar = map_SE3_ego.compose(lidar.spec.ego_SE3_sensor)
     row = order[pos[known]]
-    flow[known] = agents.velocity_map_mps[row] @ map_SE3_lidar.rotation / lidar.spec.rate_hz
-    turning = np.flatnonzero(known)[agents.yaw_rate_after_rad_s[row] != 0.0]
-    if turning.size:  # along the arc: the centre's shift and the point turned about the centre
-        row = order[pos[turning]]
-        shift, turn = motion_over(
-            agents.velocity_map_mps[row], agents.yaw_rate_after_rad_s[row], 1.0 / lidar.spec.rate_hz
-        )
-        arm = _transform(map_SE3_lidar, scan.xyz_lidar_m[turning]) - agents.center_map_m[row]
-        flow[turning] = (shift + turned_about_z(arm, turn) - arm) @ map_SE3_lidar.rotation
+    period = 1.0 / lidar.spec.rate_hz
+    timed = lidar.spec.sweep == "timed" and ego is not None
+    dt = scan.t_s[known].astype(np.float64) - reference_s(lidar.spec.reference, lidar.spec.period_s) if timed else None
+    before, after = agents.yaw_rate_rad_s[row], agents.yaw_rate_after_rad_s[row]
+    if dt is None or not (dt.any() and (before.any() or after.any() or (ego is not None and ego.turning()))):
+        # one instant (or no turning anywhere): the box's motion over the period from the frame's time
+        flow[known] = agents.velocity_map_mps[row] @ map_SE3_lidar.rotation / lidar.spec.rate_hz
+        turning = np.flatnonzero(known)[after != 0.0]
+        if turning.size:  # along the arc: the centre's shift and the point turned about the centre
+            row = order[pos[turning]]
+            shift, turn = motion_over(agents.velocity_map_mps[row], agents.yaw_rate_after_rad_s[row], period)
+            arm = _transform(map_SE3_lidar, scan.xyz_lidar_m[turning]) - agents.center_map_m[row]
+            flow[turning] = (shift + turned_about_z(arm, turn) - arm) @ map_SE3_lidar.rotation
+        return flow
+    assert ego is not None
+    # the LiDAR where it was at each point's time, and the point there in the map frame
+    origins, ego_turn = sensor_origins(ego, map_SE3_lidar.translation, dt)
+    at_t = turned_about_z(scan.xyz_lidar_m[known].astype(np.float64) @ map_SE3_lidar.rotation.T, ego_turn) + origins
+    velocity, centre = agents.velocity_map_mps[row], agents.center_map_m[row]
+    shift_t, turn_t = motion_over(velocity, turn_rate_at(before, after, dt), dt)
+    shift_n, turn_n = motion_over(velocity, turn_rate_at(before, after, dt + period), dt + period)
+    arm = at_t - (centre + shift_t)
+    moved = (shift_n - shift_t) + turned_about_z(arm, turn_n - turn_t) - arm
+    # into the LiDAR's axes at the point's time (turned by the ego's turn since the frame's time)
+    flow[known] = turned_about_z(moved, -ego_turn) @ map_SE3_lidar.rotation
     return flow
 
 

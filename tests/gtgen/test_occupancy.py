@@ -18,11 +18,12 @@ from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
 from networks.mesh import flat_polygon, merge, prism
 from networks.vocabulary import SensorKind
-from sensors.agents import Agents, EgoState
+from sensors.agents import Agents, EgoState, motion_over
 from sensors.camera import CameraSpec
 from sensors.lidar import Lidar, LidarSpec
 from sensors.scene import FrameScene
 from sensors.solids import Solids
+from sensors.sweep import reference_s, sensor_pose_at
 from sensors.weather import DAY
 
 EGO = EgoState.at(SE3.identity())
@@ -241,6 +242,48 @@ def test_a_turning_ego_sees_a_standing_car_sweep_round_it_and_a_turning_car_s_po
         moved = shift + np.stack([c * arm[:, 0] - s * arm[:, 1], s * arm[:, 0] + c * arm[:, 1], arm[:, 2]], axis=1)
         assert np.allclose(point_flow[on_car], moved - arm, atol=1e-5)
     assert np.abs(relative[:, 1]).max() > 0.5  # turning shows as sideways flow
+
+
+@pytest.mark.parametrize("reference", ["start", "middle", "end"])
+def test_a_timed_sweeps_point_flow_carries_each_point_from_its_own_time(reference):
+    """In a timed sweep every point is where its surface was at the point's time ``t``, in the
+    LiDAR frame of that time: its flow takes that surface point to where its box carries it by
+    ``t`` plus the period (ego and car both moving and turning; the car's rate changes at the
+    frame's time), so in the body's own frame the point and the point plus its flow coincide."""
+    ego = replace(EGO, velocity_map_mps=np.array([10.0, 0.0, 0.0]), yaw_rate_rad_s=0.3, yaw_rate_after_rad_s=0.5)
+    agents = replace(
+        car(-10.0, 6.0, speed_mps=8.0), yaw_rate_rad_s=np.array([0.6]), yaw_rate_after_rad_s=np.array([0.9])
+    )
+    spec = LidarSpec(rate_hz=10.0, sweep="timed", reference=reference)  # type: ignore[arg-type]
+    lidar = Lidar(spec).sense(FrameScene(GROUND, agents), ego, DAY, np.random.default_rng(0))
+    occupancy = occupancy_frame(SPEC, GROUND, Solids(GROUND), agents, ego.map_SE3_ego(), ego.velocity_map_mps,
+                                (lidar,), ego_yaw_rate_rad_s=0.5, ego=ego)  # fmt: skip
+    scan, flow = lidar.scan, occupancy.point_flow_m[0].astype(np.float64)
+    on_car = np.flatnonzero(scan.instance_id == 4)
+    assert on_car.size > 50
+    period, t_ref = 1.0 / spec.rate_hz, reference_s(reference, spec.period_s)
+    map_SE3_lidar = ego.map_SE3_ego().compose(spec.ego_SE3_sensor)
+
+    def body_frame(k, xyz_lidar, dt):  # a point of the LiDAR frame at the k-th point's time, in the car's frame at dt
+        lidar_then = sensor_pose_at(ego, map_SE3_lidar, float(scan.t_s[k]) - t_ref)
+        rate = agents.yaw_rate_rad_s[0] if dt < 0 else agents.yaw_rate_after_rad_s[0]
+        shift, turn = motion_over(agents.velocity_map_mps[0], rate, dt)
+        c, s = np.cos(agents.yaw_map_rad[0] + turn), np.sin(agents.yaw_map_rad[0] + turn)
+        d = lidar_then.transform_from(xyz_lidar[None, :])[0] - (agents.center_map_m[0] + shift)
+        return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]])
+
+    xyz = scan.xyz_lidar_m.astype(np.float64)
+    worst = 0.0
+    for k in on_car:
+        dt = float(scan.t_s[k]) - t_ref
+        here, there = body_frame(k, xyz[k], dt), body_frame(k, xyz[k] + flow[k], dt + period)
+        assert np.all(np.abs(here) <= agents.lwh_m[0] / 2 + 0.02)  # the point on its body at its time
+        worst = max(worst, float(np.abs(here - there).max()))
+    assert worst < 1e-4
+    # taken at the frame's time instead, the flow is millimetres to centimetres off
+    at_frame_time = occupancy_frame(SPEC, GROUND, Solids(GROUND), agents, ego.map_SE3_ego(), ego.velocity_map_mps,
+                                    (lidar,), ego_yaw_rate_rad_s=0.5).point_flow_m[0]  # fmt: skip
+    assert np.abs(at_frame_time[on_car] - flow[on_car]).max() > 0.004
 
 
 def test_occupancy_is_written_per_frame_and_read_back(tmp_path):
