@@ -259,55 +259,57 @@ def _classes(
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32]]:  # fmt: skip
     """Flat ``(native class, instance)`` of every voxel."""
     ego_SE3_map = map_SE3_ego.inverse()
-    flats, classes, instances = [], [], []
     near = _static_near_index(grid, static, map_SE3_ego)
     tri_m = np.asarray(static.vertices_m[static.triangles[near]], np.float64)
     tri_ego = _transform(ego_SE3_map, tri_m.reshape(-1, 3)).reshape(-1, 3, 3)
-    flat, source = triangle_voxels(grid, tri_ego)
-    tri_class = static.triangle_class[near]
-    surface_flat, surface_source = flat, source
-    flats.append(flat)
-    classes.append(tri_class[source])
-    instances.append(np.zeros(flat.shape[0], np.uint32))
+    surface, source = triangle_voxels(grid, tri_ego)
+    tri_class = np.asarray(static.triangle_class[near], np.uint8)
+    surface_class = tri_class[source]
     solid = np.isin(tri_class, solids.classes)[source]
-    flat, cls = _solid_insides(grid, solids, map_SE3_ego, flat[solid])
-    flats.append(flat)
-    classes.append(cls)
-    instances.append(np.zeros(flat.shape[0], np.uint32))
+    parts = [
+        (surface, surface_class, _NO_INSTANCE),
+        (*_solid_insides(grid, solids, map_SE3_ego, surface[solid]), _NO_INSTANCE),
+    ]
     if len(agents):
-        flat, source = _agent_voxels(grid, agents, agent_meshes, ego_SE3_map)
-        flats.append(flat)
-        classes.append(agents.semantic_class[source])
-        instances.append(agents.instance_id[source])
-    flat, cls, inst = np.concatenate(flats), np.concatenate(classes), np.concatenate(instances)
-    native, instance = _paint(grid, flat, cls, inst)
-    shared_class = np.asarray(tri_class[surface_source], np.uint8)
-    keep = _shared_surfaces(grid, surface_flat, shared_class, tri_ego[surface_source], native)
+        flat, row = _agent_voxels(grid, agents, agent_meshes, ego_SE3_map)
+        parts.append((flat, agents.semantic_class[row], agents.instance_id[row]))
+    native, instance = _paint(grid, parts)
+    keep = _shared_surfaces(grid, surface, surface_class, tri_ego, source, native)
     if not keep.all():
-        kept = np.r_[keep, np.ones(flat.shape[0] - keep.shape[0], np.bool_)]
-        native, instance = _paint(grid, flat[kept], cls[kept], inst[kept])
+        native, instance = _paint(grid, parts, keep)
     return native, instance
 
 
+_NO_INSTANCE = np.zeros(0, np.uint32)
+_ALL = np.zeros(0, np.bool_)
+
+
 def _paint(
-    grid: VoxelGrid, flat: npt.NDArray[np.int64], cls: npt.NDArray[np.uint8], inst: npt.NDArray[np.uint32]
+    grid: VoxelGrid,
+    parts: list[tuple[npt.NDArray[np.int64], npt.NDArray[np.uint8], npt.NDArray[np.uint32]]],
+    keep_first: npt.NDArray[np.bool_] = _ALL,
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32]]:
-    """Each voxel's class and instance: those of its entry earliest in :data:`PRIORITY`."""
+    """Each voxel's class and instance: those of its entry earliest in :data:`PRIORITY` (entries
+    ``(flat, class, instance)`` part after part, no instance: 0; of the first part only those
+    ``keep_first`` marks, if given)."""
     native = np.full(grid.size, FREE_NATIVE, np.uint8)
     instance = np.zeros(grid.size, np.uint32)
     best = np.full(grid.size, len(PRIORITY) + 1, np.int64)
-    voxel_kernels.paint(
-        flat.astype(np.int64), _RANK[cls], cls.astype(np.uint8), inst.astype(np.uint32), native, instance, best
-    )
+    for n, (flat, cls, inst) in enumerate(parts):
+        keep = keep_first if n == 0 else _ALL
+        voxel_kernels.paint(
+            np.asarray(flat, np.int64), np.asarray(cls, np.uint8), np.asarray(inst, np.uint32), keep, _RANK, native,
+            instance, best,
+        )  # fmt: skip
     return native, instance
 
 
 def _shared_surfaces(
     grid: VoxelGrid, flat: npt.NDArray[np.int64], cls: npt.NDArray[np.uint8], tri_m: npt.NDArray[np.float64],
-    native: npt.NDArray[np.uint8], passes: int = 6,
+    source: npt.NDArray[np.int64], native: npt.NDArray[np.uint8], passes: int = 6,
 ) -> npt.NDArray[np.bool_]:  # fmt: skip
-    """Which static surface entries (voxel ``flat``, class ``cls``, triangle ``tri_m`` in the ego
-    frame) keep their voxel where surfaces of several Occ3D classes meet one voxel: the voxel
+    """Which static surface entries (voxel ``flat``, class ``cls``, triangle ``tri_m[source]`` in the
+    ego frame) keep their voxel where surfaces of several Occ3D classes meet one voxel: the voxel
     goes to the class that needs it, the one with the most surface in the voxel that lies farther
     than half a voxel from every other voxel of its class (a point on a surface is within half a
     voxel of the voxel it lies in and of the 7 neighbours on its side of the voxel's middle, so
@@ -316,33 +318,15 @@ def _shared_surfaces(
     turn, each seeing the choices made before it, in up to ``passes`` sweeps (until none changes).
     The terrain (under the whole world) counts as hidden in voxels with paving (road, sidewalk,
     other flat ground). ``native``: every voxel's class so far."""
-    occ = OCC3D_LUT[cls].astype(np.int64)
-    n_occ = len(OCC3D_CLASSES)
-    bits = voxel_kernels.class_bits(flat.astype(np.int64), occ, grid.size)
-    paved = (bits & _PAVED_BITS) != 0
-    bits[paved] &= ~np.uint32(1 << OCC3D_TERRAIN)  # the terrain lies under the whole world: hidden under paving
-    hidden = (occ == OCC3D_TERRAIN) & paved[flat]
-    shared = (np.bitwise_count(bits)[flat] > 1) & ~hidden
-    keep = np.ones(flat.shape[0], np.bool_)
-    if not shared.any():
-        return keep
-    entries = np.flatnonzero(shared)
-    voxels, local = np.unique(flat[entries], return_inverse=True)
-    ijk = np.stack(np.unravel_index(voxels, grid.shape), axis=-1).astype(np.int64)
-    tri = np.ascontiguousarray(grid.to_grid(tri_m[entries].reshape(-1, 3)).reshape(-1, 3, 3))
-    areas = voxel_kernels.octant_areas(tri, ijk[local])
-    area = np.zeros((voxels.shape[0] * n_occ, 8))
-    row = local * n_occ + occ[entries]
-    for o in range(8):
-        area[:, o] = np.bincount(row, areas[:, o], minlength=area.shape[0])
-    area = area.reshape(voxels.shape[0], n_occ, 8)
-    label = OCC3D_LUT[native].astype(np.int64)
-    chosen = voxel_kernels.choose_shared(voxels.astype(np.int64), area, label, *grid.shape, passes)
-    mine = occ[entries] == chosen[local]
-    present = np.zeros(voxels.shape[0], np.bool_)
-    present[local[mine]] = True
-    keep[entries] = mine | ~present[local]  # (a voxel whose choice is none of its surfaces' keeps them all)
-    return keep
+    label = OCC3D_LUT[native]
+    return np.asarray(
+        voxel_kernels.shared_keep(
+            flat.astype(np.int64), OCC3D_LUT[cls].astype(np.int64), tri_m, source.astype(np.int64),
+            np.asarray(grid.lower_m, np.float64), grid.voxel_m, label, len(OCC3D_CLASSES), *grid.shape, passes,
+            int(_PAVED_BITS), OCC3D_TERRAIN,
+        ),
+        np.bool_,
+    )  # fmt: skip
 
 
 def _static_near_index(grid: VoxelGrid, static: ClassedMesh, map_SE3_ego: SE3) -> npt.NDArray[np.intp]:
@@ -382,31 +366,19 @@ def _agent_voxels(
     if meshes is None or meshes.triangles.shape[0] == 0 or flat.size == 0:
         return flat, row
     in_grid = np.isin(meshes.triangle_instance, agents.instance_id[np.unique(row)])
-    triangles = meshes.triangles[in_grid]
-    tri_m = _transform(ego_SE3_map, meshes.vertices_m[triangles].reshape(-1, 3))
-    surface, tri = triangle_voxels(grid, tri_m.reshape(-1, 3, 3))
+    surface, tri = triangle_voxels(grid, _transform(ego_SE3_map, meshes.vertices_m), meshes.triangles[in_grid])
     surface_id = meshes.triangle_instance[in_grid][tri]
-    kept_flat, kept_row = [], []
+    by_id = np.argsort(surface_id, kind="stable")
     order = np.argsort(row, kind="stable")
     flat, row = flat[order], row[order]
     bounds = np.flatnonzero(np.r_[True, row[1:] != row[:-1], True])
-    meshed = set(np.unique(meshes.triangle_instance).tolist())
-    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
-        agent_id = int(agents.instance_id[row[a]])
-        box = flat[a:b]
-        if agent_id in meshed:
-            box = box[_filled(grid, box, surface[surface_id == agent_id])]
-        kept_flat.append(box)
-        kept_row.append(np.full(box.shape[0], row[a], np.int64))
-    return np.concatenate(kept_flat), np.concatenate(kept_row)
-
-
-def _filled(grid: VoxelGrid, box: npt.NDArray[np.int64], surface: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
-    """Which of a box's voxels its body fills: those its surface meets, and those no path of
-    face-neighbouring voxels inside the box, free of the surface, joins to the box's outside."""
-    ijk = np.stack(np.unravel_index(box, grid.shape), axis=-1).astype(np.int64)
-    wall = np.stack(np.unravel_index(surface, grid.shape), axis=-1).astype(np.int64)
-    return np.asarray(voxel_kernels.enclosed(ijk, wall), np.bool_)
+    group_id = agents.instance_id[row[bounds[:-1]]].astype(np.uint32)
+    meshed = np.isin(group_id, meshes.triangle_instance)
+    _, ny, nz = grid.shape
+    keep = voxel_kernels.boxes_filled(
+        flat, bounds, group_id, meshed, surface[by_id], surface_id[by_id].astype(np.uint32), ny, nz
+    )
+    return flat[keep], row[keep]
 
 
 def _solid_insides(
@@ -417,36 +389,17 @@ def _solid_insides(
     floor, so along each row of voxels (ego x) a run of voxels that no wall, top or floor meets is
     all inside or all outside: one centre per run is cast (:meth:`Solids.inside`), and each voxel
     that only a floor meets on its own. Voxels a solid's surface meets are occupied by it anyway."""
-    barrier = np.zeros(grid.size, np.bool_)
-    barrier[surface] = True
     ego_SE3_map = map_SE3_ego.inverse()
     lo, hi = np.asarray(grid.lower_m), np.asarray(grid.upper_m)
     reach = float(np.linalg.norm(hi - lo)) / 2.0
     floors = solids.floors_near(map_SE3_ego.transform_from((lo + hi) / 2.0), reach)
-    floor = np.zeros(grid.size, np.bool_)
+    floor = np.zeros(0, np.int64)
     if floors.shape[0]:
-        floor[triangle_voxels(grid, _transform(ego_SE3_map, floors.reshape(-1, 3)).reshape(-1, 3, 3))[0]] = True
-    floor &= ~barrier
-    barrier |= floor
-    rows = barrier.reshape(grid.shape).transpose(1, 2, 0).ravel()  # (y, z, x): rows along x
-    nx = grid.shape[0]
-    first = np.zeros(rows.shape[0], np.bool_)
-    first[::nx] = True
-    start = ~rows & (first | np.r_[True, rows[:-1]])
-    run = np.cumsum(start) - 1
-    tested = np.flatnonzero(start | floor.reshape(grid.shape).transpose(1, 2, 0).ravel())
-    yzx = np.stack(np.unravel_index(tested, (grid.shape[1], grid.shape[2], nx)), axis=-1)
-    ijk = yzx[:, [2, 0, 1]]
+        floor = triangle_voxels(grid, _transform(ego_SE3_map, floors.reshape(-1, 3)).reshape(-1, 3, 3))[0]
+    kind, ijk = voxel_kernels.solid_runs(surface.astype(np.int64), floor, *grid.shape)
     centers = _transform(map_SE3_ego, np.asarray(grid.lower_m) + (ijk + 0.5) * grid.voxel_m)
     cls = solids.inside(centers)
-    run_class = np.zeros(int(start.sum()), np.uint8)
-    is_start = start[tested]
-    run_class[run[tested[is_start]]] = cls[is_start]
-    out = np.where(rows, 0, run_class[np.maximum(run, 0)]).astype(np.uint8)
-    out[tested[~is_start]] = cls[~is_start]
-    flat_out = out.reshape(grid.shape[1], grid.shape[2], nx).transpose(2, 0, 1).ravel()
-    inside = np.flatnonzero(flat_out)
-    return inside.astype(np.int64), flat_out[inside]
+    return voxel_kernels.solid_fill(kind, cls, *grid.shape)
 
 
 def point_flow_m(

@@ -182,21 +182,26 @@ def walk(
 @njit(cache=True, nogil=True)
 def paint(
     flat: I64,
-    rank: I64,
     cls: npt.NDArray[np.uint8],
     inst: npt.NDArray[np.uint32],
+    keep: npt.NDArray[np.bool_],
+    rank_of: I64,
     native: npt.NDArray[np.uint8],
     instance: npt.NDArray[np.uint32],
     best: I64,
 ) -> None:  # pragma: no cover - compiled
-    """Each voxel takes the class and instance of its entry of lowest rank, the last such one in
-    the entries' order (a stable sort by falling rank, then every entry written in turn)."""
+    """Each voxel takes the class and instance of its entry of lowest rank (``rank_of[cls]``), the
+    last such one in the entries' order (a stable sort by falling rank, then every entry written in
+    turn). ``inst`` empty: instance 0; ``keep`` empty: every entry, else those it marks."""
     for n in range(flat.shape[0]):
+        if keep.shape[0] and not keep[n]:
+            continue
         v = flat[n]
-        if rank[n] <= best[v]:
-            best[v] = rank[n]
+        rank = rank_of[cls[n]]
+        if rank <= best[v]:
+            best[v] = rank
             native[v] = cls[n]
-            instance[v] = inst[n]
+            instance[v] = inst[n] if inst.shape[0] else 0
 
 
 @njit(cache=True, nogil=True)
@@ -243,62 +248,92 @@ def enclosed(box: npt.NDArray[np.int64], wall: npt.NDArray[np.int64]) -> npt.NDA
     return out
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _clip(
+    poly: npt.NDArray[np.float64], n: int, a: int, bound: float, side: int, out: npt.NDArray[np.float64]
+) -> int:  # pragma: no cover - compiled
+    """``poly[:n]`` clipped to ``x_a >= bound`` (side 0) or ``x_a <= bound`` (side 1) into ``out``;
+    its corner count."""
+    m = 0
+    for v in range(n):
+        w = (v + 1) % n
+        dv = poly[v, a] - bound if side == 0 else bound - poly[v, a]
+        dw = poly[w, a] - bound if side == 0 else bound - poly[w, a]
+        if dv >= 0:
+            out[m] = poly[v]
+            m += 1
+        if (dv >= 0) != (dw >= 0):
+            t = dv / (dv - dw)
+            for c in range(3):
+                out[m, c] = poly[v, c] + t * (poly[w, c] - poly[v, c])
+            m += 1
+    return m
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _half(
+    poly: npt.NDArray[np.float64],
+    n: int,
+    a: int,
+    lo: float,
+    mid: npt.NDArray[np.float64],
+    out: npt.NDArray[np.float64],
+) -> int:  # pragma: no cover - compiled
+    """``poly[:n]`` clipped to ``lo <= x_a <= lo + 1/2`` into ``out`` (through ``mid``); its corner
+    count (below 3: nothing left)."""
+    m = _clip(poly, n, a, lo, 0, mid)
+    if m < 3:
+        return m
+    return _clip(mid, m, a, lo + 0.5, 1, out)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _area(poly: npt.NDArray[np.float64], n: int) -> float:  # pragma: no cover - compiled
+    sx, sy, sz = 0.0, 0.0, 0.0
+    for v in range(1, n - 1):
+        ux, uy, uz = poly[v, 0] - poly[0, 0], poly[v, 1] - poly[0, 1], poly[v, 2] - poly[0, 2]
+        wx, wy, wz = poly[v + 1, 0] - poly[0, 0], poly[v + 1, 1] - poly[0, 1], poly[v + 1, 2] - poly[0, 2]
+        sx += uy * wz - uz * wy
+        sy += uz * wx - ux * wz
+        sz += ux * wy - uy * wx
+    return 0.5 * math.sqrt(sx * sx + sy * sy + sz * sz)
+
+
 @njit(cache=True, nogil=True)
 def octant_areas(
     tri: npt.NDArray[np.float64], ijk: npt.NDArray[np.int64]
 ) -> npt.NDArray[np.float64]:  # pragma: no cover
     """``(P, 8)``: the area (voxel units squared) of each triangle ``tri: (P, 3, 3)`` (grid
     coordinates) within each eighth of its voxel ``ijk: (P, 3)``; eighth ``4 hx + 2 hy + hz``
-    spans ``[i + hx / 2, i + hx / 2 + 1 / 2]`` along x (and so on)."""
+    spans ``[i + hx / 2, i + hx / 2 + 1 / 2]`` along x (and so on). The triangle is clipped to
+    each half along x, that to each half along y, that to each half along z."""
     out = np.zeros((tri.shape[0], 8))
-    poly = np.empty((12, 3))
-    work = np.empty((12, 3))
+    px = np.empty((12, 3))
+    py = np.empty((12, 3))
+    pz = np.empty((12, 3))
+    mid = np.empty((12, 3))
+    t = np.empty((3, 3))
     for p in range(tri.shape[0]):
-        for o in range(8):
-            n = 3
-            for v in range(3):
-                for a in range(3):
-                    poly[v, a] = tri[p, v, a]
-            for a in range(3):
-                half = (o >> (2 - a)) & 1
-                lo = ijk[p, a] + 0.5 * half
-                for side in range(2):  # keep x_a >= lo, then x_a <= lo + 1/2
-                    bound = lo if side == 0 else lo + 0.5
-                    m = 0
-                    for v in range(n):
-                        w = (v + 1) % n
-                        dv = poly[v, a] - bound if side == 0 else bound - poly[v, a]
-                        dw = poly[w, a] - bound if side == 0 else bound - poly[w, a]
-                        if dv >= 0:
-                            work[m] = poly[v]
-                            m += 1
-                        if (dv >= 0) != (dw >= 0):
-                            t = dv / (dv - dw)
-                            for c in range(3):
-                                work[m, c] = poly[v, c] + t * (poly[w, c] - poly[v, c])
-                            m += 1
-                    n = m
-                    poly[:n] = work[:n]
-                    if n < 3:
-                        break
-                if n < 3:
-                    break
-            if n < 3:
+        t[:, :] = tri[p]
+        for hx in range(2):
+            nx_ = _half(t, 3, 0, ijk[p, 0] + 0.5 * hx, mid, px)
+            if nx_ < 3:
                 continue
-            sx, sy, sz = 0.0, 0.0, 0.0
-            for v in range(1, n - 1):
-                ux, uy, uz = poly[v, 0] - poly[0, 0], poly[v, 1] - poly[0, 1], poly[v, 2] - poly[0, 2]
-                wx, wy, wz = poly[v + 1, 0] - poly[0, 0], poly[v + 1, 1] - poly[0, 1], poly[v + 1, 2] - poly[0, 2]
-                sx += uy * wz - uz * wy
-                sy += uz * wx - ux * wz
-                sz += ux * wy - uy * wx
-            out[p, o] = 0.5 * math.sqrt(sx * sx + sy * sy + sz * sz)
+            for hy in range(2):
+                ny_ = _half(px, nx_, 1, ijk[p, 1] + 0.5 * hy, mid, py)
+                if ny_ < 3:
+                    continue
+                for hz in range(2):
+                    nz_ = _half(py, ny_, 2, ijk[p, 2] + 0.5 * hz, mid, pz)
+                    if nz_ < 3:
+                        continue
+                    out[p, 4 * hx + 2 * hy + hz] = _area(pz, nz_)
     return out
 
 
 @njit(cache=True, nogil=True)
 def choose_shared(
-    voxels: I64, area: npt.NDArray[np.float64], label: I64, nx: int, ny: int, nz: int, sweeps: int
+    voxels: I64, area: npt.NDArray[np.float64], label: npt.NDArray[np.integer], nx: int, ny: int, nz: int, sweeps: int
 ) -> I64:  # pragma: no cover - compiled
     """The class of each shared voxel ``voxels: (M,)`` (flat): the class with the most area
     ``area: (M, C, 8)`` in the voxel's eighths whose 7 neighbours on that eighth's side hold no
@@ -348,3 +383,217 @@ def class_bits(flat: I64, cls: I64, size: int) -> npt.NDArray[np.uint32]:  # pra
     for n in range(flat.shape[0]):
         bits[flat[n]] |= np.uint32(1) << np.uint32(cls[n])
     return bits
+
+
+@njit(cache=True, nogil=True)
+def boxes_filled(
+    flat: I64,
+    bounds: I64,
+    agent_id: npt.NDArray[np.uint32],
+    meshed: npt.NDArray[np.bool_],
+    surface_flat: I64,
+    surface_id: npt.NDArray[np.uint32],
+    ny: int,
+    nz: int,
+) -> npt.NDArray[np.bool_]:  # pragma: no cover - compiled
+    """Which box voxels ``flat`` (flat, grouped by agent: group ``g`` is ``bounds[g]:bounds[g + 1]``,
+    its agent ``agent_id[g]``) the agent fills: all of its box where ``meshed[g]`` is false, else
+    those its surface meets or encloses (:func:`enclosed`, its surface the voxels ``surface_flat``
+    whose ``surface_id`` is the agent's; ``surface_id`` sorted)."""
+    keep = np.ones(flat.shape[0], np.bool_)
+    for g in range(bounds.shape[0] - 1):
+        if not meshed[g]:
+            continue
+        a, b = bounds[g], bounds[g + 1]
+        box = np.empty((b - a, 3), np.int64)
+        for n in range(a, b):
+            v = flat[n]
+            box[n - a, 0], box[n - a, 1], box[n - a, 2] = v // (ny * nz), (v // nz) % ny, v % nz
+        lo = np.searchsorted(surface_id, agent_id[g], side="left")
+        hi = np.searchsorted(surface_id, agent_id[g], side="right")
+        wall = np.empty((hi - lo, 3), np.int64)
+        for n in range(lo, hi):
+            v = surface_flat[n]
+            wall[n - lo, 0], wall[n - lo, 1], wall[n - lo, 2] = v // (ny * nz), (v // nz) % ny, v % nz
+        keep[a:b] = enclosed(box, wall)
+    return keep
+
+
+@njit(cache=True, nogil=True)
+def solid_runs(
+    surface: I64, floor: I64, nx: int, ny: int, nz: int
+) -> tuple[npt.NDArray[np.int8], I64]:  # pragma: no cover - compiled
+    """The voxels to cast for the solids' insides: along each row of voxels (ego x; rows in
+    ``(y, z)`` order) the first voxel of each run that no solid's surface ``surface`` nor floor
+    ``floor`` (flat) meets, and each voxel only a floor meets. Returns each voxel's kind (0:
+    free of both, 1: surface, 2: floor only) and the cast voxels ``(T, 3)`` (``i, j, k``, rows in
+    order)."""
+    kind = np.zeros(nx * ny * nz, np.int8)
+    for n in range(floor.shape[0]):
+        kind[floor[n]] = 2
+    for n in range(surface.shape[0]):
+        kind[surface[n]] = 1
+    count = 0
+    for j in range(ny):
+        for k in range(nz):
+            prev = 1
+            for i in range(nx):
+                c = kind[(i * ny + j) * nz + k]
+                if c == 2 or (c == 0 and prev != 0):
+                    count += 1
+                prev = c
+    ijk = np.empty((count, 3), np.int64)
+    m = 0
+    for j in range(ny):
+        for k in range(nz):
+            prev = 1
+            for i in range(nx):
+                c = kind[(i * ny + j) * nz + k]
+                if c == 2 or (c == 0 and prev != 0):
+                    ijk[m, 0], ijk[m, 1], ijk[m, 2] = i, j, k
+                    m += 1
+                prev = c
+    return kind, ijk
+
+
+@njit(cache=True, nogil=True)
+def solid_fill(
+    kind: npt.NDArray[np.int8], cls: npt.NDArray[np.uint8], nx: int, ny: int, nz: int
+) -> tuple[I64, npt.NDArray[np.uint8]]:  # pragma: no cover - compiled
+    """``(flat, class)`` of the voxels inside solids (ascending): each run of :func:`solid_runs`
+    takes its cast voxel's class ``cls``, each floor-only voxel its own, surface voxels none."""
+    out = np.zeros(nx * ny * nz, np.uint8)
+    m = 0
+    for j in range(ny):
+        for k in range(nz):
+            prev = 1
+            run = np.uint8(0)
+            for i in range(nx):
+                v = (i * ny + j) * nz + k
+                c = kind[v]
+                if c == 2:
+                    out[v] = cls[m]
+                    m += 1
+                elif c == 0:
+                    if prev != 0:
+                        run = cls[m]
+                        m += 1
+                    out[v] = run
+                prev = c
+    count = 0
+    for v in range(out.shape[0]):
+        if out[v] != 0:
+            count += 1
+    flat = np.empty(count, np.int64)
+    value = np.empty(count, np.uint8)
+    m = 0
+    for v in range(out.shape[0]):
+        if out[v] != 0:
+            flat[m], value[m] = v, out[v]
+            m += 1
+    return flat, value
+
+
+@njit(cache=True, nogil=True)
+def mesh_voxels(
+    vertices_m: npt.NDArray[np.float64],
+    triangles: I64,
+    lower_m: npt.NDArray[np.float64],
+    voxel_m: float,
+    nx: int,
+    ny: int,
+    nz: int,
+) -> tuple[I64, I64]:  # pragma: no cover - compiled
+    """:func:`triangle_voxels` of the triangles ``triangles: (T, 3)`` (corner indices) of
+    ``vertices_m: (V, 3)`` (the grid's frame, metres; the grid's lowest corner ``lower_m``)."""
+    tri = np.empty((triangles.shape[0], 3, 3))
+    for t in range(triangles.shape[0]):
+        for c in range(3):
+            for a in range(3):
+                tri[t, c, a] = (vertices_m[triangles[t, c], a] - lower_m[a]) / voxel_m
+    return triangle_voxels(tri, nx, ny, nz)
+
+
+@njit(cache=True, nogil=True)
+def shared_keep(
+    flat: I64,
+    occ: I64,
+    tri_m: npt.NDArray[np.float64],
+    source: I64,
+    lower_m: npt.NDArray[np.float64],
+    voxel_m: float,
+    label: npt.NDArray[np.uint8],
+    n_occ: int,
+    nx: int,
+    ny: int,
+    nz: int,
+    sweeps: int,
+    paved_bits: int,
+    terrain: int,
+) -> npt.NDArray[np.bool_]:  # pragma: no cover - compiled
+    """Which surface entries (voxel ``flat``, class ``occ``, triangle ``tri_m[source]`` in the grid's
+    frame, metres) keep their voxel where several classes' surfaces meet one (as
+    ``gtgen.occupancy._shared_surfaces``): the terrain hidden in voxels with paving (a class among
+    ``paved_bits``), the voxels of several classes chosen in ascending order by
+    :func:`choose_shared` from the areas of :func:`octant_areas` (summed per class in the entries'
+    order), each keeping the entries of its chosen class (all of them where it chose none of its
+    own). ``label``: every voxel's class so far (updated with the choices), of ``n_occ`` classes."""
+    size = nx * ny * nz
+    bits = class_bits(flat, occ, size)
+    keep = np.ones(flat.shape[0], np.bool_)
+    terrain_bit = np.uint32(1) << np.uint32(terrain)
+    for n in range(flat.shape[0]):
+        b = bits[flat[n]]
+        if b & np.uint32(paved_bits):
+            b &= ~terrain_bit
+            if occ[n] == terrain:
+                continue  # hidden under paving
+        count = 0
+        while b:
+            b &= b - np.uint32(1)
+            count += 1
+        if count > 1:
+            keep[n] = False  # marked shared for now
+    local_of = np.full(size, -1, np.int64)
+    entries = np.flatnonzero(~keep)
+    if entries.shape[0] == 0:
+        keep[:] = True
+        return keep
+    for e in entries:
+        local_of[flat[e]] = 0
+    voxels_n = 0
+    for v in range(size):
+        if local_of[v] == 0:
+            voxels_n += 1
+    voxels = np.empty(voxels_n, np.int64)
+    m = 0
+    for v in range(size):
+        if local_of[v] == 0:
+            local_of[v] = m
+            voxels[m] = v
+            m += 1
+    local = np.empty(entries.shape[0], np.int64)
+    ijk = np.empty((entries.shape[0], 3), np.int64)
+    tri = np.empty((entries.shape[0], 3, 3))
+    for q in range(entries.shape[0]):
+        e = entries[q]
+        local[q] = local_of[flat[e]]
+        v = flat[e]
+        ijk[q, 0], ijk[q, 1], ijk[q, 2] = v // (ny * nz), (v // nz) % ny, v % nz
+        for c in range(3):
+            for a in range(3):
+                tri[q, c, a] = (tri_m[source[e], c, a] - lower_m[a]) / voxel_m
+    areas = octant_areas(tri, ijk)
+    area = np.zeros((voxels_n, n_occ, 8))
+    for o in range(8):
+        for q in range(entries.shape[0]):
+            area[local[q], occ[entries[q]], o] += areas[q, o]
+    chosen = choose_shared(voxels, area, label, nx, ny, nz, sweeps)
+    present = np.zeros(voxels_n, np.bool_)
+    for q in range(entries.shape[0]):
+        if occ[entries[q]] == chosen[local[q]]:
+            present[local[q]] = True
+    for q in range(entries.shape[0]):
+        mine = occ[entries[q]] == chosen[local[q]]
+        keep[entries[q]] = mine or not present[local[q]]
+    return keep

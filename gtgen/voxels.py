@@ -91,9 +91,10 @@ PRESETS = {
 EPS = 1e-9  # in voxels: a point this close to a voxel's face counts as on it
 
 
-def triangle_voxels(grid: VoxelGrid, triangles_m: F64) -> tuple[I64, I64]:
+def triangle_voxels(grid: VoxelGrid, triangles_m: F64, corners: npt.ArrayLike | None = None) -> tuple[I64, I64]:
     """``(flat, source)``: the voxels each triangle ``(T, 3, 3)`` meets (closed cubes: a triangle on
-    a voxel face meets the voxels on both sides), and the triangle each pair comes from.
+    a voxel face meets the voxels on both sides), and the triangle each pair comes from. With
+    ``corners: (T, 3)`` (indices), ``triangles_m`` are the vertices ``(V, 3)`` the triangles index.
 
     For each row of voxels along x (a ``(y, z)`` cell of the triangle's bounding box), the part of
     the triangle inside that row is a convex polygon; its x extent, from the polygon's corners
@@ -101,8 +102,10 @@ def triangle_voxels(grid: VoxelGrid, triangles_m: F64) -> tuple[I64, I64]:
     four edges' crossings of the triangle), names exactly the voxels of the row it meets."""
     from gtgen import voxel_kernels
 
-    tri = np.ascontiguousarray(grid.to_grid(np.asarray(triangles_m, np.float64).reshape(-1, 3, 3)))
-    return voxel_kernels.triangle_voxels(tri, *grid.shape)
+    points = np.ascontiguousarray(np.asarray(triangles_m, np.float64).reshape(-1, 3))
+    index = np.arange(points.shape[0]).reshape(-1, 3) if corners is None else np.asarray(corners, np.int64)
+    lower = np.asarray(grid.lower_m, np.float64)
+    return voxel_kernels.mesh_voxels(points, np.ascontiguousarray(index), lower, grid.voxel_m, *grid.shape)
 
 
 def _ragged(count: I64) -> tuple[I64, I64]:
