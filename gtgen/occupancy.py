@@ -115,7 +115,7 @@ PRIORITY = (
     SemanticClass.BUS, SemanticClass.TRAILER, SemanticClass.CONSTRUCTION_VEHICLE, SemanticClass.TRAFFIC_CONE,
     SemanticClass.BARRIER, SemanticClass.NONE,
 )  # fmt: skip
-_RANK = np.full(256, len(PRIORITY), np.int64)
+_RANK = np.full(256, len(PRIORITY), np.uint8)
 for _rank, _cls in enumerate(PRIORITY):
     _RANK[int(_cls)] = _rank
 
@@ -294,7 +294,7 @@ def _paint(
     ``keep_first`` marks, if given)."""
     native = np.full(grid.size, FREE_NATIVE, np.uint8)
     instance = np.zeros(grid.size, np.uint32)
-    best = np.full(grid.size, len(PRIORITY) + 1, np.int64)
+    best = np.full(grid.size, len(PRIORITY) + 1, np.uint8)
     for n, (flat, cls, inst) in enumerate(parts):
         keep = keep_first if n == 0 else _ALL
         voxel_kernels.paint(

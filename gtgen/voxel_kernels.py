@@ -144,12 +144,26 @@ def _setup(s: float, d: float, t0: float, n: int) -> tuple[int, int, float, floa
 
 @njit(cache=True, nogil=True)
 def walk(
-    s: npt.NDArray[np.float64], e: npt.NDArray[np.float64], nx: int, ny: int, nz: int, out: npt.NDArray[np.bool_]
+    s_m: npt.NDArray[np.float64],
+    e_m: npt.NDArray[np.float64],
+    lower_m: npt.NDArray[np.float64],
+    voxel_m: float,
+    nx: int,
+    ny: int,
+    nz: int,
+    out: npt.NDArray[np.bool_],
 ) -> None:  # pragma: no cover - compiled
-    """Set ``out`` (flat) at every voxel the segments ``s -> e`` (``(N, 3)``, grid coordinates)
-    cross: :meth:`gtgen.voxels.SegmentWalk.of` and :func:`gtgen.voxels.walk_segments` in one loop."""
+    """Set ``out`` (flat) at every voxel the segments ``s_m -> e_m`` (``(N, 3)``, the grid's frame,
+    metres; its lowest corner ``lower_m``) cross: :meth:`gtgen.voxels.SegmentWalk.of` and
+    :func:`gtgen.voxels.walk_segments` in one loop."""
     upper = (float(nx), float(ny), float(nz))
-    for r in range(s.shape[0]):
+    s = np.empty((1, 3))
+    e = np.empty((1, 3))
+    for q in range(s_m.shape[0]):
+        r = 0
+        for a in range(3):  # grid coordinates (VoxelGrid.to_grid)
+            s[0, a] = (s_m[q, a] - lower_m[a]) / voxel_m
+            e[0, a] = (e_m[q, a] - lower_m[a]) / voxel_m
         lower_t, upper_t = -math.inf, math.inf  # _clip_to_box
         for a in range(3):
             sa, da = s[r, a], e[r, a] - s[r, a]
@@ -185,10 +199,10 @@ def paint(
     cls: npt.NDArray[np.uint8],
     inst: npt.NDArray[np.uint32],
     keep: npt.NDArray[np.bool_],
-    rank_of: I64,
+    rank_of: npt.NDArray[np.uint8],
     native: npt.NDArray[np.uint8],
     instance: npt.NDArray[np.uint32],
-    best: I64,
+    best: npt.NDArray[np.uint8],
 ) -> None:  # pragma: no cover - compiled
     """Each voxel takes the class and instance of its entry of lowest rank (``rank_of[cls]``), the
     last such one in the entries' order (a stable sort by falling rank, then every entry written in
@@ -554,30 +568,17 @@ def shared_keep(
             count += 1
         if count > 1:
             keep[n] = False  # marked shared for now
-    local_of = np.full(size, -1, np.int64)
     entries = np.flatnonzero(~keep)
     if entries.shape[0] == 0:
         keep[:] = True
         return keep
-    for e in entries:
-        local_of[flat[e]] = 0
-    voxels_n = 0
-    for v in range(size):
-        if local_of[v] == 0:
-            voxels_n += 1
-    voxels = np.empty(voxels_n, np.int64)
-    m = 0
-    for v in range(size):
-        if local_of[v] == 0:
-            local_of[v] = m
-            voxels[m] = v
-            m += 1
-    local = np.empty(entries.shape[0], np.int64)
+    voxels = np.unique(flat[entries])  # ascending
+    voxels_n = voxels.shape[0]
+    local = np.searchsorted(voxels, flat[entries])
     ijk = np.empty((entries.shape[0], 3), np.int64)
     tri = np.empty((entries.shape[0], 3, 3))
     for q in range(entries.shape[0]):
         e = entries[q]
-        local[q] = local_of[flat[e]]
         v = flat[e]
         ijk[q, 0], ijk[q, 1], ijk[q, 2] = v // (ny * nz), (v // nz) % ny, v % nz
         for c in range(3):

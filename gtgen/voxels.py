@@ -227,9 +227,8 @@ def walk_voxels(grid: VoxelGrid, start_m: F64, end_m: F64, out: npt.NDArray[np.b
     segment at a time."""
     from gtgen import voxel_kernels
 
-    s = np.ascontiguousarray(grid.to_grid(start_m))
-    e = np.ascontiguousarray(grid.to_grid(end_m))
-    voxel_kernels.walk(s, e, *grid.shape, out)
+    s, e = np.asarray(start_m, np.float64), np.asarray(end_m, np.float64)
+    voxel_kernels.walk(s, e, np.asarray(grid.lower_m, np.float64), grid.voxel_m, *grid.shape, out)
 
 
 def _segment_chunks(grid: VoxelGrid, start_m: F64, end_m: F64) -> Iterator[tuple[I64, I64]]:
