@@ -396,9 +396,12 @@ def _solid_insides(
     floor = np.zeros(0, np.int64)
     if floors.shape[0]:
         floor = triangle_voxels(grid, _transform(ego_SE3_map, floors.reshape(-1, 3)).reshape(-1, 3, 3))[0]
-    kind, ijk = voxel_kernels.solid_runs(surface.astype(np.int64), floor, *grid.shape)
+    kind, ijk, part = voxel_kernels.solid_runs(surface.astype(np.int64), floor, *grid.shape)
     centers = _transform(map_SE3_ego, np.asarray(grid.lower_m) + (ijk + 0.5) * grid.voxel_m)
-    cls = solids.inside(centers)
+    cls = np.zeros(ijk.shape[0], np.uint8)
+    alone = part < 0
+    cls[alone] = solids.inside(centers[alone])
+    cls[~alone] = solids.inside_parts(centers[~alone], part[~alone])
     return voxel_kernels.solid_fill(kind, cls, *grid.shape)
 
 

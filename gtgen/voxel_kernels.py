@@ -434,20 +434,30 @@ def boxes_filled(
 
 
 @njit(cache=True, nogil=True)
+def _root(parent: I64, a: int) -> int:  # pragma: no cover - compiled
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
+
+@njit(cache=True, nogil=True)
 def solid_runs(
     surface: I64, floor: I64, nx: int, ny: int, nz: int
-) -> tuple[npt.NDArray[np.int8], I64]:  # pragma: no cover - compiled
+) -> tuple[npt.NDArray[np.int8], I64, I64]:  # pragma: no cover - compiled
     """The voxels to cast for the solids' insides: along each row of voxels (ego x; rows in
     ``(y, z)`` order) the first voxel of each run that no solid's surface ``surface`` nor floor
     ``floor`` (flat) meets, and each voxel only a floor meets. Returns each voxel's kind (0:
-    free of both, 1: surface, 2: floor only) and the cast voxels ``(T, 3)`` (``i, j, k``, rows in
-    order)."""
+    free of both, 1: surface, 2: floor only), the cast voxels ``(T, 3)`` (``i, j, k``, rows in
+    order) and each one's part (``-1`` for a floor-only voxel): runs in one part are joined by
+    face-neighbouring voxels of kind 0 (runs of neighbouring rows that share an x), so no
+    surface or floor parts their centres, numbered from 0 in order of first appearance."""
     kind = np.zeros(nx * ny * nz, np.int8)
     for n in range(floor.shape[0]):
         kind[floor[n]] = 2
     for n in range(surface.shape[0]):
         kind[surface[n]] = 1
-    count = 0
+    count, runs = 0, 0
     for j in range(ny):
         for k in range(nz):
             prev = 1
@@ -455,19 +465,62 @@ def solid_runs(
                 c = kind[(i * ny + j) * nz + k]
                 if c == 2 or (c == 0 and prev != 0):
                     count += 1
+                if c == 0 and prev != 0:
+                    runs += 1
                 prev = c
     ijk = np.empty((count, 3), np.int64)
-    m = 0
+    run_of = np.empty(count, np.int64)
+    low = np.empty(runs, np.int64)  # each run's x extent and row
+    high = np.empty(runs, np.int64)
+    row_first = np.zeros(ny * nz + 1, np.int64)  # the runs of row (j, k): row_first[r]:row_first[r + 1]
+    m, r = 0, 0
     for j in range(ny):
         for k in range(nz):
+            row_first[j * nz + k] = r
             prev = 1
             for i in range(nx):
                 c = kind[(i * ny + j) * nz + k]
                 if c == 2 or (c == 0 and prev != 0):
                     ijk[m, 0], ijk[m, 1], ijk[m, 2] = i, j, k
+                    run_of[m] = -1
+                    if c == 0:
+                        run_of[m] = r
+                        low[r] = i
+                        r += 1
                     m += 1
+                if c == 0:
+                    high[r - 1] = i
                 prev = c
-    return kind, ijk
+    row_first[ny * nz] = r
+    parent = np.arange(runs)
+    for j in range(ny):
+        for k in range(nz):
+            row = j * nz + k
+            for other in (row + 1 if k + 1 < nz else -1, row + nz if j + 1 < ny else -1):
+                if other < 0:
+                    continue
+                a, b = row_first[row], row_first[other]
+                while a < row_first[row + 1] and b < row_first[other + 1]:
+                    if max(low[a], low[b]) <= min(high[a], high[b]):
+                        ra, rb = _root(parent, a), _root(parent, b)
+                        if ra != rb:
+                            parent[max(ra, rb)] = min(ra, rb)
+                    if high[a] < high[b]:
+                        a += 1
+                    else:
+                        b += 1
+    number = np.full(runs, -1, np.int64)
+    part = np.empty(count, np.int64)
+    parts = 0
+    for t in range(count):
+        part[t] = -1
+        if run_of[t] >= 0:
+            root = _root(parent, run_of[t])
+            if number[root] < 0:
+                number[root] = parts
+                parts += 1
+            part[t] = number[root]
+    return kind, ijk, part
 
 
 @njit(cache=True, nogil=True)

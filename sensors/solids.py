@@ -42,6 +42,7 @@ MARGIN = 4  # cells drawn beyond a tile's sides (the dilation reaches two)
 KEPT_TILES = 64
 LOCAL_CELL_M = 51.2  # the local scenes' boxes snap out to this grid (a scene serves while the points stay in its box)
 KEPT_SCENES = 4
+PART_CASTS = 5  # points cast per part of points no surface parts (inside_parts)
 
 
 class Solids:
@@ -88,16 +89,50 @@ class Solids:
             return out
         top_z, top_class = self._raster_at(xyz_map_m[:, :2])
         candidate = np.flatnonzero(xyz_map_m[:, 2] <= top_z)
-        odd = candidate
-        if odd.size == 0:
-            return out
-        scene = self._scene_around(xyz_map_m[odd, :2].min(axis=0), xyz_map_m[odd, :2].max(axis=0))
+        odd = candidate[self._odd(xyz_map_m[candidate])]
+        out[odd] = top_class[odd]
+        return out
+
+    def _odd(self, xyz_map_m: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+        """``(N,)``: whether horizontal rays from each point cross the walls an odd number of times."""
+        odd = np.arange(xyz_map_m.shape[0])
+        if odd.size:
+            scene = self._scene_around(xyz_map_m[:, :2].min(axis=0), xyz_map_m[:, :2].max(axis=0))
         for axis in (0, 1):  # along +x and +y: a ray that grazes a wall's edge miscounts one of them
+            if odd.size == 0:
+                break
             rays = np.zeros((odd.shape[0], 6), np.float32)
             rays[:, :3], rays[:, 3 + axis] = xyz_map_m[odd], 1.0
             crossings = scene.count_intersections(o3c.Tensor.from_numpy(rays), nthreads=1).numpy()
             odd = odd[crossings % 2 == 1]
-        out[odd] = top_class[odd]
+        out = np.zeros(xyz_map_m.shape[0], np.bool_)
+        out[odd] = True
+        return out
+
+    def inside_parts(self, xyz_map_m: npt.NDArray[np.float64], part: npt.NDArray[np.int64]) -> npt.NDArray[np.uint8]:
+        """:meth:`inside` of points known to lie alike in parts: ``part: (N,)`` (from 0) joins points
+        that no solid's surface parts (all of one part lie inside the same solids or outside), so
+        only a few points of each part are cast (up to :data:`PART_CASTS`, the part inside where
+        most of them are); each point under a top (see :meth:`inside`) of a part inside takes the
+        class of the highest top over it."""
+        out = np.zeros(xyz_map_m.shape[0], np.uint8)
+        if self._tops.shape[0] == 0 or xyz_map_m.shape[0] == 0:
+            return out
+        top_z, top_class = self._raster_at(xyz_map_m[:, :2])
+        candidate = np.flatnonzero(xyz_map_m[:, 2] <= top_z)
+        if candidate.size == 0:
+            return out
+        order = candidate[np.argsort(part[candidate], kind="stable")]
+        groups = part[order]
+        first = np.searchsorted(groups, groups, side="left")
+        cast = order[np.arange(order.shape[0]) - first < PART_CASTS]  # the first few of each part
+        odd = self._odd(xyz_map_m[cast])
+        parts = int(part.max()) + 1
+        votes = np.bincount(part[cast], odd, minlength=parts)
+        tries = np.bincount(part[cast], minlength=parts)
+        inside_part = 2 * votes > tries
+        chosen = candidate[inside_part[part[candidate]]]
+        out[chosen] = top_class[chosen]
         return out
 
     def _scene_around(self, low_m: npt.NDArray[np.float64], high_m: npt.NDArray[np.float64]) -> Any:

@@ -161,3 +161,47 @@ def test_compiled_voxel_walk_visits_the_same_voxels_as_numpy():
         walk_voxels(GRID, starts[i : i + 1], ends[i : i + 1], one)
         reference = _walked(lambda w, out: walk_segments(GRID, w, out), starts[i : i + 1], ends[i : i + 1])
         assert np.array_equal(one, reference)
+
+
+def _components(free):
+    """Reference 6-connected components of ``free`` (a flood per unlabelled voxel)."""
+    label = np.full(free.shape, -1)
+    count = 0
+    for start in zip(*np.nonzero(free), strict=True):
+        if label[start] >= 0:
+            continue
+        label[start], stack = count, [start]
+        while stack:
+            v = stack.pop()
+            for axis in range(3):
+                for step in (-1, 1):
+                    n = list(v)
+                    n[axis] += step
+                    n = tuple(n)
+                    if all(0 <= n[a] < free.shape[a] for a in range(3)) and free[n] and label[n] < 0:
+                        label[n] = count
+                        stack.append(n)
+        count += 1
+    return label
+
+
+@given(st.integers(0, 2**32 - 1), st.floats(0.1, 0.6))
+@settings(max_examples=40, deadline=None)
+def test_solid_runs_parts_are_the_free_voxels_connected_components(seed, density):
+    from gtgen import voxel_kernels
+
+    shape = (9, 7, 5)
+    rng = np.random.default_rng(seed)
+    kind = rng.choice(3, size=shape, p=[1.0 - density, density * 0.7, density * 0.3])
+    flat = np.arange(kind.size).reshape(shape)
+    got, ijk, part = voxel_kernels.solid_runs(flat[kind == 1], flat[kind == 2], *shape)
+    assert np.array_equal(got.reshape(shape), kind)
+    label = _components(kind == 0)
+    runs = part >= 0
+    assert np.array_equal(kind[tuple(ijk[~runs].T)], np.full((~runs).sum(), 2))  # floor-only voxels cast alone
+    starts = ijk[runs]
+    assert np.all(kind[tuple(starts.T)] == 0)
+    assert np.all((starts[:, 0] == 0) | (kind[starts[:, 0] - 1, starts[:, 1], starts[:, 2]] != 0))
+    ref = label[tuple(starts.T)]  # the same partition of the runs as the components'
+    assert np.array_equal(ref[:, None] == ref[None, :], part[runs][:, None] == part[runs][None, :])
+    assert set(np.unique(label[label >= 0])) == set(ref)  # every component has a run
