@@ -13,9 +13,10 @@ z -1..5.4 m, 200 x 200 x 16). A voxel is occupied by every volume or surface tha
   surfaces and every voxel whose centre lies inside them (:mod:`sensors.solids`: ray parity
   along a horizontal ray from a voxel centre under a solid's top, whatever the ego's pitch). Inside
   and outside change only across a solid's wall, top or floor (each prism closed by its top moved
-  down to its walls' foot), so along each row of voxels one centre per run of voxels none of these
-  meets is cast, and the voxels only a floor meets one by one; a voxel meets a solid iff it meets
-  its surface or its centre is inside, so this is exact;
+  down to its walls' foot), so the centres of face-neighbouring voxels none of these meets lie
+  alike: a few centres are cast per part of such voxels (runs along rows joined across
+  neighbouring rows), and the voxels only a floor meets one by one; a voxel meets a solid iff it
+  meets its surface or its centre is inside, so this is exact;
 - the static world's surfaces (roads, sidewalks, curbs, crossings, markings, terrain): the
   voxels their triangles meet (:func:`gtgen.voxels.triangle_voxels`, exact).
 
@@ -386,9 +387,12 @@ def _solid_insides(
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint8]]:
     """The voxels whose centre lies inside a solid, and the solid's class. ``surface``: the
     voxels a solid's surface meets. Inside and outside change only across a solid's surface or
-    floor, so along each row of voxels (ego x) a run of voxels that no wall, top or floor meets is
-    all inside or all outside: one centre per run is cast (:meth:`Solids.inside`), and each voxel
-    that only a floor meets on its own. Voxels a solid's surface meets are occupied by it anyway."""
+    floor, so face-neighbouring voxels that no wall, top or floor meets are alike: the runs of
+    such voxels along each row (ego x), joined where neighbouring rows' runs share an x, form parts
+    all inside or all outside (:func:`~gtgen.voxel_kernels.solid_runs`), a few centres of each part
+    are cast (:meth:`Solids.inside_parts`: each run takes the class of the top over its first
+    centre), and each voxel that only a floor meets on its own (:meth:`Solids.inside`). Voxels a
+    solid's surface meets are occupied by it anyway."""
     ego_SE3_map = map_SE3_ego.inverse()
     lo, hi = np.asarray(grid.lower_m), np.asarray(grid.upper_m)
     reach = float(np.linalg.norm(hi - lo)) / 2.0
