@@ -25,6 +25,7 @@ from sensors.hits import RayHits
 from sensors.photo import SUBPIXEL_OFFSETS, AgentBoxes, Supersamples
 from sensors.pinhole import EGO_AXES_R_OPTICAL, NO_DISTORTION, Pinhole
 from sensors.rays import sensor_rays
+from sensors.shade_kernels import shadow_rays
 from sensors.shading import CameraFrame, Shading
 from sensors.view import spheres_in_view
 from sensors.weather import Weather
@@ -228,19 +229,13 @@ def sun_visibility(scene: Scene, origin_map_m: F64, dirs_map: npt.NDArray[np.flo
         return lit
     sun = np.asarray(weather.sun_dir_map, np.float32)
     sun /= np.linalg.norm(sun)
-    near = np.isfinite(range_m) & (range_m < np.float32(SHADOW_RANGE_M))
-    facing = np.einsum("ij,ij->i", normal, dirs_map)
-    towards_cam = np.where((facing > 0)[:, None], -normal, normal)
-    near &= towards_cam @ sun > 0
-    at = np.flatnonzero(near)
-    if len(at) == 0:
-        return lit
-    rays = np.empty((len(at), 6), np.float32)
-    rays[:, :3] = (
-        origin_map_m.astype(np.float32) + dirs_map[at] * range_m[at, None] + towards_cam[at] * np.float32(SHADOW_LIFT_M)
-    )
-    rays[:, 3:] = sun
-    lit[at] = ~np.isfinite(scene.cast(rays).range_m)
+    at, rays = shadow_rays(
+        np.asarray(origin_map_m, np.float64).astype(np.float32), np.ascontiguousarray(dirs_map, np.float32),
+        np.ascontiguousarray(range_m, np.float32), np.ascontiguousarray(normal, np.float32), sun,
+        np.float32(SHADOW_RANGE_M), np.float32(SHADOW_LIFT_M),
+    )  # fmt: skip
+    if len(at):
+        lit[at] = ~scene.occluded(rays)
     return lit
 
 

@@ -62,6 +62,11 @@ class Scene(Protocol):
         over that time; glass lets the ray through (see :func:`sensors.scene.cast_agents_moving`)."""
         ...
 
+    def occluded(self, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:
+        """``(N,) bool`` whether each ray meets anything at all (shadow rays: cheaper than
+        :meth:`cast`, no nearest hit sought); the same as ``isfinite(cast(rays).range_m)``."""
+        ...
+
     def cast_raw(self, rays: npt.NDArray[np.float32]) -> Any:
         """The engine's own cast of ``rays``, nothing added (what the benchmark compares to)."""
         ...

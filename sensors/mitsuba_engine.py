@@ -71,6 +71,10 @@ class _Part:
         hit = self.scene.ray_intersect_preliminary(ray, coherent=True)
         return hit.t, hit.prim_index
 
+    def test(self, ray: Any) -> Any:
+        """Whether each ray meets anything (Embree's occlusion query: no nearest hit sought)."""
+        return self.scene.ray_test(ray, coherent=True)
+
 
 class _AgentPart:
     """The agents' scene: one mesh whose positions and faces are replaced every frame, at
@@ -94,6 +98,9 @@ class _AgentPart:
     def cast(self, ray: Any) -> tuple[Any, Any]:
         hit = self.scene.ray_intersect_preliminary(ray, coherent=True)
         return hit.t, hit.prim_index
+
+    def test(self, ray: Any) -> Any:
+        return self.scene.ray_test(ray, coherent=True)
 
 
 class MitsubaEngine:
@@ -151,6 +158,14 @@ class MitsubaScene:
         origin = mi.Point3f(*(dr.opaque(mi.Float, float(v)) for v in np.asarray(origin_map_m, np.float32)))
         direction = mi.Vector3f(*(mi.Float(np.ascontiguousarray(dirs[:, i])) for i in range(3)))
         return self._hits(mi.Ray3f(origin, direction))
+
+    def occluded(self, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:
+        columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]
+        ray = mi.Ray3f(mi.Point3f(*columns[:3]), mi.Vector3f(*columns[3:]))
+        hit = self._static.test(ray) if self._static.triangles else dr.zeros(mi.Bool, rays.shape[0])
+        if self._agents.triangles:
+            hit = hit | self._agents.test(ray)
+        return np.asarray(hit.numpy(), np.bool_)
 
     def cast_raw(self, rays: npt.NDArray[np.float32]) -> Any:
         columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]

@@ -164,6 +164,10 @@ class FrameScene:
         t = o3c.Tensor.from_numpy(np.ascontiguousarray(triangles, dtype=np.uint32))
         return int(self._scene.add_triangles(v, t))
 
+    def occluded(self, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:
+        tensor = o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32))
+        return np.asarray(self._scene.test_occlusions(tensor, nthreads=self._nthreads).numpy(), np.bool_)
+
     def cast_raw(self, rays: npt.NDArray[np.float32]) -> dict[str, Any]:
         """Open3D's own cast (its tensors by name), nothing added: what the benchmark compares to."""
         tensor = o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32))

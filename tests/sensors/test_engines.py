@@ -58,6 +58,21 @@ def test_both_engines_give_the_same_hits(town):
         assert np.abs(np.abs(np.einsum("ij,ij->i", a.normal[same], b.normal[same])) - 1.0).max() < 1e-3
 
 
+def test_occlusion_queries_agree_with_the_nearest_hit(town):
+    # shadow rays from the camera's hits towards the sun: some blocked, some free
+    static, agents, ego = town
+    camera = Camera(CameraSpec(width_px=320, height_px=180))
+    sun = np.array([0.5, 0.3, 0.4]) / np.linalg.norm([0.5, 0.3, 0.4])
+    for scene in (open_engine("open3d")[0].scene(static, agents), MitsubaEngine().scene(static, agents)):
+        hits = scene.cast(camera.rays(ego.map_SE3_ego()))
+        rays = camera.rays(ego.map_SE3_ego())[hits.hit]
+        rays[:, :3] += rays[:, 3:] * (hits.range_m[hits.hit, None] - 0.05)
+        rays[:, 3:] = sun
+        blocked = scene.occluded(rays)
+        np.testing.assert_array_equal(blocked, np.isfinite(scene.cast(rays).range_m))
+        assert 0 < blocked.sum() < len(blocked)  # both kinds of ray are there
+
+
 def test_both_engines_give_the_same_timed_sweep(town):
     static, agents, ego = town
     moving = Agents(agents.instance_id, agents.semantic_class, agents.center_map_m, agents.lwh_m, agents.yaw_map_rad,
