@@ -30,6 +30,7 @@ import numpy.typing as npt
 
 from networks.classes import SemanticClass
 from networks.records import check_arrays
+from sensors import shade_kernels as kernels
 from sensors import textures
 from sensors.materials import ALBEDO_BGR_BY_CLASS
 from sensors.parts import (
@@ -367,8 +368,9 @@ def radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: W
 
 
 def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float) -> F32:
+    """The light of one stripe of rays: misses see the sky; hits' albedo, mirror and glow by
+    numpy (textures, parts), their lighting by compiled loops (:mod:`sensors.shade_kernels`)."""
     dirs_map, range_m, cls, instance, part = rays.dirs_map, rays.range_m, rays.cls, rays.instance, rays.part
-    normal, sun_lit, forward, sky_open, lamp = rays.normal, rays.sun_lit, rays.forward, rays.sky_open, rays.lamp
     n = len(cls)
     out = np.empty((n, 3), np.float32)
     hit = np.isfinite(range_m) & (range_m <= np.float32(max_range_m))
@@ -378,13 +380,9 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     at = np.flatnonzero(hit)
     if len(at) == 0:
         return out
-    d, r = dirs_map[at], range_m[at]
-    p = (origin_map_m.astype(np.float32) + d * r[:, None]).astype(np.float32)
+    origin = origin_map_m.astype(np.float32)
+    p, nrm, cos_v = kernels.hit_geometry(at, dirs_map, range_m, rays.normal, origin)
     c, inst, pt = cls[at], instance[at], part[at]
-    nrm = normal[at]
-    facing = np.einsum("ij,ij->i", nrm, d)
-    nrm = np.where((facing > 0)[:, None], -nrm, nrm)  # towards the camera
-    cos_v = np.abs(facing)
 
     albedo, mirror, glow = static_albedo(c, p, nrm)
     agent = pt > 0
@@ -400,63 +398,47 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
             albedo[plate[ink > np.float32(0.55)]] = np.float32(0.003)
     sun = np.asarray(weather.sun_dir_map, np.float32)
     sun /= np.linalg.norm(sun)
-    sun_cos = np.maximum(nrm @ sun, 0.0) * sun_lit[at]
-    sky_share = (np.float32(0.6) + np.float32(0.4) * nrm[:, 2]) * sky_open[at]
-    light = (
-        np.float32(weather.ambient) * np.float32(1.6) * sky_share
-        + np.float32(weather.sun_gain) * np.float32(2.2) * sun_cos
-    )
-    if weather.headlight_gain > 0:
-        fall = 1.0 / (1.0 + (r / np.float32(weather.headlight_range_m)) ** 2)
-        light += (
-            np.float32(weather.headlight_gain)
-            * np.float32(1.6)
-            * (np.float32(0.3) + np.float32(0.7) * cos_v)
-            * fall
-            * forward[at] ** 6
-            * _dipped(p[:, 2] - np.float32(origin_map_m[2]))
-        )
-    colour = albedo * light[:, None]
     night = np.float32(night_of(weather))
-    if night > 0:  # street lighting from above: warm, strongest on what faces up, fading far out
-        side = np.where(inst > 0, np.float32(0.35), np.float32(0.12))  # walls get little, road users more
-        lamps = night * STREET_LIGHT * (side + (np.float32(1.0) - side) * np.maximum(nrm[:, 2], 0.0))
-        lamps /= np.float32(1.0) + (r / np.float32(STREET_LIGHT_FADE_M)) ** 2
-        colour += albedo * lamps[:, None] * STREET_LIGHT_BGR
-    if weather.lamp_key_gain > 0:  # the street lamps overhead, with their shadows
-        key = np.float32(weather.lamp_key_gain) * np.float32(2.2) * sun_cos
-        key /= np.float32(1.0) + (r / np.float32(STREET_LIGHT_FADE_M)) ** 2
-        above = p[:, 2] - np.float32(origin_map_m[2])  # height over the camera (about 1.6 m over the road)
-        key *= np.clip(np.float32(1.0) - (above - np.float32(LAMP_LIT_UP_TO_M)) / np.float32(LAMP_FADE_M), 0.0, 1.0)
-        key *= lamp_pools(p)
-        colour += albedo * key[:, None] * STREET_LIGHT_BGR
-    # highlights and reflections
-    spec = SPECULAR_BY_PART[pt]
-    shiny = np.flatnonzero((spec > 0) | (mirror > 0))
-    if len(shiny):
-        ns, ds = nrm[shiny], d[shiny]
-        half = sun[None, :] - ds
-        half /= np.linalg.norm(half, axis=1, keepdims=True)
-        hl = np.maximum(np.einsum("ij,ij->i", ns, half), 0.0) ** SHININESS_BY_PART[pt[shiny]]
-        glint = np.float32(weather.sun_gain + weather.lamp_key_gain)
-        colour[shiny] += (spec[shiny] * hl * sun_lit[at][shiny] * glint * np.float32(3.0))[:, None]
-        cosi = cos_v[shiny]
-        fres = mirror[shiny] + (np.float32(1.0) - mirror[shiny]) * (np.float32(1.0) - cosi) ** 5 * (mirror[shiny] > 0)
-        fres = np.minimum(fres, np.float32(MAX_REFLECTION))
-        refl = ds - 2.0 * np.einsum("ij,ij->i", ds, ns)[:, None] * ns
-        env = sky_linear(weather, refl.astype(np.float32))
-        down = refl[:, 2] < 0
-        env[down] = np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain))
-        colour[shiny] = colour[shiny] * (np.float32(1.0) - fres[:, None]) + env * fres[:, None]
-    # lamps and lit windows
-    lit = np.flatnonzero(lamp[at] > 0)
-    if len(lit):
-        colour[lit] += LAMP_BGR[pt[lit]] * lamp[at][lit, None]
-    win = np.flatnonzero(glow > 0)
-    if len(win) and night > 0:
-        colour[win] += night * np.float32(0.25) * np.array([0.25, 0.55, 0.9], np.float32)
-    f = haze_fraction(weather, r, max_range_m)[:, None]
-    out[at] = colour * (np.float32(1.0) - f) + to_linear(weather.haze_bgr) * f
+    light_k = np.array(
+        [
+            np.float32(weather.ambient) * np.float32(1.6),
+            np.float32(weather.sun_gain) * np.float32(2.2),
+            np.float32(weather.headlight_gain) * np.float32(1.6),
+            np.float32(weather.headlight_range_m),
+            np.float32(origin_map_m[2]),
+            night * STREET_LIGHT,
+            np.float32(weather.lamp_key_gain) * np.float32(2.2),
+            float(weather.headlight_gain > 0),
+            float(weather.lamp_key_gain > 0),
+            STREET_LIGHT_FADE_M,
+            DIPPED_CUTOFF_M,
+            DIPPED_ABOVE,
+            LAMP_LIT_UP_TO_M,
+            LAMP_FADE_M,
+        ],
+        np.float32,
+    )
+    none = np.zeros(0, np.float32)
+    head = rays.forward[at] ** 6 if weather.headlight_gain > 0 else none  # the headlights' cone
+    pool = lamp_pools(p) if weather.lamp_key_gain > 0 else none
+    colour, refl, half_cos, shiny = kernels.lit_colour(
+        at, dirs_map, range_m, part, instance, rays.sun_lit, rays.sky_open, p, nrm, cos_v,
+        np.ascontiguousarray(albedo, np.float32), mirror, head, pool, sun, light_k, STREET_LIGHT_BGR, SPECULAR_BY_PART,
+    )  # fmt: skip
+    # highlights, and the sky and the ground reflected by paint and glass (Schlick's Fresnel term)
+    shiny_at = np.flatnonzero(shiny)
+    highlight = half_cos[shiny_at] ** SHININESS_BY_PART[pt[shiny_at]]
+    grazing = (np.float32(1.0) - cos_v[shiny_at]) ** 5
+    env = sky_linear(weather, refl[shiny_at])
+    env[refl[shiny_at, 2] < 0] = np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain))
+    window = (
+        night * np.float32(0.25) * np.array([0.25, 0.55, 0.9], np.float32) if night > 0 else np.zeros(3, np.float32)
+    )
+    kernels.finish_colour(
+        colour, shiny_at, highlight, grazing, env, mirror, at, part, rays.sun_lit, rays.lamp, glow, SPECULAR_BY_PART,
+        LAMP_BGR, np.float32(weather.sun_gain + weather.lamp_key_gain), window,
+        haze_fraction(weather, range_m[at], max_range_m), to_linear(weather.haze_bgr), out,
+    )  # fmt: skip
     return out
 
 

@@ -45,3 +45,135 @@ def shadow_rays(
         rays[j, 4] = sun[1]
         rays[j, 5] = sun[2]
     return at[:k], rays
+
+
+@njit(cache=True, nogil=True)
+def hit_geometry(
+    at: npt.NDArray[np.int64], dirs: F32, range_m: F32, normal: F32, origin: F32
+) -> tuple[F32, F32, F32]:  # pragma: no cover - compiled
+    """Of the rays ``at``: the hit points ``(K, 3)``, the normals turned towards the camera
+    ``(K, 3)`` and the cosine between ray and surface ``(K,)``."""
+    k = at.shape[0]
+    p = np.empty((k, 3), np.float32)
+    nrm = np.empty((k, 3), np.float32)
+    cos_v = np.empty(k, np.float32)
+    for j in range(k):
+        i = at[j]
+        r = range_m[i]
+        for c in range(3):
+            p[j, c] = origin[c] + dirs[i, c] * r
+        n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
+        facing = n0 * dirs[i, 0] + n1 * dirs[i, 1] + n2 * dirs[i, 2]
+        if facing > 0:
+            n0, n1, n2 = -n0, -n1, -n2
+        nrm[j, 0], nrm[j, 1], nrm[j, 2] = n0, n1, n2
+        cos_v[j] = abs(facing)
+    return p, nrm, cos_v
+
+
+@njit(cache=True, nogil=True)
+def lit_colour(
+    at: npt.NDArray[np.int64], dirs: F32, range_m: F32, part: npt.NDArray[np.uint8],
+    instance: npt.NDArray[np.uint32], sun_lit: npt.NDArray[np.bool_], sky_open: F32,
+    p: F32, nrm: F32, cos_v: F32, albedo: F32, mirror: F32, head: F32, pool: F32,
+    sun: F32, light_k: F32, street_bgr: F32, specular: F32,
+) -> tuple[F32, F32, F32, npt.NDArray[np.bool_]]:  # fmt: skip  # pragma: no cover - compiled
+    """The light each hit ``at`` sends to the camera before highlights, reflections, lamps and
+    haze (``(K, 3)``: sky, sun, headlights, street light, the street lamps' key light), and for
+    the shiny ones the reflected direction ``(K, 3)``, the cosine to the sun's half vector
+    ``(K,)`` and which they are ``(K,)``: the arithmetic of :func:`sensors.photo._radiance`
+    in its order. ``head``: the headlights' cone (``forward ** 6``, by hit; used when they are
+    on), ``pool``: the street lamps' pools at the hits (used when their key light is on).
+    ``light_k``: ambient * 1.6, sun_gain * 2.2, headlight_gain * 1.6, headlight_range_m, the
+    camera's height, night * street light, lamp_key_gain * 2.2, whether headlights (1) and the
+    lamps' key light (1) are on, the street light's fading distance, the dipped beams' cutoff
+    height and share above it, the height the street lamps light up to and their fade over it
+    (the constants of :mod:`sensors.photo`)."""
+    k = at.shape[0]
+    colour = np.empty((k, 3), np.float32)
+    refl = np.zeros((k, 3), np.float32)
+    half_cos = np.zeros(k, np.float32)
+    shiny = np.zeros(k, np.bool_)
+    amb, sung, hg, hr, oz, nsl, lkg = light_k[0], light_k[1], light_k[2], light_k[3], light_k[4], light_k[5], light_k[6]
+    headlights, key_on = light_k[7] > 0, light_k[8] > 0
+    fade, cutoff, dipped, lit_up_to, lamp_fade = light_k[9], light_k[10], light_k[11], light_k[12], light_k[13]
+    one, zero = np.float32(1.0), np.float32(0.0)
+    for j in range(k):
+        i = at[j]
+        r = range_m[i]
+        n0, n1, n2 = nrm[j, 0], nrm[j, 1], nrm[j, 2]
+        lit = one if sun_lit[i] else zero
+        sun_cos = max(n0 * sun[0] + n1 * sun[1] + n2 * sun[2], zero) * lit
+        sky_share = (np.float32(0.6) + np.float32(0.4) * n2) * sky_open[i]
+        light = amb * sky_share + sung * sun_cos
+        above = p[j, 2] - oz
+        if headlights:
+            q = r / hr
+            fall = one / (one + q * q)
+            dip = one if above < cutoff else dipped
+            light += hg * (np.float32(0.3) + np.float32(0.7) * cos_v[j]) * fall * head[j] * dip
+        a0, a1, a2 = albedo[j, 0], albedo[j, 1], albedo[j, 2]
+        c0, c1, c2 = a0 * light, a1 * light, a2 * light
+        if nsl > 0:
+            side = np.float32(0.35) if instance[i] > 0 else np.float32(0.12)
+            lamps = nsl * (side + (one - side) * max(n2, zero))
+            q = r / fade
+            lamps = lamps / (one + q * q)
+            c0 += a0 * lamps * street_bgr[0]
+            c1 += a1 * lamps * street_bgr[1]
+            c2 += a2 * lamps * street_bgr[2]
+        if key_on:
+            key = lkg * sun_cos
+            q = r / fade
+            key = key / (one + q * q)
+            key = key * min(max(one - (above - lit_up_to) / lamp_fade, zero), one)
+            key = key * pool[j]
+            c0 += a0 * key * street_bgr[0]
+            c1 += a1 * key * street_bgr[1]
+            c2 += a2 * key * street_bgr[2]
+        colour[j, 0], colour[j, 1], colour[j, 2] = c0, c1, c2
+        if specular[part[i]] > 0 or mirror[j] > 0:
+            shiny[j] = True
+            d0, d1, d2 = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+            h0, h1, h2 = sun[0] - d0, sun[1] - d1, sun[2] - d2
+            hn = np.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+            half_cos[j] = max(n0 * (h0 / hn) + n1 * (h1 / hn) + n2 * (h2 / hn), zero)
+            dd = np.float32(2.0) * (d0 * n0 + d1 * n1 + d2 * n2)
+            refl[j, 0], refl[j, 1], refl[j, 2] = d0 - dd * n0, d1 - dd * n1, d2 - dd * n2
+    return colour, refl, half_cos, shiny
+
+
+@njit(cache=True, nogil=True)
+def finish_colour(
+    colour: F32, shiny_at: npt.NDArray[np.int64], highlight: F32, grazing: F32, env: F32, mirror: F32,
+    at: npt.NDArray[np.int64], part: npt.NDArray[np.uint8], sun_lit: npt.NDArray[np.bool_], lamp: F32,
+    glow: F32, specular: F32, lamp_bgr: F32, glint: np.float32, window: F32, haze_f: F32, haze: F32, out: F32,
+) -> None:  # fmt: skip  # pragma: no cover - compiled
+    """``out[at]``: ``colour`` with, at the rows ``shiny_at``, the sun's ``highlight`` (the
+    half vector's cosine to the shininess) times ``glint`` and the reflections ``env`` blended
+    in by Schlick's term (``grazing``: (1 - cos) ** 5); lamps' light, lit windows (``window``:
+    their light, 0 by day) and ``haze_f`` of the way to the colour ``haze``."""
+    one, zero = np.float32(1.0), np.float32(0.0)
+    for s in range(shiny_at.shape[0]):
+        j = shiny_at[s]
+        i = at[j]
+        lit = one if sun_lit[i] else zero
+        g = specular[part[i]] * highlight[s] * lit * glint * np.float32(3.0)
+        m = mirror[j]
+        f = min(m + (one - m) * grazing[s] * (one if m > 0 else zero), np.float32(0.45))
+        for c in range(3):
+            v = colour[j, c] + g
+            colour[j, c] = v * (one - f) + env[s, c] * f
+    for j in range(at.shape[0]):
+        i = at[j]
+        g = lamp[i]
+        if g > 0:
+            pt = part[i]
+            for c in range(3):
+                colour[j, c] += lamp_bgr[pt, c] * g
+        if glow[j] > 0:
+            for c in range(3):
+                colour[j, c] += window[c]
+        f = haze_f[j]
+        for c in range(3):
+            out[i, c] = colour[j, c] * (one - f) + haze[c] * f
