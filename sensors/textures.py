@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
 F32 = npt.NDArray[np.float32]
 
@@ -36,30 +37,84 @@ def hash01(ix: npt.NDArray[np.int64], iy: npt.NDArray[np.int64], seed: int) -> F
     return _mixed01(_lattice(ix, iy, seed))
 
 
-def value_noise(x: F32, y: F32, seed: int) -> F32:
-    """Smooth noise in [0, 1) with features one unit apart."""
+_U32 = np.uint64(0xFFFFFFFF)
+_U24 = np.uint64(0xFFFFFF)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _mixed_at(h: np.uint64, mix: np.uint64) -> np.float32:  # pragma: no cover - compiled
+    h = ((h ^ (h >> np.uint64(13))) * mix) & _U32
+    h ^= h >> np.uint64(16)
+    return np.float32(h & _U24) / np.float32(16777216.0)
+
+
+@njit(cache=True, nogil=True)
+def _noise_at(x: float, y: float, seed32: np.uint64) -> np.float32:  # pragma: no cover - compiled
+    """:func:`value_noise` at one point, in the arithmetic of its numpy form (32-bit hash steps
+    done in 64 bits and masked; ``x``, ``y`` of the arrays' own float type)."""
     fx, fy = np.floor(x), np.floor(y)
-    corner = _lattice(fx.astype(np.int64), fy.astype(np.int64), seed)  # the other corners are steps from it
+    ix = np.uint64(np.uint32(np.int64(fx)))
+    iy = np.uint64(np.uint32(np.int64(fy)))
+    step_x, step_y, mix = np.uint64(374761393), np.uint64(668265263), np.uint64(1274126177)
+    corner = (ix * step_x + iy * step_y + seed32) & _U32
     tx, ty = x - fx, y - fy
     tx = tx * tx * (np.float32(3.0) - np.float32(2.0) * tx)
     ty = ty * ty * (np.float32(3.0) - np.float32(2.0) * ty)
-    a, b = _mixed01(corner), _mixed01(corner + _STEP_X)
-    c, d = _mixed01(corner + _STEP_Y), _mixed01(corner + (_STEP_X + _STEP_Y))
+    a = _mixed_at(corner, mix)
+    b = _mixed_at((corner + step_x) & _U32, mix)
+    c = _mixed_at((corner + step_y) & _U32, mix)
+    d = _mixed_at((corner + step_x + step_y) & _U32, mix)
     top = a + (b - a) * tx
-    return np.asarray(top + (c + (d - c) * tx - top) * ty, np.float32)
+    return np.float32(top + (c + (d - c) * tx - top) * ty)
+
+
+@njit(cache=True, nogil=True)
+def _value_noise(x: F32, y: F32, seed32: np.uint64) -> F32:  # pragma: no cover - compiled
+    out = np.empty(x.shape[0], np.float32)
+    for i in range(x.shape[0]):
+        out[i] = _noise_at(x[i], y[i], seed32)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _fbm(
+    x: F32, y: F32, seeds32: npt.NDArray[np.uint64], f0: np.float32, norm: np.float32
+) -> F32:  # pragma: no cover - compiled
+    out = np.empty(x.shape[0], np.float32)
+    for i in range(x.shape[0]):
+        total = np.float32(0.0)
+        amp, f = 1.0, f0
+        for o in range(seeds32.shape[0]):
+            total += np.float32(amp) * _noise_at(x[i] * f, y[i] * f, seeds32[o])
+            amp *= 0.5
+            f *= np.float32(2.0)
+        out[i] = total / norm
+    return out
+
+
+def _seed32(seed: int) -> np.uint64:
+    return np.uint64((seed * 2147483647) & 0xFFFFFFFF)
+
+
+def _flat(x: npt.NDArray[np.floating], y: npt.NDArray[np.floating]) -> tuple[npt.NDArray[np.floating], ...]:
+    """``x`` and ``y`` as 1-D arrays of one float type (numpy's promotion of the two)."""
+    kind = np.result_type(x, y, np.float32)
+    return np.ascontiguousarray(x, kind).ravel(), np.ascontiguousarray(y, kind).ravel()
+
+
+def value_noise(x: F32, y: F32, seed: int) -> F32:
+    """Smooth noise in [0, 1) with features one unit apart: per point, the hash of its lattice
+    cell's four corners (:func:`hash01`) blended by smoothstep."""
+    fx, fy = _flat(np.asarray(x), np.asarray(y))
+    return _value_noise(fx, fy, _seed32(seed)).reshape(np.shape(x))
 
 
 def fbm(x: F32, y: F32, seed: int, octaves: int = 3, scale: float = 1.0) -> F32:
     """Fractal noise in about [0, 1): octaves of :func:`value_noise`, each half the size."""
-    total = np.zeros_like(x, dtype=np.float32)
-    amp, norm = 1.0, 0.0
-    f = np.float32(1.0 / scale)
-    for o in range(octaves):
-        total += np.float32(amp) * value_noise(x * f, y * f, seed + o)
-        norm += amp
-        amp *= 0.5
-        f *= np.float32(2.0)
-    return total / np.float32(norm)
+    fx, fy = _flat(np.asarray(x), np.asarray(y))
+    norm = sum(0.5**o for o in range(octaves))
+    seeds = np.array([_seed32(seed + o) for o in range(octaves)], np.uint64)
+    return _fbm(fx, fy, seeds, np.float32(1.0 / scale), np.float32(norm)).reshape(np.shape(x))
 
 
 def asphalt(p: F32) -> F32:
