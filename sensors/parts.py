@@ -220,7 +220,7 @@ def radar_reflectivity(semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[
 
 def part_albedo(part: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.float32]:
     """``(N, 3)`` BGR albedo of agent parts (0 rows for :attr:`Part.SURFACE`)."""
-    out = ALBEDO_BGR_BY_PART[part]
+    out = np.take(ALBEDO_BGR_BY_PART, part, axis=0)  # a new array
     for p, palette in PALETTES.items():
         mine = np.flatnonzero(part == p)
         if len(mine):

@@ -186,7 +186,7 @@ _IS_GROUND[list(_GROUND)] = True
 def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple[F32, F32, F32]:
     """Linear albedo ``(N, 3)`` of static-world surfaces with their textures, their mirror
     strength ``(N,)`` and emission at night ``(N,)`` (lit windows)."""
-    albedo = ALBEDO_BGR_BY_CLASS[cls]  # a new array (indexed by an array)
+    albedo = np.take(ALBEDO_BGR_BY_CLASS, cls, axis=0)  # a new array
     mirror = np.zeros(len(cls), np.float32)
     glow = np.zeros(len(cls), np.float32)
     for c, fn in (

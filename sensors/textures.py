@@ -170,7 +170,7 @@ def facade(p: F32, normal: F32) -> tuple[F32, npt.NDArray[np.bool_], npt.NDArray
     angle = np.round(np.arctan2(ny, nx) * np.float32(8.0 / np.pi)).astype(np.int64)
     wall = hash01(np.round(offset / np.float32(2.0)).astype(np.int64), angle, 41)
     style = np.floor(wall * 10).astype(np.intp)
-    albedo = FACADE_BGR[style] * (np.float32(0.9) + np.float32(0.2) * value_noise(s * 3, p[:, 2] * 3, 4)[:, None])
+    albedo = np.take(FACADE_BGR, style, axis=0) * (np.float32(0.9) + np.float32(0.2) * value_noise(s * 3, p[:, 2] * 3, 4)[:, None])
     floor_h = np.float32(3.2)
     bay = np.float32(2.2) + np.float32(1.6) * hash01(style.astype(np.int64), np.zeros(len(s), np.int64), 5)
     win_w = np.float32(0.45) + np.float32(0.25) * wall
