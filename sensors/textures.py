@@ -162,46 +162,70 @@ def facade(p: F32, normal: F32) -> tuple[F32, npt.NDArray[np.bool_], npt.NDArray
     """Albedo ``(N, 3)`` of building walls with a style per wall (colour, window size and
     spacing, a shop front on the ground floor), and which points are window glass and which
     are lit at night (``(N,)`` bools). Roofs (normals up) are dark."""
-    nx, ny = normal[:, 0], normal[:, 1]
-    horiz = np.sqrt(nx * nx + ny * ny) + np.float32(1e-6)
-    tx, ty = -ny / horiz, nx / horiz  # along the wall
-    s = p[:, 0] * tx + p[:, 1] * ty
-    offset = p[:, 0] * nx / horiz + p[:, 1] * ny / horiz  # which wall: its distance from the origin
-    angle = np.round(np.arctan2(ny, nx) * np.float32(8.0 / np.pi)).astype(np.int64)
-    wall = hash01(np.round(offset / np.float32(2.0)).astype(np.int64), angle, 41)
-    style = np.floor(wall * 10).astype(np.intp)
-    albedo = np.take(FACADE_BGR, style, axis=0) * (np.float32(0.9) + np.float32(0.2) * value_noise(s * 3, p[:, 2] * 3, 4)[:, None])
-    floor_h = np.float32(3.2)
-    bay = np.float32(2.2) + np.float32(1.6) * hash01(style.astype(np.int64), np.zeros(len(s), np.int64), 5)
-    win_w = np.float32(0.45) + np.float32(0.25) * wall
-    u = s / bay
-    fu = u - np.floor(u)
-    z = p[:, 2]
-    storey = np.floor(z / floor_h)
-    fz = z / floor_h - storey
-    window = (
-        (np.abs(fu - np.float32(0.5)) < win_w / 2) & (fz > np.float32(0.32)) & (fz < np.float32(0.85)) & (storey >= 1)
-    )
-    shop = (
-        (storey < 1)
-        & (fz > np.float32(0.12))
-        & (fz < np.float32(0.8))
-        & (np.abs(fu - np.float32(0.5)) < 0.42)
-        & (wall > 0.35)
-    )
-    frame = (np.abs(np.abs(fu - np.float32(0.5)) - win_w / 2) < 0.03) & (fz > 0.3) & (fz < 0.87) & (storey >= 1)
-    ledge = (storey >= 1) & (fz > np.float32(0.28)) & (fz < np.float32(0.32)) & (np.abs(fu - 0.5) < win_w / 2 + 0.06)
-    glass = window | shop
-    albedo[frame | ledge] = np.float32(0.8)
-    albedo[glass] = (
-        np.float32(0.06)
-        + np.float32(0.05) * hash01(np.floor(u).astype(np.int64), storey.astype(np.int64), 7)[glass, None]
-    )
-    roof = normal[:, 2] > np.float32(0.7)
-    albedo[roof] = np.array([0.22, 0.22, 0.24], np.float32)
-    glass &= ~roof
-    lit = glass & (hash01(np.floor(u).astype(np.int64) + 1000 * angle, storey.astype(np.int64), 13) < np.float32(0.35))
-    return np.asarray(albedo, np.float32), glass, lit
+    p = np.ascontiguousarray(p, np.float32)
+    normal = np.ascontiguousarray(normal, np.float32)
+    angle = np.round(np.arctan2(normal[:, 1], normal[:, 0]) * np.float32(8.0 / np.pi)).astype(np.int64)  # the wall's
+    return _facade(p, normal, angle, FACADE_BGR, _seed32(4), _seed32(41), _seed32(5), _seed32(7), _seed32(13))
+
+
+@njit(cache=True, nogil=True)
+def _hash_at(ix: np.int64, iy: np.int64, seed32: np.uint64) -> np.float32:  # pragma: no cover - compiled
+    """:func:`hash01` of one lattice point."""
+    h = (
+        np.uint64(np.uint32(ix)) * np.uint64(374761393) + np.uint64(np.uint32(iy)) * np.uint64(668265263) + seed32
+    ) & _U32
+    return _mixed_at(h, np.uint64(1274126177))
+
+
+@njit(cache=True, nogil=True)
+def _facade(
+    p: F32, normal: F32, angle: npt.NDArray[np.int64], colours: F32, s_noise: np.uint64, s_wall: np.uint64,
+    s_bay: np.uint64, s_glass: np.uint64, s_lit: np.uint64,
+) -> tuple[F32, npt.NDArray[np.bool_], npt.NDArray[np.bool_]]:  # fmt: skip  # pragma: no cover - compiled
+    """:func:`facade` per point, in its numpy form's float32 arithmetic (``angle``: the wall's
+    direction in sixteenths of a turn, from numpy's arctan2)."""
+    n = p.shape[0]
+    albedo = np.empty((n, 3), np.float32)
+    glass_out = np.zeros(n, np.bool_)
+    lit_out = np.zeros(n, np.bool_)
+    f32 = np.float32
+    half = f32(0.5)
+    for i in range(n):
+        nx, ny = normal[i, 0], normal[i, 1]
+        horiz = np.sqrt(nx * nx + ny * ny) + f32(1e-6)
+        tx, ty = -ny / horiz, nx / horiz  # along the wall
+        s = p[i, 0] * tx + p[i, 1] * ty
+        offset = p[i, 0] * nx / horiz + p[i, 1] * ny / horiz  # which wall: its distance from the origin
+        wall = _hash_at(np.int64(np.round(offset / f32(2.0))), angle[i], s_wall)
+        style = np.int64(np.floor(wall * f32(10.0)))
+        shade = f32(0.9) + f32(0.2) * _noise_at(s * f32(3.0), p[i, 2] * f32(3.0), s_noise)
+        for c in range(3):
+            albedo[i, c] = colours[style, c] * shade
+        floor_h = f32(3.2)
+        bay = f32(2.2) + f32(1.6) * _hash_at(style, np.int64(0), s_bay)
+        win_w = f32(0.45) + f32(0.25) * wall
+        u = s / bay
+        fu = u - np.floor(u)
+        z = p[i, 2]
+        storey = np.floor(z / floor_h)
+        fz = z / floor_h - storey
+        off = abs(fu - half)
+        window = off < win_w / f32(2.0) and fz > f32(0.32) and fz < f32(0.85) and storey >= 1
+        shop = storey < 1 and fz > f32(0.12) and fz < f32(0.8) and off < f32(0.42) and wall > f32(0.35)
+        frame = abs(off - win_w / f32(2.0)) < f32(0.03) and fz > f32(0.3) and fz < f32(0.87) and storey >= 1
+        ledge = storey >= 1 and fz > f32(0.28) and fz < f32(0.32) and off < win_w / f32(2.0) + f32(0.06)
+        glass = window or shop
+        if frame or ledge:
+            albedo[i, 0] = albedo[i, 1] = albedo[i, 2] = f32(0.8)
+        iu, istorey = np.int64(np.floor(u)), np.int64(storey)
+        if glass:
+            albedo[i, 0] = albedo[i, 1] = albedo[i, 2] = f32(0.06) + f32(0.05) * _hash_at(iu, istorey, s_glass)
+        if normal[i, 2] > f32(0.7):  # a roof
+            albedo[i, 0], albedo[i, 1], albedo[i, 2] = f32(0.22), f32(0.22), f32(0.24)
+            glass = False
+        glass_out[i] = glass
+        lit_out[i] = glass and _hash_at(iu + 1000 * angle[i], istorey, s_lit) < f32(0.35)
+    return albedo, glass_out, lit_out
 
 
 def clouds(dirs: F32) -> F32:
