@@ -271,7 +271,7 @@ def sky_light(
     over a whole frame at once."""
     out = np.ones(len(cls), np.float32)
     at = np.flatnonzero(np.isfinite(range_m))
-    points = (origin_map_m.astype(np.float32) + dirs_map[at] * range_m[at, None]).astype(np.float32)
+    points = kernels.hit_points(at, dirs_map, range_m, origin_map_m.astype(np.float32))
     out[at] = contact_light(points, cls[at], instance[at], boxes)
     return out
 
@@ -345,7 +345,7 @@ def lamp_rays(
     out = np.zeros(len(part), np.float32)
     night = night_of(weather)
     at = np.flatnonzero(np.isfinite(range_m) & _emits(part, cls, night))
-    points = (origin_map_m.astype(np.float32) + dirs_map[at] * range_m[at, None]).astype(np.float32)
+    points = kernels.hit_points(at, dirs_map, range_m, origin_map_m.astype(np.float32))
     out[at] = lamp_light(points, instance[at], part[at], boxes, night, None if cls is None else cls[at])
     return out
 
@@ -580,17 +580,10 @@ def auto_levels(image: F32, saturation: float) -> F32:
     a camera's colour processing does (the weather's; by day 1.3: our frames' mean saturation
     was 27-33 against 72-85 in real KITTI frames; at night 1.0, where cameras' colour fades);
     in place."""
-    grey = image.mean(axis=1)
+    grey = kernels.grey_of(image)
     black = np.float32(np.percentile(grey[::7], BLACK_PERCENTILE))
-    if black > 0:
-        scale = np.float32(255.0) / (np.float32(255.0) - black)
-        image -= black
-        image *= scale
-        grey -= black
-        grey *= scale
-    image -= grey[:, None]
-    image *= np.float32(saturation)
-    image += grey[:, None]
+    scale = np.float32(255.0) / (np.float32(255.0) - black) if black > 0 else np.float32(1.0)
+    kernels.levels(image, grey, black, scale, np.float32(saturation))
     return image
 
 

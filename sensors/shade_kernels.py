@@ -177,3 +177,53 @@ def finish_colour(
         f = haze_f[j]
         for c in range(3):
             out[i, c] = colour[j, c] * (one - f) + haze[c] * f
+
+
+@njit(cache=True, nogil=True)
+def hit_points(at: npt.NDArray[np.int64], dirs: F32, range_m: F32, origin: F32) -> F32:  # pragma: no cover - compiled
+    """``(K, 3)`` the hit points ``origin + dirs * range_m`` of the rays ``at``."""
+    p = np.empty((at.shape[0], 3), np.float32)
+    for j in range(at.shape[0]):
+        i = at[j]
+        for c in range(3):
+            p[j, c] = origin[c] + dirs[i, c] * range_m[i]
+    return p
+
+
+@njit(cache=True, nogil=True)
+def grey_of(image: F32) -> F32:  # pragma: no cover - compiled
+    """``(N,)`` the mean of each row of ``(N, 3)`` (numpy's ``mean(axis=1)``: the sum in order, over 3)."""
+    out = np.empty(image.shape[0], np.float32)
+    for i in range(image.shape[0]):
+        out[i] = (image[i, 0] + image[i, 1] + image[i, 2]) / np.float32(3.0)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def levels(
+    image: F32, grey: F32, black: np.float32, scale: np.float32, saturation: np.float32
+) -> None:  # pragma: no cover - compiled
+    """In place: ``image`` ``(N, 3)`` less ``black`` times ``scale`` (when ``black > 0``), its
+    colours ``saturation`` times further from their ``grey`` (levelled alike)."""
+    for i in range(image.shape[0]):
+        g = grey[i]
+        if black > 0:
+            g = (g - black) * scale
+        for c in range(3):
+            v = image[i, c]
+            if black > 0:
+                v = (v - black) * scale
+            image[i, c] = (v - g) * saturation + g
+
+
+@njit(cache=True, nogil=True)
+def to_bytes(image: F32, noise: F32, sigma: np.float32) -> npt.NDArray[np.uint8]:  # pragma: no cover - compiled
+    """``(N, 3) uint8``: ``image`` plus ``noise * sigma`` (one draw per pixel, ``(N, 1)``),
+    rounded and clipped to 0..255."""
+    out = np.empty(image.shape, np.uint8)
+    for i in range(image.shape[0]):
+        nz = noise[i, 0] * sigma
+        for c in range(3):
+            v = (image[i, c] + nz) + np.float32(0.5)
+            out[i, c] = np.uint8(min(max(v, np.float32(0.0)), np.float32(255.0)))
+    return out

@@ -23,6 +23,7 @@ from networks.classes import SemanticClass
 from networks.geometry import SE3
 from networks.records import check_arrays
 from networks.vocabulary import Lamp, SignKind
+from sensors import shade_kernels
 from sensors.hits import RayHits
 from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAINT_BGR
 from sensors.photo import (
@@ -266,8 +267,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     image = auto_levels(tone_map(linear, sh.weather.exposure), sh.weather.saturation)
     rng = np.random.default_rng(sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w))
     sigma = np.float32(np.hypot(READ_NOISE, sh.weather.noise_sigma))
-    image += rng.standard_normal((h * w, 1), dtype=np.float32) * sigma
-    out = np.asarray(np.clip(image + np.float32(0.5), 0.0, 255.0).astype(np.uint8))
+    out = shade_kernels.to_bytes(image, rng.standard_normal((h * w, 1), dtype=np.float32), sigma)
     if sh.faces is not None:
         street = (classes == SemanticClass.TRAFFIC_LIGHT) | (classes == SemanticClass.TRAFFIC_SIGN)
         pixels = np.flatnonzero(street & (depth > 0))
