@@ -25,7 +25,7 @@ from sensors.hits import RayHits
 from sensors.photo import SUBPIXEL_OFFSETS, AgentBoxes, Supersamples
 from sensors.pinhole import EGO_AXES_R_OPTICAL, NO_DISTORTION, Pinhole
 from sensors.rays import sensor_rays
-from sensors.shade_kernels import shadow_rays
+from sensors.shade_kernels import edges, ids_seen, shadow_rays
 from sensors.shading import CameraFrame, Shading
 from sensors.view import spheres_in_view
 from sensors.weather import Weather
@@ -209,14 +209,7 @@ def edge_pixels(hits: RayHits, h: int, w: int) -> npt.NDArray[np.bool_]:
     """``(H * W,)`` pixels that differ from their right or lower neighbour in class, instance
     or part, or whose range jumps by more than 3 %."""
     key = (hits.semantic_class.astype(np.int64) << 40) | (hits.part.astype(np.int64) << 32) | hits.instance_id
-    key = key.reshape(h, w)
-    rng_m = np.minimum(hits.range_m, np.float32(1e4)).reshape(h, w)
-    edge = np.zeros((h, w), np.bool_)
-    for a, b in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1, :], np.s_[1:, :])):
-        diff = (key[a] != key[b]) | (np.abs(rng_m[a] - rng_m[b]) > np.float32(0.03) * np.minimum(rng_m[a], rng_m[b]))
-        edge[a] |= diff
-        edge[b] |= diff
-    return edge.ravel()
+    return edges(key, np.ascontiguousarray(hits.range_m, np.float32), h, w)
 
 
 def sun_visibility(scene: Scene, origin_map_m: F64, dirs_map: npt.NDArray[np.float32], range_m: npt.NDArray[np.float32],
@@ -241,7 +234,7 @@ def sun_visibility(scene: Scene, origin_map_m: F64, dirs_map: npt.NDArray[np.flo
 
 def boxes_in_view(agents: Agents, instance_id: npt.NDArray[np.uint32]) -> AgentBoxes:
     """The boxes of the agents seen in the frame (their contact shadows and lower parts)."""
-    seen = np.isin(agents.instance_id, np.unique(instance_id))
+    seen = ids_seen(np.ascontiguousarray(instance_id, np.uint32).ravel(), np.asarray(agents.instance_id, np.uint32))
     a = agents.select(seen)
     return AgentBoxes(a.instance_id, a.center_map_m, a.lwh_m, a.yaw_map_rad, a.lamps, a.velocity_map_mps)
 

@@ -227,3 +227,50 @@ def to_bytes(image: F32, noise: F32, sigma: np.float32) -> npt.NDArray[np.uint8]
             v = (image[i, c] + nz) + np.float32(0.5)
             out[i, c] = np.uint8(min(max(v, np.float32(0.0)), np.float32(255.0)))
     return out
+
+
+@njit(cache=True, nogil=True)
+def ids_seen(
+    pixel_ids: npt.NDArray[np.uint32], ids: npt.NDArray[np.uint32]
+) -> npt.NDArray[np.bool_]:  # pragma: no cover - compiled
+    """``(K,)`` whether each of ``ids`` is among ``pixel_ids`` (``np.isin(ids, pixel_ids)``;
+    runs of one id, as along an image's rows, are looked up once)."""
+    order = np.argsort(ids)
+    ordered = ids[order]
+    k = ordered.shape[0]
+    seen = np.zeros(k, np.bool_)
+    if k == 0:
+        return seen
+    last = pixel_ids[0] if pixel_ids.shape[0] else np.uint32(0)
+    for n in range(pixel_ids.shape[0]):
+        v = pixel_ids[n]
+        if n > 0 and v == last:
+            continue
+        last = v
+        pos = np.searchsorted(ordered, v)
+        while pos < k and ordered[pos] == v:  # every agent row holding this id
+            seen[order[pos]] = True
+            pos += 1
+    return seen
+
+
+@njit(cache=True, nogil=True)
+def edges(
+    key: npt.NDArray[np.int64], range_m: F32, h: int, w: int
+) -> npt.NDArray[np.bool_]:  # pragma: no cover - compiled
+    """``(H * W,)`` :func:`sensors.camera.edge_pixels` of row-major ``key`` and ``range_m``
+    (ranges capped at 1e4 m)."""
+    edge = np.zeros(h * w, np.bool_)
+    cap, jump = np.float32(1e4), np.float32(0.03)
+    for v in range(h):
+        for u in range(w):
+            i = v * w + u
+            ra = min(range_m[i], cap)
+            for j in (i + 1, i + w):
+                if (j == i + 1 and u + 1 >= w) or (j == i + w and v + 1 >= h):
+                    continue
+                rb = min(range_m[j], cap)
+                if key[i] != key[j] or abs(ra - rb) > jump * min(ra, rb):
+                    edge[i] = True
+                    edge[j] = True
+    return edge
