@@ -228,25 +228,23 @@ def contact_light(
     gp = points[ground]
     gx, gy = np.ascontiguousarray(gp[:, 0]), np.ascontiguousarray(gp[:, 1])
     order = np.argsort(boxes.instance_id)
-    for k in range(len(boxes.instance_id)):
-        c, (length, w, _), yaw = boxes.centre_m[k], boxes.lwh_m[k], boxes.yaw_rad[k]
-        reach = 0.5 * np.hypot(length, w) + CONTACT_M
-        near = np.flatnonzero(np.abs(gx - c[0]) < reach)
-        near = near[np.abs(gy[near] - c[1]) < reach]
-        if len(near) == 0:
-            continue
-        dx, dy = gp[near, 0] - np.float32(c[0]), gp[near, 1] - np.float32(c[1])
-        cs, sn = np.float32(np.cos(yaw)), np.float32(np.sin(yaw))
-        ax, ay = np.abs(cs * dx + sn * dy), np.abs(-sn * dx + cs * dy)
-        out = np.hypot(np.maximum(ax - np.float32(length / 2), 0), np.maximum(ay - np.float32(w / 2), 0))
-        inside = np.minimum(np.float32(length / 2) - ax, np.float32(w / 2) - ay)
-        depth = np.clip(inside / np.float32(0.6), 0.0, 1.0)  # darkest well under the body
-        occ = np.where(
-            out > 0,
-            np.float32(0.6) * np.exp(-out / np.float32(CONTACT_M * 0.4)),
-            np.float32(0.6) + np.float32(0.35) * depth,
-        )
-        light[ground[near]] = np.minimum(light[ground[near]], np.float32(1.0) - occ)
+    length, w = boxes.lwh_m[:, 0], boxes.lwh_m[:, 1]
+    reach = np.array([0.5 * np.hypot(a, b) + CONTACT_M for a, b in zip(length, w, strict=True)], np.float64)
+    cs = np.array([np.float32(np.cos(y)) for y in boxes.yaw_rad], np.float32)
+    sn = np.array([np.float32(np.sin(y)) for y in boxes.yaw_rad], np.float32)
+    near, k, ax, ay = kernels.contact_pairs(
+        gx, gy, np.ascontiguousarray(boxes.centre_m[:, 0]), np.ascontiguousarray(boxes.centre_m[:, 1]), reach, cs, sn
+    )
+    half_l, half_w = (length / 2).astype(np.float32)[k], (w / 2).astype(np.float32)[k]
+    out = np.hypot(np.maximum(ax - half_l, 0), np.maximum(ay - half_w, 0))
+    inside = np.minimum(half_l - ax, half_w - ay)
+    depth = np.clip(inside / np.float32(0.6), 0.0, 1.0)  # darkest well under the body
+    occ = np.where(
+        out > 0,
+        np.float32(0.6) * np.exp(-out / np.float32(CONTACT_M * 0.4)),
+        np.float32(0.6) + np.float32(0.35) * depth,
+    )
+    np.minimum.at(light, ground[near], np.float32(1.0) - occ)
     agents = np.flatnonzero(instance > 0)
     if len(agents):
         ids = boxes.instance_id[order]

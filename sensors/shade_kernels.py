@@ -274,3 +274,55 @@ def edges(
                     edge[i] = True
                     edge[j] = True
     return edge
+
+
+@njit(cache=True, nogil=True)
+def contact_pairs(
+    gx: F32, gy: F32, cx: npt.NDArray[np.float64], cy: npt.NDArray[np.float64], reach: npt.NDArray[np.float64],
+    cs: F32, sn: F32,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], F32, F32]:  # fmt: skip  # pragma: no cover - compiled
+    """The ground points within each box's ``reach`` of its centre ``(cx, cy)`` along x and
+    along y (``|g - c| < reach`` in float64, as :func:`sensors.photo.contact_light` tests them):
+    per pair the point, the box, and the point's distances along the box's axes from its
+    centre (``cs``, ``sn``: the box's yaw's cosine and sine; float32). Points are bucketed
+    by x first (2 m buckets), so a box looks at its own strip only."""
+    n, k = gx.shape[0], cx.shape[0]
+    empty_i, empty_f = np.zeros(0, np.int64), np.zeros(0, np.float32)
+    if n == 0 or k == 0:
+        return empty_i, empty_i, empty_f, empty_f
+    cell = 2.0
+    x0 = np.float64(gx.min())
+    cells = int((np.float64(gx.max()) - x0) / cell) + 1
+    start = np.zeros(cells + 1, np.int64)
+    for i in range(n):
+        start[int((np.float64(gx[i]) - x0) / cell) + 1] += 1
+    for c in range(cells):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    by_x = np.empty(n, np.int64)
+    for i in range(n):
+        c = int((np.float64(gx[i]) - x0) / cell)
+        by_x[fill[c]] = i
+        fill[c] += 1
+    total = 0
+    for b in range(2):  # count, then fill
+        if b == 1:
+            pt, box = np.empty(total, np.int64), np.empty(total, np.int64)
+            ax, ay = np.empty(total, np.float32), np.empty(total, np.float32)
+        m = 0
+        for j in range(k):
+            lo = max(int(np.floor((cx[j] - reach[j] - 1.0 - x0) / cell)), 0)
+            hi = min(int(np.floor((cx[j] + reach[j] + 1.0 - x0) / cell)), cells - 1)
+            cxf, cyf = np.float32(cx[j]), np.float32(cy[j])
+            for c in range(lo, hi + 1):
+                for s in range(start[c], start[c + 1]):
+                    i = by_x[s]
+                    if abs(np.float64(gx[i]) - cx[j]) < reach[j] and abs(np.float64(gy[i]) - cy[j]) < reach[j]:
+                        if b == 1:
+                            dx, dy = gx[i] - cxf, gy[i] - cyf
+                            pt[m], box[m] = i, j
+                            ax[m] = abs(cs[j] * dx + sn[j] * dy)
+                            ay[m] = abs(-sn[j] * dx + cs[j] * dy)
+                        m += 1
+        total = m
+    return pt, box, ax, ay

@@ -165,3 +165,25 @@ def test_auto_contrast_sets_the_frames_black_level_and_keeps_its_order() -> None
     # a frame whose darkest pixels are black already keeps its greys
     dark = np.repeat(np.concatenate([np.zeros(100), np.linspace(0.0, 255.0, 900)]).astype(np.float32)[:, None], 3, 1)
     np.testing.assert_allclose(auto_levels(dark.copy(), 1.0), dark, atol=1e-3)
+
+
+def test_contact_shadow_pairs_are_the_points_within_each_boxs_reach() -> None:
+    # the bucketed search against every point and box tested directly
+    from sensors.shade_kernels import contact_pairs
+
+    rng = np.random.default_rng(12)
+    gx, gy = (rng.uniform(-60, 60, 20_000).astype(np.float32) for _ in range(2))
+    cx, cy = rng.uniform(-70, 70, 25), rng.uniform(-70, 70, 25)
+    reach = rng.uniform(0.5, 9.0, 25)
+    yaw = rng.uniform(-np.pi, np.pi, 25)
+    cs, sn = np.cos(yaw).astype(np.float32), np.sin(yaw).astype(np.float32)
+    pt, box, ax, ay = contact_pairs(gx, gy, cx, cy, reach, cs, sn)
+    want = {
+        (i, k)
+        for k in range(25)
+        for i in np.flatnonzero((np.abs(gx - cx[k]) < reach[k]) & (np.abs(gy - cy[k]) < reach[k]))
+    }
+    assert set(zip(pt.tolist(), box.tolist(), strict=True)) == want and len(pt) == len(want) > 100
+    dx, dy = gx[pt] - cx[box].astype(np.float32), gy[pt] - cy[box].astype(np.float32)
+    np.testing.assert_array_equal(ax, np.abs(cs[box] * dx + sn[box] * dy))
+    np.testing.assert_array_equal(ay, np.abs(-sn[box] * dx + cs[box] * dy))
