@@ -87,7 +87,10 @@ KINDS: dict[str, KindSpec] = {
 
 PEDESTRIAN = KindSpec("pedestrian", "pedestrian", SemanticClass.PEDESTRIAN,
                       (0.3, 0.5), (0.5, 0.7), (1.55, 1.95), (1.0, 1.6), (1.0, 1.5), 2.0, "pedestrian")  # fmt: skip
-"""A walker's box holds its stride: 0.6-0.8 m long (nuScenes' pedestrians: 0.73 m on average)."""
+"""Walkers' types: SUMO's length is the room a walker takes on the footpath (0.3-0.5 m); the
+labelled box is lengthened about the same centre to hold the walker's stride as the traffic is
+read (:func:`sensors.bodies.walker_length_m`: 0.57 x the height, 1.0 m for a walker 1.75 m
+tall). Widths 0.5-0.7 m: real datasets' walker boxes are 0.6 (KITTI) to 0.84 m (Waymo) wide."""
 CHILD = KindSpec("child", "pedestrian", SemanticClass.PEDESTRIAN,
                  (0.3, 0.45), (0.4, 0.5), (1.0, 1.45), (0.9, 1.4), (1.0, 1.5), 2.0, "pedestrian")  # fmt: skip
 """A child of about 4 to 10 years (1.0-1.45 m tall), labelled a pedestrian; it walks with a group

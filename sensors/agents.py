@@ -38,6 +38,8 @@ NO_LAMPS = np.zeros(0, np.uint8)
 """The default of :attr:`Agents.lamps`: every lamp off."""
 NOT_TURNING = np.zeros(0, np.float64)
 """The default of :attr:`Agents.yaw_rate_rad_s`: every heading kept."""
+NO_GAIT = np.zeros(0, np.float64)
+"""The default of :attr:`Agents.gait_cycles`: not counted (NaN)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,7 +55,9 @@ class Agents:
     heading's rate of turn up to the frame's time, counter-clockwise positive (0 where not given),
     and ``yaw_rate_after_rad_s: (N,) float64`` its rate from then on (the same where not given):
     the traffic's headings change step by step, a body turns between two steps at the rate of
-    that step (:func:`turn_rate_at`).
+    that step (:func:`turn_rate_at`). ``gait_cycles: (N,) float64``: the gait cycles a walker
+    has walked (its distance walked over its stride, summed step by step; NaN where not counted:
+    its pose then follows its position along its heading, see :func:`sensors.bodies.pose_of`).
     """
 
     instance_id: npt.NDArray[np.uint32]
@@ -67,6 +71,7 @@ class Agents:
     lamps: npt.NDArray[np.uint8] = field(default_factory=lambda: NO_LAMPS)
     yaw_rate_rad_s: npt.NDArray[np.float64] = field(default_factory=lambda: NOT_TURNING)
     yaw_rate_after_rad_s: npt.NDArray[np.float64] = field(default_factory=lambda: NOT_TURNING)
+    gait_cycles: npt.NDArray[np.float64] = field(default_factory=lambda: NO_GAIT)
 
     def __post_init__(self) -> None:
         if self.lamps is NO_LAMPS:
@@ -75,11 +80,14 @@ class Agents:
             object.__setattr__(self, "yaw_rate_rad_s", np.zeros(self.instance_id.shape[0]))
         if self.yaw_rate_after_rad_s is NOT_TURNING:
             object.__setattr__(self, "yaw_rate_after_rad_s", self.yaw_rate_rad_s)
+        if self.gait_cycles is NO_GAIT:
+            object.__setattr__(self, "gait_cycles", np.full(self.instance_id.shape[0], np.nan))
         check_arrays(
             self, instance_id=(np.uint32, ("N",)), semantic_class=(np.uint8, ("N",)),
             center_map_m=(np.float64, ("N", 3)), lwh_m=(np.float64, ("N", 3)), yaw_map_rad=(np.float64, ("N",)),
             pitch_rad=(np.float64, ("N",)), velocity_map_mps=(np.float64, ("N", 3)), parked=(np.bool_, ("N",)),
             lamps=(np.uint8, ("N",)), yaw_rate_rad_s=(np.float64, ("N",)), yaw_rate_after_rad_s=(np.float64, ("N",)),
+            gait_cycles=(np.float64, ("N",)),
         )  # fmt: skip
         if len(self) and int(self.instance_id.min()) == 0:
             raise ValueError("Agents.instance_id: 0 is reserved for the static world")
@@ -108,7 +116,7 @@ class Agents:
         return Agents(
             self.instance_id[mask], self.semantic_class[mask], self.center_map_m[mask], self.lwh_m[mask],
             self.yaw_map_rad[mask], self.pitch_rad[mask], self.velocity_map_mps[mask], self.parked[mask],
-            self.lamps[mask], self.yaw_rate_rad_s[mask], self.yaw_rate_after_rad_s[mask],
+            self.lamps[mask], self.yaw_rate_rad_s[mask], self.yaw_rate_after_rad_s[mask], self.gait_cycles[mask],
         )  # fmt: skip
 
     def joined(self, other: Agents) -> Agents:
@@ -169,7 +177,8 @@ def turned_about_z(vectors: npt.NDArray[np.float64], turn_rad: npt.NDArray[np.fl
 
 
 AGENT_FIELDS = ("instance_id", "semantic_class", "center_map_m", "lwh_m", "yaw_map_rad", "pitch_rad",
-                "velocity_map_mps", "parked", "lamps", "yaw_rate_rad_s", "yaw_rate_after_rad_s")  # fmt: skip
+                "velocity_map_mps", "parked", "lamps", "yaw_rate_rad_s", "yaw_rate_after_rad_s",
+                "gait_cycles")  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -295,8 +304,9 @@ an agent inside its box, under strict point-in-box tests of the exported labels.
 
 def body_keys(agents: Agents) -> npt.NDArray[np.int64]:
     """``(N, 3)`` class, body type and pose of each agent (:func:`sensors.bodies.body_of`,
-    :func:`sensors.bodies.pose_of`): the pose from the distance along its heading, so a
-    walker's legs move with the ground it covers and stand still when it does."""
+    :func:`sensors.bodies.pose_of`): a walker's pose from the gait cycles it has walked (else
+    from its distance along its heading), so its legs move with the ground it covers and stand
+    still when it does."""
     keys = np.zeros((len(agents), 3), np.int64)
     speed = np.linalg.norm(agents.velocity_map_mps[:, :2], axis=1)
     along = agents.center_map_m[:, 0] * np.cos(agents.yaw_map_rad) + agents.center_map_m[:, 1] * np.sin(
@@ -307,7 +317,7 @@ def body_keys(agents: Agents) -> npt.NDArray[np.int64]:
         keys[i] = (
             c,
             body_of(c, agents.lwh_m[i], int(agents.instance_id[i])),
-            pose_of(c, float(speed[i]), float(along[i])),
+            pose_of(c, float(speed[i]), float(along[i]), float(agents.lwh_m[i, 2]), float(agents.gait_cycles[i])),
         )
     return keys
 

@@ -560,16 +560,99 @@ def bus(length: float = 12.0, width: float = 2.55, h: float = 3.2, coach: bool =
 
 GAIT_PHASES = 8
 """Walking and pedalling poses per cycle (plus one standing pose)."""
-STRIDE_M = 1.4
-"""Distance walked over one gait cycle (two steps) at a normal pace."""
+STEP_PER_HEIGHT = 0.415
+"""A step (heel to heel, half a gait cycle) at the preferred pace, over the walker's height (the
+pedometer rule: 0.415 for men, 0.413 for women)."""
+PREFERRED_PACE_MPS = 1.34
+"""The walking speed of that step (adults' preferred pace, about 1.3-1.4 m/s)."""
+STEP_SPEED_EXPONENT = 0.42
+"""Step length grows as speed^0.42 (Grieve 1968; Kuo 2001, J. Biomech. Eng. 123: 264-269); the
+cadence makes up the rest of the speed."""
+PACES_MPS = (0.5, 0.8, 1.1, 1.4)
+"""Walking paces drawn (each in :data:`GAIT_PHASES` poses): a walker is drawn at the nearest;
+faster walkers take the fastest pace's steps, at a higher cadence."""
+WALKER_LENGTH_PER_HEIGHT = 0.570
+"""A walker's box length over its height: the body's extent along its heading over every gait
+phase at the fastest pace (feet and swinging arms: 1.00 m for a walker 1.75 m tall), so that the box
+holds the stride and the body is drawn at its own proportions (tested)."""
+STANCE = 0.6
+"""Share of the gait cycle a foot is on the ground (heel strike at 0, toe off at 0.6)."""
+
+
+def step_m(height_m: float, speed_mps: float) -> float:
+    """A walker's step length (m, heel to heel) at a speed (clamped to the drawn paces)."""
+    pace = min(max(speed_mps, PACES_MPS[0]), PACES_MPS[-1])
+    return float(STEP_PER_HEIGHT * height_m * (pace / PREFERRED_PACE_MPS) ** STEP_SPEED_EXPONENT)
+
+
+def stride_m(height_m: float, speed_mps: float) -> float:
+    """The distance a walker covers over one gait cycle (two steps)."""
+    return 2.0 * step_m(height_m, speed_mps)
+
+
+def pace_index(speed_mps: float) -> int:
+    """The drawn pace (index into :data:`PACES_MPS`) nearest a speed."""
+    return int(np.argmin([abs(speed_mps - p) for p in PACES_MPS]))
+
+
+def walker_length_m(height_m: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """Box lengths (m, to the centimetre) that hold walkers' strides, from their heights."""
+    return np.round(WALKER_LENGTH_PER_HEIGHT * np.asarray(height_m, np.float64), 2)
+
+
+def _rot(theta: float, dx: float, dz: float) -> tuple[float, float]:
+    """(dx, dz) turned by ``theta`` in the x-z plane (toe up for positive angles)."""
+    c, s = math.cos(theta), math.sin(theta)
+    return c * dx - s * dz, s * dx + c * dz
+
+
+def foot_pose(u: float, step: float, s: float) -> tuple[float, float, float]:
+    """Where a walking foot is at its leg's phase ``u`` (cycles from its heel strike, 0-1): the
+    ankle's x (ahead of the hips) and height, and the foot's pitch (radians, toe up positive).
+    On the ground (0 to :data:`STANCE`) the heel strikes toe up, the foot rolls flat and moves
+    back under the walker at its speed, then rolls over the toe, the heel rising; in the swing
+    it is carried forward, lifted, to the next heel strike. ``step``: the step length; ``s``:
+    the walker's scale (height over 1.75 m)."""
+    stride = 2.0 * step
+    heel, toe = (-0.06 * s, -0.07 * s), (0.16 * s, -0.07 * s)  # the sole's ends from the ankle
+    strike_pitch, off_pitch, flat_at, roll_at = 0.3, -0.9, 0.08, 0.4
+
+    def on_heel(x_heel: float, pitch: float) -> tuple[float, float, float]:
+        dx, dz = _rot(pitch, *heel)
+        return x_heel - dx, -dz, pitch
+
+    def on_toe(x_toe: float, pitch: float) -> tuple[float, float, float]:
+        dx, dz = _rot(pitch, *toe)
+        return x_toe - dx, -dz, pitch
+
+    def heel_x(v: float) -> float:  # the heel on the ground, moving back at the walker's speed
+        return step / 2.0 + heel[0] - stride * v  # the hips midway between the ankles at heel strike
+
+    u %= 1.0
+    if u < flat_at:
+        return on_heel(heel_x(u), strike_pitch * (1.0 - u / flat_at))
+    if u < roll_at:
+        return on_heel(heel_x(u), 0.0)
+    toe_at_roll = heel_x(roll_at) - heel[0] + toe[0]
+    if u < STANCE:
+        w = (u - roll_at) / (STANCE - roll_at)
+        return on_toe(toe_at_roll - stride * (u - roll_at), off_pitch * w)
+    x0, z0, _ = on_toe(toe_at_roll - stride * (STANCE - roll_at), off_pitch)
+    x1, z1, _ = on_heel(heel_x(0.0), strike_pitch)
+    w = (u - STANCE) / (1.0 - STANCE)
+    ease = w * w * (3.0 - 2.0 * w)
+    lift = 0.09 * s * math.sin(math.pi * w)
+    return x0 + (x1 - x0) * ease, z0 + (z1 - z0) * ease + lift, off_pitch + (strike_pitch - off_pitch) * ease
 
 
 def person(
-    phase: float | None, height: float = 1.75, build: float = 1.0, seated: str | None = None, pedal_phase: float = 0.0
-) -> list[Piece]:
-    """A person standing (``phase`` None) or walking at gait ``phase`` (radians), centred at the
-    hips in x-y, feet on z = 0; ``seated``: 'bicycle' or 'motorcycle' for a rider (hips at the
-    seat, x = 0 at the seat, hands forward)."""
+    phase: float | None, height: float = 1.75, build: float = 1.0, seated: str | None = None, pedal_phase: float = 0.0,
+    pace: float = PREFERRED_PACE_MPS,
+) -> list[Piece]:  # fmt: skip
+    """A person standing (``phase`` None) or walking at gait ``phase`` (radians: the left foot's
+    heel strikes at 0, the right's at pi) at ``pace`` (m/s), centred at the hips in x-y, feet on
+    z = 0; ``seated``: 'bicycle' or 'motorcycle' for a rider (hips at the seat, x = 0 at the
+    seat, hands forward)."""
     s = height / 1.75
     hip_z = 0.92 * s
     shoulder_z = 1.45 * s
@@ -578,30 +661,10 @@ def person(
     pieces: list[Piece] = []
     leg_len_thigh, leg_len_shin = 0.45 * s, 0.45 * s
     if seated is None:
-        swing = 0.0 if phase is None else 0.32
-        for side, sgn in ((1.0, 1.0), (-1.0, -1.0)):
-            a = 0.0 if phase is None else swing * math.sin(phase + (0 if sgn > 0 else math.pi))
-            knee_bend = 0.0 if phase is None else max(0.0, 0.6 * math.sin(phase + (0 if sgn > 0 else math.pi) - 1.2))
-            hip = np.array([0.0, side * hip_w, hip_z])
-            knee = hip + leg_len_thigh * np.array([math.sin(a), 0.0, -math.cos(a)])
-            b = a - knee_bend
-            ankle = knee + leg_len_shin * np.array([math.sin(b), 0.0, -math.cos(b)])
-            ankle[2] = max(ankle[2], 0.07 * s)
-            # trouser legs: about 20 cm across at the thigh (the two meet at the crotch), 15 cm
-            # at the knee, 12 cm at the hem
-            pieces.append(tube(hip, knee, 0.1 * s * build, 0.075 * s * build, Part.TROUSERS))
-            pieces.append(tube(knee, ankle, 0.075 * s * build, 0.058 * s, Part.TROUSERS))
-            pieces.append(
-                box(
-                    ankle[0] - 0.06 * s,
-                    ankle[0] + 0.16 * s,
-                    side * hip_w - 0.045 * s,
-                    side * hip_w + 0.045 * s,
-                    ankle[2] - 0.07 * s,
-                    ankle[2] + 0.02 * s,
-                    Part.SHOES,
-                )
-            )
+        legs = _legs(phase, pace, s, build, hip_z, hip_w)
+        pieces += legs[0]
+        hip_z += legs[1]  # the hips ride lower while both feet are on the ground
+        shoulder_z += legs[1]
     else:
         seat = np.array([0.0, 0.0, hip_z])
         for side in (1.0, -1.0):
@@ -652,7 +715,9 @@ def person(
     for side in (1.0, -1.0):
         shoulder = chest + np.array([0.0, side * sh_w, -0.07 * s])
         if seated is None:  # arms hang clear of the waist, swinging against the legs
-            a = 0.0 if phase is None else -0.35 * math.sin(phase + (0 if side > 0 else math.pi))
+            # each arm swings against its own side's leg: furthest back as that heel strikes
+            swing = 0.35 * step_m(1.0, pace) / step_m(1.0, PREFERRED_PACE_MPS)
+            a = 0.0 if phase is None else -swing * math.cos(phase + (0 if side > 0 else math.pi))
             elbow = shoulder + 0.3 * s * np.array([math.sin(a), 0.1 * side, -math.cos(a)])
             hand = elbow + 0.27 * s * np.array([math.sin(a + 0.25 * abs(a) + 0.1), 0.06 * side, -math.cos(a + 0.1)])
         else:
@@ -668,8 +733,49 @@ def person(
     return pieces
 
 
-def pedestrian(phase: float | None, build: float = 1.0) -> Piece:
-    return merge(person(phase, 1.75, build))
+def _legs(
+    phase: float | None, pace: float, s: float, build: float, hip_z: float, hip_w: float
+) -> tuple[list[Piece], float]:  # fmt: skip
+    """A walker's trouser legs and shoes, and how far its hips are lowered (m, <= 0): each foot
+    where :func:`foot_pose` puts it, each knee bent forward so thigh and shin reach it (the hips
+    lowered where the two feet, a step apart, need it)."""
+    thigh, shin = 0.44 * s, 0.41 * s  # hip to knee, knee to ankle: the ankle 7 cm up standing
+    reach = 0.995 * (thigh + shin)  # the knee never quite straight
+    feet = []
+    for sgn in (1.0, -1.0):
+        if phase is None:
+            feet.append((0.0, 0.07 * s, 0.0))
+        else:
+            u = (phase / (2 * math.pi) + (0.0 if sgn > 0 else 0.5)) % 1.0
+            feet.append(foot_pose(u, step_m(1.75 * s, pace), s))
+    drop = 0.0
+    if phase is not None:
+        top = min(z + math.sqrt(max(reach**2 - x**2, 0.0)) for x, z, _ in feet)
+        drop = min(top - hip_z, 0.0)
+    pieces: list[Piece] = []
+    for (x, z, pitch), side in zip(feet, (1.0, -1.0), strict=True):
+        hip = np.array([0.0, side * hip_w, hip_z + drop])
+        ankle = np.array([x, side * hip_w, z])
+        d_vec = ankle - hip
+        d = float(np.linalg.norm(d_vec))
+        e = d_vec / d
+        if d >= thigh + shin - 1e-9:
+            knee = hip + e * thigh
+        else:
+            along = (thigh**2 - shin**2 + d**2) / (2 * d)
+            knee = hip + e * along + np.array([-e[2], 0.0, e[0]]) * math.sqrt(max(thigh**2 - along**2, 0.0))
+        # trouser legs: about 20 cm across at the thigh (the two meet at the crotch), 15 cm
+        # at the knee, 12 cm at the hem
+        pieces.append(tube(hip, knee, 0.1 * s * build, 0.075 * s * build, Part.TROUSERS))
+        pieces.append(tube(knee, ankle, 0.075 * s * build, 0.058 * s, Part.TROUSERS))
+        sole = [(-0.06 * s, -0.07 * s), (0.16 * s, -0.07 * s), (0.16 * s, 0.02 * s), (-0.06 * s, 0.02 * s)]
+        outline = [(x + dx, z + dz) for dx, dz in (_rot(pitch, *c) for c in sole)]
+        pieces.append(prism(outline, 0.045 * s, Part.SHOES, Part.SHOES, side * hip_w))
+    return pieces, drop
+
+
+def pedestrian(phase: float | None, build: float = 1.0, pace: float = PREFERRED_PACE_MPS) -> Piece:
+    return merge(person(phase, 1.75, build, pace=pace))
 
 
 def bicycle(pedal_phase: float) -> Piece:
@@ -909,8 +1015,16 @@ class Body:
     poses: int = 1
 
 
-def _pose_phase(pose: int) -> float | None:
-    return None if pose == 0 else 2 * math.pi * (pose - 1) / GAIT_PHASES
+WALKER_POSES = 1 + GAIT_PHASES * len(PACES_MPS)
+"""A walker's poses: standing, then each pace's gait phases."""
+
+
+def _walker(pose: int, build: float = 1.0) -> Piece:
+    """A walker in a pose (:data:`WALKER_POSES`: 0 standing, then pace by pace, phase by phase)."""
+    if pose == 0:
+        return pedestrian(None, build)
+    pace, k = divmod(pose - 1, GAIT_PHASES)
+    return pedestrian(2 * math.pi * k / GAIT_PHASES, build, PACES_MPS[pace])
 
 
 BODIES: dict[int, tuple[Body, ...]] = {
@@ -945,8 +1059,8 @@ BODIES: dict[int, tuple[Body, ...]] = {
         Body("bicycle", (1.75, 0.6, 1.76), 1.0, lambda p: bicycle(2 * math.pi * p / GAIT_PHASES), GAIT_PHASES),
     ),
     int(SemanticClass.PEDESTRIAN): (
-        Body("adult", (0.73, 0.5, 1.75), 0.7, lambda p: pedestrian(_pose_phase(p)), GAIT_PHASES + 1),
-        Body("adult_broad", (0.73, 0.6, 1.75), 0.3, lambda p: pedestrian(_pose_phase(p), 1.15), GAIT_PHASES + 1),
+        Body("adult", (1.0, 0.5, 1.75), 0.7, _walker, WALKER_POSES),
+        Body("adult_broad", (1.0, 0.6, 1.75), 0.3, lambda p: _walker(p, 1.15), WALKER_POSES),
     ),
     int(SemanticClass.TRAILER): (Body("box_trailer", (7.0, 2.5, 3.4), 1.0, lambda _p: centre_axle_trailer()),),
     int(SemanticClass.CONSTRUCTION_VEHICLE): (Body("work_truck", (7.0, 2.5, 3.2), 1.0, lambda _p: work_truck()),),
@@ -974,14 +1088,19 @@ def body_of(semantic_class: int, lwh_m: F64, instance_id: int) -> int:
     return int(near[min(int(np.searchsorted(np.cumsum(shares) / shares.sum(), u, side="right")), len(near) - 1)])
 
 
-def pose_of(semantic_class: int, speed_mps: float, along_m: float) -> int:
-    """The pose index of a walking pedestrian or a pedalling cyclist: the phase of its cycle
-    from the distance it has come along its heading (``along_m``), 0 (standing) below
-    0.2 m/s for pedestrians."""
+def pose_of(
+    semantic_class: int, speed_mps: float, along_m: float, height_m: float = 1.75, gait_cycles: float = math.nan
+) -> int:  # fmt: skip
+    """The pose index of a walking pedestrian or a pedalling cyclist. A walker: 0 (standing)
+    below 0.2 m/s, else its pace's (:func:`pace_index`) gait phase from the gait cycles it has
+    walked (``gait_cycles``: its distance walked over its stride, summed as it goes), or where
+    not given from the distance it has come along its heading (``along_m``) over its stride
+    (:func:`stride_m`). A cyclist: the crank's phase from ``along_m``."""
     if semantic_class == int(SemanticClass.PEDESTRIAN):
         if speed_mps < 0.2:
             return 0
-        return 1 + math.floor(along_m / STRIDE_M * GAIT_PHASES) % GAIT_PHASES
+        cycles = gait_cycles if math.isfinite(gait_cycles) else along_m / stride_m(height_m, speed_mps)
+        return 1 + pace_index(speed_mps) * GAIT_PHASES + math.floor(cycles * GAIT_PHASES) % GAIT_PHASES
     if semantic_class == int(SemanticClass.BICYCLE):
         return math.floor(along_m / 2.2 * GAIT_PHASES) % GAIT_PHASES  # one crank turn per 2.2 m
     return 0

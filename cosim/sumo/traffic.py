@@ -50,6 +50,7 @@ from networks.errors import clipped, quoted
 from networks.sumo_tools import sumo_binary, sumo_home, sumo_refusal
 from networks.vocabulary import SignalState
 from sensors.agents import Agents, EgoState
+from sensors.bodies import stride_m, walker_length_m
 
 if TYPE_CHECKING:
     from cosim.sumo.hazards import HazardController
@@ -192,6 +193,7 @@ class Traffic:
         self._trailers: dict[str, Combination] = {}  # SUMO id -> lengths, for trucks with a trailer
         self._axles: dict[str, tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64]]] = {}
         self._headings: tuple[float, dict[int, float]] = (-np.inf, {})  # the last read's time and yaw by track id
+        self._gait: dict[int, tuple[float, float]] = {}  # a walker's last read's time and gait cycles by track id
         self._works = self._close_lane(net) if scenario.construction.edge else Agents.empty()
         self._stood_s = 0.0  # how long the ego has stood (below STOPPED_MPS) without a break
 
@@ -691,6 +693,8 @@ class Traffic:
         for i in pulling:
             lwh[i, 0] = self._trailers[ids[i]].truck_m
         center = front_bumper_to_center(front, yaw, pitch, lwh[:, 0], lwh[:, 2])
+        walkers = np.flatnonzero(cls == int(SemanticClass.PEDESTRIAN))
+        lwh[walkers, 0] = walker_length_m(lwh[walkers, 2])  # about the same centre: the stride fore and aft
         velocity = heading_vectors(yaw, pitch) * speed[:, None]
         track = np.array([self._track_id(s) for s in ids], dtype=np.uint32)
         parked = np.array([s in self._parked for s in ids], dtype=bool)
@@ -698,7 +702,8 @@ class Traffic:
         sumo_signals = np.array([r[4] for r in rows], dtype=np.int64)
         sumo_signals[~self._turn_signal_shown(rows)] &= ~(SUMO_BLINKER_LEFT | SUMO_BLINKER_RIGHT)
         lamps = lamps_of(sumo_signals, np.isin(cls, LAMPED_CLASSES), parked, self._time(), track)
-        agents = Agents(track, cls, center, lwh, yaw, pitch, velocity, parked, lamps)
+        gait = self._gait_cycles(track, walkers, speed, lwh[:, 2])
+        agents = Agents(track, cls, center, lwh, yaw, pitch, velocity, parked, lamps, gait_cycles=gait)
         agents = agents.joined(
             self._trailers_of([ids[i] for i in pulling], agents.select(np.asarray(pulling, np.intp)), front[pulling])
         )
@@ -717,6 +722,27 @@ class Traffic:
         hazards = () if self._hazards is None else self._hazards.active(self._track_id, self._ego)
         return WorldState(self._time(), agents.select(~is_ego), ego, self._scene_cut, signals, lane, ahead, hazards,
                           self._ego_collided)  # fmt: skip
+
+    def _gait_cycles(
+        self, track: npt.NDArray[np.uint32], walkers: npt.NDArray[np.intp], speed: npt.NDArray[np.float64],
+        height: npt.NDArray[np.float64],
+    ) -> npt.NDArray[np.float64]:  # fmt: skip
+        """``(N,)`` the gait cycles each walker (rows ``walkers``) has walked: since its last read,
+        its speed over its stride at that speed (:func:`sensors.bodies.stride_m`) times the time
+        between; a walker read for the first time starts at a phase of its own (from its track
+        id); NaN for the others."""
+        now = self._time()
+        out = np.full(track.shape[0], np.nan)
+        for i in walkers.tolist():
+            tid = int(track[i])
+            last = self._gait.get(tid)
+            if last is None:
+                cycles = (tid * 0.6180339887) % 1.0
+            else:
+                cycles = last[1] + float(speed[i]) * (now - last[0]) / stride_m(float(height[i]), float(speed[i]))
+            self._gait[tid] = (now, cycles)
+            out[i] = cycles
+        return out
 
     def _yaw_rates(self, track: npt.NDArray[np.uint32], yaw: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Each agent's rate of turn: its heading's change since the last read (wrapped to +-pi)

@@ -183,6 +183,44 @@ def test_agents_read_around_the_ego_equal_those_found_among_all_agents():
     assert kinds["parked"] > 0 and kinds["pedestrian"] > 0, kinds
 
 
+def test_walkers_boxes_hold_their_stride_about_sumos_own_and_their_gait_follows_the_distance_walked():
+    """SUMO keeps its walkers' lengths (0.3-0.5 m, its draws and traffic unchanged); their
+    labelled boxes are lengthened fore and aft about the centre of SUMO's (half its length behind
+    the front SUMO reports) to hold their stride, and their gait cycles grow by the distance
+    walked over the stride."""
+    import libsumo
+
+    from cosim.kinematics import front_bumper_to_center, sumo_angle_to_yaw
+    from sensors.bodies import stride_m, walker_length_m
+
+    with running("town05_crowded", "warmup_s=20", "hazards=[]") as (traffic, _):
+        last: dict[int, tuple[float, float]] = {}
+        seen = advanced = 0
+        for _ in range(5):
+            traffic.step()
+            state = traffic.world_state(everyone=True)
+            walkers = state.agents.select(state.agents.semantic_class == SemanticClass.PEDESTRIAN)
+            front = {tid: sid for sid, tid in traffic._track_ids.items()}
+            for i, tid in enumerate(walkers.instance_id.tolist()):
+                pid = front[tid]
+                sumo_length, h = libsumo.person.getLength(pid), float(walkers.lwh_m[i, 2])
+                assert 0.3 <= sumo_length <= 0.5
+                assert walkers.lwh_m[i, 0] == pytest.approx(float(walker_length_m(h)))
+                yaw = sumo_angle_to_yaw(np.array([libsumo.person.getAngle(pid)]))
+                pitch = np.radians([libsumo.person.getSlope(pid)])
+                front_m = libsumo.person.getPosition3D(pid)
+                centre = front_bumper_to_center(front_m, yaw, pitch, sumo_length, h)[0]  # of SUMO's own box
+                np.testing.assert_allclose(walkers.center_map_m[i], centre, atol=1e-9)
+                speed = float(np.linalg.norm(walkers.velocity_map_mps[i]))
+                if tid in last:
+                    step_s = libsumo.simulation.getDeltaT()
+                    assert walkers.gait_cycles[i] - last[tid][1] == pytest.approx(speed * step_s / stride_m(h, speed))
+                    advanced += speed > 0.2
+                last[tid] = (speed, float(walkers.gait_cycles[i]))
+                seen += 1
+        assert seen > 50 and advanced > 20, (seen, advanced)
+
+
 def test_vehicles_change_lanes_by_moving_across_not_by_jumping():
     """A lane change takes SUMO's continuous lane-change time: where a vehicle's lane index
     changes, its sideways position moves on by a step's worth (SUMO's default, a jump of a

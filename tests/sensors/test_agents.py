@@ -5,11 +5,24 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from cosim.demand import KINDS, PEDESTRIAN
+from cosim.demand import CHILD, KINDS, PEDESTRIAN
 from networks.classes import AGENT_CLASSES, SemanticClass
 from networks.geometry import SE3
 from sensors.agents import AGENT_LIFT_M, Agents, agent_meshes, body_keys, template_of
-from sensors.bodies import BODIES, GAIT_PHASES, STRIDE_M, body_of, pedestrian, pose_of
+from sensors.bodies import (
+    BODIES,
+    GAIT_PHASES,
+    PACES_MPS,
+    WALKER_LENGTH_PER_HEIGHT,
+    WALKER_POSES,
+    body_of,
+    foot_pose,
+    pedestrian,
+    pose_of,
+    step_m,
+    stride_m,
+    walker_length_m,
+)
 from sensors.lidar import Lidar, LidarSpec
 from sensors.parts import Part
 from sensors.pinhole import box_corners
@@ -59,9 +72,13 @@ def test_every_agent_class_has_body_types_inside_the_unit_box_in_every_pose() ->
 
 
 def test_body_types_touch_the_ground_and_the_roof_of_their_box() -> None:
-    for name, _pose, template in all_templates():
+    walkers = {b.name for b in BODIES[int(SemanticClass.PEDESTRIAN)]}
+    for name, pose, template in all_templates():
         assert template.unit_vertices[:, 2].min() == pytest.approx(-0.5), name
-        assert template.unit_vertices[:, 2].max() == pytest.approx(0.5), name
+        if name in walkers and pose > 0:  # walking, the hips ride lower while both feet are down
+            assert 0.46 <= template.unit_vertices[:, 2].max() <= 0.5, (name, pose)
+        else:
+            assert template.unit_vertices[:, 2].max() == pytest.approx(0.5), name
 
 
 def test_vehicles_have_the_parts_detectors_learn() -> None:
@@ -129,29 +146,92 @@ def test_every_body_type_lies_inside_its_box_over_its_class_size_range() -> None
         assert np.all(np.abs(local) <= boxes.lwh_m[i] / 2 + 1e-4)
 
 
-def test_a_walker_is_inside_its_box_at_every_gait_phase_and_stands_when_still() -> None:
-    n = 3 * GAIT_PHASES
-    along = (np.arange(n) + 0.5) * STRIDE_M / GAIT_PHASES  # walking along +x: every phase, three cycles
-    centre = np.column_stack([along, np.zeros(n), np.full(n, 0.875)])
-    velocity = np.tile([1.3, 0.0, 0.0], (n, 1))
+def test_a_walker_is_inside_its_box_at_every_gait_phase_and_pace_and_stands_when_still() -> None:
+    # walkers of every height and width the traffic draws (adults and children), in boxes as
+    # long as the traffic gives them, at every pace and gait phase, walking along +x
+    heights = [*np.linspace(*PEDESTRIAN.height_m, 4), *np.linspace(*CHILD.height_m, 3)]
+    widths = [*np.linspace(*PEDESTRIAN.width_m, 4), *np.linspace(*CHILD.width_m, 3)]
+    rows = [(h, w, pace, k) for h, w in zip(heights, widths, strict=True) for pace in PACES_MPS
+            for k in range(GAIT_PHASES)]  # fmt: skip
+    n = len(rows)
+    h = np.array([r[0] for r in rows])
     walkers = Agents(
-        np.full(n, 7, np.uint32),
+        np.arange(1, n + 1, dtype=np.uint32),
         np.full(n, int(SemanticClass.PEDESTRIAN), np.uint8),
-        centre,
-        np.tile([0.7, 0.6, 1.75], (n, 1)),
+        np.column_stack([np.arange(n) * 3.0, np.zeros(n), h / 2]),
+        np.column_stack([walker_length_m(h), [r[1] for r in rows], h]),
         np.zeros(n),
         np.zeros(n),
-        velocity,
+        np.column_stack([[r[2] for r in rows], np.zeros(n), np.zeros(n)]),
         np.zeros(n, bool),
+        gait_cycles=np.array([7 + (r[3] + 0.5) / GAIT_PHASES for r in rows]),
     )
     poses = body_keys(walkers)[:, 2]
-    assert sorted(set(poses.tolist())) == list(range(1, GAIT_PHASES + 1))
-    assert len({template_of(int(SemanticClass.PEDESTRIAN), 0, p).unit_vertices.tobytes() for p in poses}) == GAIT_PHASES
-    for i in range(n):
-        one = walkers.select(np.array([i]))
-        local = in_box_frame(one, 0, agent_meshes(one).vertices_m.astype(np.float64))
-        assert np.all(np.abs(local) <= one.lwh_m[0] / 2 + 1e-4)
+    assert sorted(set(poses.tolist())) == list(range(1, WALKER_POSES))  # every pace, every phase
+    templates = {template_of(int(SemanticClass.PEDESTRIAN), 0, p).unit_vertices.tobytes() for p in poses}
+    assert len(templates) == WALKER_POSES - 1
+    meshes = agent_meshes(walkers)
+    for i, inst in enumerate(walkers.instance_id):
+        vert_ids = np.unique(meshes.triangles[meshes.triangle_instance == inst])
+        local = in_box_frame(walkers, i, meshes.vertices_m[vert_ids].astype(np.float64))
+        assert np.all(np.abs(local) <= walkers.lwh_m[i] / 2 + 1e-4), rows[i]
     assert pose_of(int(SemanticClass.PEDESTRIAN), 0.05, 3.3) == 0  # standing still: the standing pose
+    assert pose_of(int(SemanticClass.PEDESTRIAN), 0.05, 3.3, 1.7, 2.4) == 0
+
+
+def test_a_walkers_box_holds_its_stride_and_its_body_keeps_its_proportions() -> None:
+    # the box's length is the body's reach fore and aft over every gait phase at the fastest
+    # pace, so a body scaled into it is neither squashed nor stretched along its heading
+    for i, body in enumerate(BODIES[int(SemanticClass.PEDESTRIAN)]):
+        pieces = [body.build(p).vertices for p in range(body.poses)]
+        lo, hi = np.min([v.min(axis=0) for v in pieces], axis=0), np.max([v.max(axis=0) for v in pieces], axis=0)
+        length, height = hi[0] - lo[0], hi[2] - lo[2]
+        assert length / height == pytest.approx(WALKER_LENGTH_PER_HEIGHT, abs=0.005), body.name
+        assert np.ptp(pieces[0][:, 0]) < 0.35  # standing: feet together, 0.3 m deep
+        assert body.lwh_m[0] == pytest.approx(WALKER_LENGTH_PER_HEIGHT * body.lwh_m[2], abs=0.01)
+        template = template_of(int(SemanticClass.PEDESTRIAN), i, 0)
+        assert np.ptp(template.unit_vertices[:, 0]) < 0.35  # the standing body fills a third of the box
+    # real walkers' boxes: nuScenes 0.73 m long on average, KITTI 0.8, Waymo 0.91 (standing ones included)
+    assert 0.85 <= float(walker_length_m(1.75)) <= 1.05
+
+
+def test_a_walkers_feet_keep_their_ground_and_step_as_far_as_its_height_and_speed_take_it() -> None:
+    # a foot on the ground moves back under the walker exactly as fast as the walker goes on,
+    # so the gait phase from the distance walked leaves no foot sliding; the step (heel to heel
+    # at heel strike) is 0.415 x the height at 1.34 m/s and grows as speed^0.42
+    for height, speed in ((1.75, 1.34), (1.6, 0.8), (1.2, 1.1), (1.9, 1.4)):
+        step = step_m(height, speed)
+        s = height / 1.75
+        if speed == 1.34 and height == 1.75:
+            assert step == pytest.approx(0.726, abs=0.001)
+        for u0, u1 in ((0.1, 0.35), (0.42, 0.58)):  # flat foot: the heel; rolling over: the toe
+            corner = (-0.06 * s, -0.07 * s) if u0 < 0.4 else (0.16 * s, -0.07 * s)
+            points = []
+            for u in (u0, u1):
+                x, z, pitch = foot_pose(u, step, s)
+                c, sn = np.cos(pitch), np.sin(pitch)
+                points.append((x + c * corner[0] - sn * corner[1], z + sn * corner[0] + c * corner[1]))
+            (xa, za), (xb, zb) = points
+            assert za == pytest.approx(0.0, abs=1e-9) and zb == pytest.approx(0.0, abs=1e-9)  # on the ground
+            assert xa - xb == pytest.approx(2 * step * (u1 - u0), abs=1e-9)  # back by the distance walked
+        front, rear = foot_pose(0.0, step, s)[0], foot_pose(0.5, step, s)[0]  # a heel strikes, the other rolls
+        assert abs(front + rear) < 0.03 * s  # the hips midway between the ankles
+        assert 0.85 * step < front - rear < step
+    assert stride_m(1.75, 1.7) == stride_m(1.75, 1.4)  # faster walkers: the fastest pace's steps
+    assert step_m(1.75, 0.8) / step_m(1.75, 1.34) == pytest.approx((0.8 / 1.34) ** 0.42)
+
+
+def test_a_walkers_legs_follow_the_gait_cycles_it_has_walked() -> None:
+    c = int(SemanticClass.PEDESTRIAN)
+    at = [pose_of(c, 1.34, 0.0, 1.75, cycles) for cycles in np.arange(16) / GAIT_PHASES + 3.01]
+    pace = PACES_MPS.index(1.4)
+    assert at == [1 + pace * GAIT_PHASES + k % GAIT_PHASES for k in range(16)]
+    # not counted: the phase from the distance along its heading over its stride
+    stride = stride_m(1.75, 1.34)
+    assert pose_of(c, 1.34, stride * (2 + 3.5 / GAIT_PHASES), 1.75) == 1 + pace * GAIT_PHASES + 3
+    slow = stride_m(1.75, 0.8) * 0.5 / GAIT_PHASES
+    assert pose_of(c, 0.8, slow, 1.75) == 1 + PACES_MPS.index(0.8) * GAIT_PHASES  # a slower pace, phase 0
+    assert pose_of(c, 0.3, 0.0, 1.75, 0.01) == 1  # the slowest pace, phase 0
 
 
 def test_body_type_fits_the_size_and_is_stable_over_a_track() -> None:
