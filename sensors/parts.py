@@ -92,8 +92,8 @@ MATERIALS: dict[Part, PartMaterial] = {
     # returns like a number plate.
     Part.SAFETY_ORANGE: PartMaterial((0.05, 0.3, 0.95), 0.25, 20.0, 0.0, 0.0, 0.5, 0.1),
     Part.RETRO_WHITE: PartMaterial((0.9, 0.9, 0.9), 0.3, 30.0, 0.0, 0.0, 0.95, 0.1),
-    Part.SAFETY_YELLOW: PartMaterial((0.05, 0.65, 0.92), 0.5, 50.0, 0.06, 0.0, 0.16, 1.0),  # body paint
-    Part.LIVERY: PartMaterial((0.9, 0.9, 0.9), 0.6, 60.0, 0.08, 0.0, 0.23, 1.0),  # as white body paint
+    Part.SAFETY_YELLOW: PartMaterial((0.05, 0.65, 0.92), 0.5, 50.0, 0.06, 0.0, 0.43, 1.0),  # body paint
+    Part.LIVERY: PartMaterial((0.9, 0.9, 0.9), 0.6, 60.0, 0.08, 0.0, 0.68, 1.0),  # as white body paint
     Part.BEACON: PartMaterial((0.75, 0.3, 0.05), 0.8, 120.0, 0.15, 0.0, 0.5, 0.5),  # blue polycarbonate
 }
 
@@ -180,18 +180,13 @@ def lidar_reflectivity(semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[
 
 # Paint at 905 nm follows its colour (white about 0.7, black and dark blue under 0.1: Velodyne
 # calibrated-reflectivity notes; Kashani et al. 2015): the LiDAR reflectivity of painted parts
-# is 0.05 + k x the mean of the instance's albedo, k 0.7 for cargo bodies' matte panels. A car's
-# clear-coated body paint returns less than its colour says: k 0.45 (white about 0.47), fitted
-# with the kitti reading's glossy lobe and echo (sensors.lidar.INTENSITY_RESPONSES) to the car
-# points of seven real KITTI scans (README, "LiDAR against real KITTI scans"; 0.7 put 16 % of
-# town03_day's car points in 0.6-0.7 against the real 1 % with the wider lobe then, 0.2 left the
-# brightest tenth of town10_crowded's and town05_crowded's at 0.33-0.37 against the real 0.45).
-# The clear coat mirrors away what it does not send straight back, and metallic flakes scatter
-# forwards (glossy, so the kitti reading turns the paint's return down off the normal:
-# IntensityResponse.gloss_exponent).
+# (body paint, cargo panels; livery and construction yellow in the table likewise) is 0.05 + 0.7 x
+# the mean of the instance's albedo. That clear-coated body paint mostly reads 0 in real KITTI
+# scans is the clear coat's doing, not its colour's: it mirrors the beam away unless it glints
+# back (the kitti reading, sensors.lidar.IntensityResponse.glint_chance).
 PAINT_REFLECTIVITY_FLOOR = 0.05
-PAINT_REFLECTIVITY_PER_ALBEDO = {Part.PAINT: 0.45, Part.CARGO: 0.7}
-COLOURED_BY_PAINT = tuple(PAINT_REFLECTIVITY_PER_ALBEDO)
+PAINT_REFLECTIVITY_PER_ALBEDO = 0.7
+COLOURED_BY_PAINT = (Part.PAINT, Part.CARGO)
 RETRO_PARTS = (Part.PLATE, Part.RETRO_WHITE)
 
 
@@ -205,9 +200,7 @@ def lidar_reflectance(
     painted = np.flatnonzero(np.isin(part, COLOURED_BY_PAINT))
     if painted.size:
         albedo = part_albedo(part[painted], instance_id[painted]).mean(axis=1)
-        per_albedo = np.where(part[painted] == Part.PAINT, PAINT_REFLECTIVITY_PER_ALBEDO[Part.PAINT],
-                              PAINT_REFLECTIVITY_PER_ALBEDO[Part.CARGO]).astype(np.float32)  # fmt: skip
-        out[painted] = PAINT_REFLECTIVITY_FLOOR + per_albedo * albedo
+        out[painted] = PAINT_REFLECTIVITY_FLOOR + PAINT_REFLECTIVITY_PER_ALBEDO * albedo
     retro = np.where(part > 0, np.isin(part, RETRO_PARTS), RETRO_BY_CLASS[semantic_class])
     return out, retro
 
