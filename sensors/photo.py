@@ -160,14 +160,12 @@ def to_linear(bgr_255: tuple[float, float, float] | F32) -> F32:
 
 def sky_linear(weather: Weather, dirs: F32) -> F32:
     """``(N, 3)`` sky radiance (linear) along unit map-frame ``dirs``, with clouds."""
-    t = np.sqrt(np.clip(dirs[:, 2], 0.0, 1.0))[:, None]
     horizon, zenith = to_linear(weather.sky_horizon_bgr), to_linear(weather.sky_zenith_bgr)
-    sky = horizon + t * (zenith - horizon)
-    up = np.flatnonzero(dirs[:, 2] > 0)  # clouds lie above the horizon: below it their cover is 0
-    cover = np.zeros((len(dirs), 1), np.float32)
-    cover[up] = textures.clouds(dirs[up])[:, None] * np.float32(0.85) * np.clip(dirs[up, 2:3] * 6.0, 0.0, 1.0)
-    cloud = horizon * np.float32(1.05) + np.float32(0.02)
-    return np.asarray(sky + cover * (cloud - sky), np.float32)
+    return kernels.sky(np.ascontiguousarray(dirs, np.float32), horizon, zenith, _CLOUD_SEEDS, np.float32(1.875))
+
+
+_CLOUD_SEEDS = np.array([textures._seed32(61 + o) for o in range(4)], np.uint64)
+"""The clouds' four octaves of :func:`sensors.textures.fbm` (seed 61, as :func:`sensors.textures.clouds`)."""
 
 
 _GROUND = {

@@ -8,6 +8,8 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
+from sensors.textures import _noise_at
+
 F32 = npt.NDArray[np.float32]
 
 
@@ -326,3 +328,33 @@ def contact_pairs(
                         m += 1
         total = m
     return pt, box, ax, ay
+
+
+@njit(cache=True, nogil=True)
+def sky(
+    dirs: F32, horizon: F32, zenith: F32, seeds32: npt.NDArray[np.uint64], norm: np.float32
+) -> F32:  # pragma: no cover - compiled
+    """``(N, 3)`` :func:`sensors.photo.sky_linear` along unit ``dirs``: the gradient from
+    ``horizon`` to ``zenith`` and the clouds (:func:`sensors.textures.clouds`: fractal noise of
+    ``seeds32``' octaves, summed weights ``norm``) above the horizon, in their float32 order."""
+    out = np.empty((dirs.shape[0], 3), np.float32)
+    zero, one = np.float32(0.0), np.float32(1.0)
+    for i in range(dirs.shape[0]):
+        dz = dirs[i, 2]
+        t = np.sqrt(min(max(dz, zero), one))
+        cover = zero
+        if dz > 0:  # clouds lie above the horizon
+            up = max(dz, np.float32(0.02))
+            x, y = (dirs[i, 0] / up) * np.float32(2.0), (dirs[i, 1] / up) * np.float32(2.0)
+            total, amp, f = zero, 1.0, one
+            for o in range(seeds32.shape[0]):
+                total += np.float32(amp) * _noise_at(x * f, y * f, seeds32[o])
+                amp *= 0.5
+                f *= np.float32(2.0)
+            c = min(max((total / norm - np.float32(0.45)) * np.float32(2.5), zero), one)
+            cover = c * np.float32(0.85) * min(max(dz * np.float32(6.0), zero), one)
+        for k in range(3):
+            s = horizon[k] + t * (zenith[k] - horizon[k])
+            cloud = horizon[k] * np.float32(1.05) + np.float32(0.02)
+            out[i, k] = s + cover * (cloud - s)
+    return out
