@@ -50,11 +50,13 @@ def test_a_stopped_run_keeps_every_frame_it_wrote_in_every_output(tmp_path, sig,
     out = tmp_path / "out"
     proc = start(out, 2000)
     seconds, err = stop_after(proc, out, 25, sig)
-    assert proc.returncode == code and seconds < 10
+    # it stops at the next frame (25 kept on an idle machine, in about 3 s with the summary);
+    # the time is only a guard against a hang, far above what a loaded machine takes (11 s)
+    assert proc.returncode == code and seconds < 60
     line = err.strip().splitlines()[-1]
     manifest = json.loads((out / "manifest.json").read_text())
     kept = manifest["frames"]
-    assert manifest["complete"] is False and kept >= 25
+    assert manifest["complete"] is False and 25 <= kept <= 30
     assert line.startswith(f"{word}") and f"keeps frames 0 to {kept - 1}" in line and "--resume" in line
     with (out / "run.mcap").open("rb") as stream:  # closed properly: the seeking reader reads its summary
         times = {m.log_time for _, _, m in make_reader(stream).iter_messages(topics=["/gt/labels"])}
