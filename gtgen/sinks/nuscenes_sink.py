@@ -174,13 +174,14 @@ class NuscenesSink:
         map_SE3_ego: SE3 = record.map_SE3_ego
         rotations = map_SE3_ego.rotation @ o.rotations()
         centre = map_SE3_ego.transform_from(o.center_ego_m) + rotations[:, :, 2] * EXPORT_MARGIN_M
+        lwh = o.lwh_m + np.array([2, 2, 0]) * EXPORT_MARGIN_M
         speed = np.linalg.norm((o.velocity_ego_mps + ego_velocity_ego)[:, :2], axis=1)
         out, control = [], []
         states = record.signals.state_of()
         subtypes = dict(zip(record.signals.track_id.tolist(), record.signals.subtype, strict=True))
         bodies = body_subtypes(o.semantic_class, o.lwh_m, o.track_id)
         for i in range(len(o)):
-            length, width, height = (float(v) for v in o.lwh_m[i] + np.array([2, 2, 0]) * EXPORT_MARGIN_M)
+            length, width, height = (float(v) for v in lwh[i])
             box = {
                 "translation": [round(float(v), 6) for v in centre[i]],
                 "size": [round(width, 6), round(length, 6), round(height, 6)],
