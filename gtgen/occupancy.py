@@ -213,9 +213,8 @@ def occupancy_frame(
         starts, ends = lidar_segments(lidar, ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64))
         walk_voxels(grid, starts, ends, mask_lidar)
     mask_camera = np.zeros(grid.size, np.bool_)
-    for camera, distance_m in cameras:
-        starts, ends = camera_segments(spec, camera, distance_m)
-        walk_voxels(grid, starts, ends, mask_camera)
+    for camera, distance_m in cameras:  # the walks of the rig's fixed rays, made once, as far as each reached
+        voxel_kernels.mark_walked(*_camera_walks(spec, camera), camera_reach_m(camera, distance_m), mask_camera)
     velocity = agents.velocity_map_mps @ ego_SE3_map.rotation.T
     relative = velocity - ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64)
     up = ego_SE3_map.rotation[:, 2]  # the map's +z in the ego's axes: turning is about it
@@ -478,13 +477,31 @@ def camera_rays(spec: OccupancyGrid, camera: CameraSpec, map_SE3_ego: SE3) -> np
     return sensor_rays(map_SE3_ego.compose(camera.ego_SE3_sensor), camera_directions(spec, camera))
 
 
+def camera_reach_m(camera: CameraSpec, distance_m: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """How far each grid-resolution ray of ``camera`` travelled (inf: out of the grid, at most the
+    camera's range)."""
+    return np.asarray(np.minimum(np.nan_to_num(distance_m, posinf=camera.range_m), camera.range_m), np.float64)
+
+
 def camera_segments(
     spec: OccupancyGrid, camera: CameraSpec, distance_m: npt.NDArray[np.float64]
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Ego-frame segments of the camera's grid-resolution rays, each as far as it travelled
-    (inf: out of the grid, at most the camera's range)."""
+    (:func:`camera_reach_m`)."""
     ego_SE3_cam = camera.ego_SE3_sensor
     dirs = _transform(SE3(ego_SE3_cam.rotation, np.zeros(3)), camera_directions(spec, camera))
-    reach = np.minimum(np.nan_to_num(distance_m, posinf=camera.range_m), camera.range_m)
     starts = np.broadcast_to(ego_SE3_cam.translation, dirs.shape)
-    return starts, starts + dirs * reach[:, None]
+    return starts, starts + dirs * camera_reach_m(camera, distance_m)[:, None]
+
+
+@functools.lru_cache(maxsize=16)
+def _camera_walks(
+    spec: OccupancyGrid, camera: CameraSpec
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int32], npt.NDArray[np.float64]]:
+    """The voxel walks of the camera's grid-resolution rays over its whole range, with the distance
+    at which each ray enters each voxel (:func:`~gtgen.voxel_kernels.walk_steps`): the camera is
+    fixed on the ego and the grid lies in the ego frame, so they are the same every frame."""
+    grid = spec.grid
+    starts, ends = camera_segments(spec, camera, np.full(camera_directions(spec, camera).shape[0], np.inf))
+    lower = np.asarray(grid.lower_m, np.float64)
+    return voxel_kernels.walk_steps(np.ascontiguousarray(starts), ends, lower, grid.voxel_m, *grid.shape)

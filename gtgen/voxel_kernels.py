@@ -142,6 +142,33 @@ def _setup(s: float, d: float, t0: float, n: int) -> tuple[int, int, float, floa
     return voxel, 0, math.inf, math.inf
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _clip_walk(
+    s_m: npt.NDArray[np.float64],
+    e_m: npt.NDArray[np.float64],
+    lower_m: npt.NDArray[np.float64],
+    voxel_m: float,
+    nx: int,
+    ny: int,
+    nz: int,
+) -> tuple[float, float, float, float, float, float, float, float]:  # pragma: no cover - compiled
+    """One segment ``s_m -> e_m`` (metres) in grid coordinates (:meth:`VoxelGrid.to_grid`) and its
+    parameters ``t0, t1`` clipped to the grid (``_clip_to_box``; ``not t0 < t1``: it misses)."""
+    s0, s1, s2 = (s_m[0] - lower_m[0]) / voxel_m, (s_m[1] - lower_m[1]) / voxel_m, (s_m[2] - lower_m[2]) / voxel_m
+    e0, e1, e2 = (e_m[0] - lower_m[0]) / voxel_m, (e_m[1] - lower_m[1]) / voxel_m, (e_m[2] - lower_m[2]) / voxel_m
+    lower_t, upper_t = -math.inf, math.inf
+    for a in range(3):
+        sa = s0 if a == 0 else (s1 if a == 1 else s2)
+        da = (e0 if a == 0 else (e1 if a == 1 else e2)) - sa
+        upper = float(nx if a == 0 else (ny if a == 1 else nz))
+        if da != 0:
+            ta, tb = (0.0 - sa) / da, (upper - sa) / da
+            lower_t, upper_t = max(lower_t, min(ta, tb)), min(upper_t, max(ta, tb))
+        elif not (sa >= 0 and sa <= upper):
+            lower_t, upper_t = math.inf, -math.inf
+    return s0, s1, s2, e0, e1, e2, max(lower_t, 0.0), min(upper_t, 1.0)
+
+
 @njit(cache=True, nogil=True)
 def walk(
     s_m: npt.NDArray[np.float64],
@@ -155,42 +182,112 @@ def walk(
 ) -> None:  # pragma: no cover - compiled
     """Set ``out`` (flat) at every voxel the segments ``s_m -> e_m`` (``(N, 3)``, the grid's frame,
     metres; its lowest corner ``lower_m``) cross: :meth:`gtgen.voxels.SegmentWalk.of` and
-    :func:`gtgen.voxels.walk_segments` in one loop."""
-    upper = (float(nx), float(ny), float(nz))
-    s = np.empty((1, 3))
-    e = np.empty((1, 3))
+    :func:`gtgen.voxels.walk_segments` in one loop (the flat index stepped by each axis's stride,
+    the steps left before the grid's edge counted down along each axis)."""
+    big = nx + ny + nz + 1
     for q in range(s_m.shape[0]):
-        r = 0
-        for a in range(3):  # grid coordinates (VoxelGrid.to_grid)
-            s[0, a] = (s_m[q, a] - lower_m[a]) / voxel_m
-            e[0, a] = (e_m[q, a] - lower_m[a]) / voxel_m
-        lower_t, upper_t = -math.inf, math.inf  # _clip_to_box
-        for a in range(3):
-            sa, da = s[r, a], e[r, a] - s[r, a]
-            if da != 0:
-                ta, tb = (0.0 - sa) / da, (upper[a] - sa) / da
-                lower_t, upper_t = max(lower_t, min(ta, tb)), min(upper_t, max(ta, tb))
-            elif not (sa >= 0 and sa <= upper[a]):
-                lower_t, upper_t = math.inf, -math.inf
-        t0, t1 = max(lower_t, 0.0), min(upper_t, 1.0)
+        s0, s1, s2, e0, e1, e2, t0, t1 = _clip_walk(s_m[q], e_m[q], lower_m, voxel_m, nx, ny, nz)
         if not t0 < t1:
             continue
-        x, sx, tx, dx = _setup(s[r, 0], e[r, 0] - s[r, 0], t0, nx)
-        y, sy, ty, dy = _setup(s[r, 1], e[r, 1] - s[r, 1], t0, ny)
-        z, sz, tz, dz = _setup(s[r, 2], e[r, 2] - s[r, 2], t0, nz)
+        x, sx, tx, dx = _setup(s0, e0 - s0, t0, nx)
+        y, sy, ty, dy = _setup(s1, e1 - s1, t0, ny)
+        z, sz, tz, dz = _setup(s2, e2 - s2, t0, nz)
+        cx = (nx - 1 - x) if sx > 0 else (x if sx < 0 else big)
+        cy = (ny - 1 - y) if sy > 0 else (y if sy < 0 else big)
+        cz = (nz - 1 - z) if sz > 0 else (z if sz < 0 else big)
+        fx, fy = sx * ny * nz, sy * nz
+        v = (x * ny + y) * nz + z
         while True:
-            out[(x * ny + y) * nz + z] = True
+            out[v] = True
             if tx <= ty and tx <= tz:  # the first of the nearest faces, as numpy's argmin
-                t_min, x, tx = tx, x + sx, tx + dx
-                inside = 0 <= x < nx
+                if not (tx <= t1 and cx > 0):
+                    break
+                v, tx, cx = v + fx, tx + dx, cx - 1
             elif ty <= tz:
-                t_min, y, ty = ty, y + sy, ty + dy
-                inside = 0 <= y < ny
+                if not (ty <= t1 and cy > 0):
+                    break
+                v, ty, cy = v + fy, ty + dy, cy - 1
             else:
-                t_min, z, tz = tz, z + sz, tz + dz
-                inside = 0 <= z < nz
-            if not (t_min <= t1 and inside):
+                if not (tz <= t1 and cz > 0):
+                    break
+                v, tz, cz = v + sz, tz + dz, cz - 1
+
+
+@njit(cache=True, nogil=True)
+def walk_steps(
+    s_m: npt.NDArray[np.float64],
+    e_m: npt.NDArray[np.float64],
+    lower_m: npt.NDArray[np.float64],
+    voxel_m: float,
+    nx: int,
+    ny: int,
+    nz: int,
+) -> tuple[I64, npt.NDArray[np.int32], npt.NDArray[np.float64]]:  # pragma: no cover - compiled
+    """The voxels of :func:`walk` one segment at a time, in order: ``(first, flat, entry)``, segment
+    ``q``'s voxels ``flat[first[q]:first[q + 1]]`` and the distance (metres from its start) at
+    which the segment enters each (its first voxel: where it enters the grid)."""
+    first = np.zeros(s_m.shape[0] + 1, np.int64)
+    flat = np.empty(1024, np.int32)
+    entry = np.empty(1024, np.float64)
+    m = 0
+    for q in range(s_m.shape[0]):
+        first[q] = m
+        s0, s1, s2, e0, e1, e2, t0, t1 = _clip_walk(s_m[q], e_m[q], lower_m, voxel_m, nx, ny, nz)
+        if t0 < t1:
+            d0, d1, d2 = e_m[q, 0] - s_m[q, 0], e_m[q, 1] - s_m[q, 1], e_m[q, 2] - s_m[q, 2]
+            length = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            x, sx, tx, dx = _setup(s0, e0 - s0, t0, nx)
+            y, sy, ty, dy = _setup(s1, e1 - s1, t0, ny)
+            z, sz, tz, dz = _setup(s2, e2 - s2, t0, nz)
+            t = t0
+            while True:
+                if m >= flat.shape[0]:
+                    grown = np.empty(2 * m, np.int32)
+                    grown[:m] = flat[:m]
+                    flat = grown
+                    grown_t = np.empty(2 * m, np.float64)
+                    grown_t[:m] = entry[:m]
+                    entry = grown_t
+                flat[m], entry[m] = (x * ny + y) * nz + z, t * length
+                m += 1
+                if tx <= ty and tx <= tz:
+                    t, x, tx = tx, x + sx, tx + dx
+                    inside = 0 <= x < nx
+                elif ty <= tz:
+                    t, y, ty = ty, y + sy, ty + dy
+                    inside = 0 <= y < ny
+                else:
+                    t, z, tz = tz, z + sz, tz + dz
+                    inside = 0 <= z < nz
+                if not (t <= t1 and inside):
+                    break
+    first[s_m.shape[0]] = m
+    return first, flat[:m].copy(), entry[:m].copy()
+
+
+@njit(cache=True, nogil=True)
+def mark_walked(
+    first: I64,
+    flat: npt.NDArray[np.int32],
+    entry: npt.NDArray[np.float64],
+    reach: npt.NDArray[np.float64],
+    out: npt.NDArray[np.bool_],
+) -> None:  # pragma: no cover - compiled
+    """Set ``out`` (flat) at the voxels of :func:`walk_steps`' segments as far as each reaches,
+    ``reach: (N,)`` metres from its start: a segment's first voxel where it starts in it (entry 0) or
+    enters it before ``reach``, each further voxel it enters within ``reach`` (``reach >= 0``; 0: a
+    point, in no voxel but the first, as :func:`walk` has it)."""
+    for q in range(first.shape[0] - 1):
+        a, b = first[q], first[q + 1]
+        if a == b or not (entry[a] == 0.0 or entry[a] < reach[q]):
+            continue
+        out[flat[a]] = True
+        if reach[q] == 0.0:
+            continue
+        for n in range(a + 1, b):
+            if entry[n] > reach[q]:
                 break
+            out[flat[n]] = True
 
 
 @njit(cache=True, nogil=True)
