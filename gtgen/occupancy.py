@@ -15,7 +15,8 @@ z -1..5.4 m, 200 x 200 x 16). A voxel is occupied by every volume or surface tha
   and outside change only across a solid's wall, top or floor (each prism closed by its top moved
   down to its walls' foot), so the centres of face-neighbouring voxels none of these meets lie
   alike: a few centres are cast per part of such voxels (runs along rows joined across
-  neighbouring rows), and the voxels only a floor meets one by one; a voxel meets a solid iff it
+  neighbouring rows); a voxel only a floor meets joins the part of the voxel above or below it
+  where no floor lies between their centres, else is cast on its own; a voxel meets a solid iff it
   meets its surface or its centre is inside, so this is exact;
 - the static world's surfaces (roads, sidewalks, curbs, crossings, markings, terrain): the
   voxels their triangles meet (:func:`gtgen.voxels.triangle_voxels`, exact).
@@ -390,21 +391,29 @@ def _solid_insides(
     such voxels along each row (ego x), joined where neighbouring rows' runs share an x, form parts
     all inside or all outside (:func:`~gtgen.voxel_kernels.solid_runs`), a few centres of each part
     are cast (:meth:`Solids.inside_parts`: each run takes the class of the top over its first
-    centre), and each voxel that only a floor meets on its own (:meth:`Solids.inside`). Voxels a
-    solid's surface meets are occupied by it anyway."""
+    centre); a voxel that only a floor meets lies as the free voxel above it (or below it) does
+    where no floor triangle in it lies between their centres
+    (:func:`~gtgen.voxel_kernels.floor_joins`: it joins that voxel's part, not cast itself), else
+    it is cast on its own (:meth:`Solids.inside`). Voxels a solid's surface meets are occupied by
+    it anyway."""
     ego_SE3_map = map_SE3_ego.inverse()
     lo, hi = np.asarray(grid.lower_m), np.asarray(grid.upper_m)
     reach = float(np.linalg.norm(hi - lo)) / 2.0
     floors = solids.floors_near(map_SE3_ego.transform_from((lo + hi) / 2.0), reach)
-    floor = np.zeros(0, np.int64)
+    floor, floor_source = np.zeros(0, np.int64), np.zeros(0, np.int64)
+    floor_ego = _transform(ego_SE3_map, floors.reshape(-1, 3)).reshape(-1, 3, 3)
     if floors.shape[0]:
-        floor = triangle_voxels(grid, _transform(ego_SE3_map, floors.reshape(-1, 3)).reshape(-1, 3, 3))[0]
+        floor, floor_source = triangle_voxels(grid, floor_ego)
+        by_voxel = np.argsort(floor, kind="stable")
+        floor, floor_source = floor[by_voxel], floor_source[by_voxel]
     kind, ijk, part = voxel_kernels.solid_runs(surface.astype(np.int64), floor, *grid.shape)
-    centers = _transform(map_SE3_ego, np.asarray(grid.lower_m) + (ijk + 0.5) * grid.voxel_m)
+    lower = np.asarray(grid.lower_m, np.float64)
+    join = voxel_kernels.floor_joins(kind, ijk, part, floor, floor_source, floor_ego, lower, grid.voxel_m, *grid.shape)
+    centers = _transform(map_SE3_ego, lower + (ijk + 0.5) * grid.voxel_m)
     cls = np.zeros(ijk.shape[0], np.uint8)
-    alone = part < 0
+    alone = (part < 0) & (join < 0)
     cls[alone] = solids.inside(centers[alone])
-    cls[~alone] = solids.inside_parts(centers[~alone], part[~alone])
+    cls[~alone] = solids.inside_parts(centers[~alone], np.maximum(part, join)[~alone], part[~alone] >= 0)
     return voxel_kernels.solid_fill(kind, cls, *grid.shape)
 
 

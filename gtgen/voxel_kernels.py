@@ -748,3 +748,85 @@ def shared_keep(
         mine = occ[entries[q]] == chosen[local[q]]
         keep[entries[q]] = mine or not present[local[q]]
     return keep
+
+
+@njit(cache=True, nogil=True)
+def floor_joins(
+    kind: npt.NDArray[np.int8],
+    ijk: I64,
+    part: I64,
+    floor_flat: I64,
+    floor_source: I64,
+    floor_m: npt.NDArray[np.float64],
+    lower_m: npt.NDArray[np.float64],
+    voxel_m: float,
+    nx: int,
+    ny: int,
+    nz: int,
+) -> I64:  # pragma: no cover - compiled
+    """For each voxel to cast of :func:`solid_runs` (``kind``, ``ijk``, ``part``) that only a floor
+    meets, the part of the voxel above it (else below it) where that voxel is free of every
+    surface and floor and no floor triangle that meets this voxel (``floor_flat``, ascending,
+    triangle ``floor_m[floor_source]`` in the grid's frame, metres) lies between the two voxels' centres
+    (both centres clearly on one side of its plane, farther than a ten-millionth of a voxel from
+    it): then nothing parts the two centres and they lie alike. ``-1``: none such (cast it), or
+    not a floor-only voxel. A free voxel's part is that of its run's first voxel, the last voxel
+    to cast in its row at or before it."""
+    count = ijk.shape[0]
+    rows = ny * nz
+    row_first = np.zeros(rows + 1, np.int64)  # the voxels to cast of row (j, k): row_first[r]:row_first[r + 1]
+    for t in range(count):
+        row_first[ijk[t, 1] * nz + ijk[t, 2] + 1] += 1
+    for r in range(rows):
+        row_first[r + 1] += row_first[r]
+    by_voxel = floor_flat
+    out = np.full(count, -1, np.int64)
+    for t in range(count):
+        if part[t] >= 0:
+            continue
+        i, j, k = ijk[t, 0], ijk[t, 1], ijk[t, 2]
+        v = (i * ny + j) * nz + k
+        lo, hi = 0, by_voxel.shape[0]  # the floor entries of v: by_voxel[lo:hi]
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if by_voxel[mid] < v:
+                lo = mid + 1
+            else:
+                hi = mid
+        hi = lo
+        while hi < by_voxel.shape[0] and by_voxel[hi] == v:
+            hi += 1
+        for dk in (1, -1):
+            if not 0 <= k + dk < nz or kind[v + dk] != 0:
+                continue
+            apart = False
+            for n in range(lo, hi):
+                f = floor_m[floor_source[n]]
+                a0, a1, a2 = (
+                    (f[0, 0] - lower_m[0]) / voxel_m,
+                    (f[0, 1] - lower_m[1]) / voxel_m,
+                    (f[0, 2] - lower_m[2]) / voxel_m,
+                )
+                u0, u1, u2 = (f[1, 0] - f[0, 0]) / voxel_m, (f[1, 1] - f[0, 1]) / voxel_m, (f[1, 2] - f[0, 2]) / voxel_m
+                w0, w1, w2 = (f[2, 0] - f[0, 0]) / voxel_m, (f[2, 1] - f[0, 1]) / voxel_m, (f[2, 2] - f[0, 2]) / voxel_m
+                n0, n1, n2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
+                size = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+                here = n0 * (i + 0.5 - a0) + n1 * (j + 0.5 - a1) + n2 * (k + 0.5 - a2)
+                there = here + n2 * dk
+                margin = 1e-7 * size
+                if not (size > 0.0 and ((here > margin and there > margin) or (here < -margin and there < -margin))):
+                    apart = True
+                    break
+            if apart:
+                continue
+            r = j * nz + k + dk
+            a, b = row_first[r], row_first[r + 1]  # the last voxel to cast at or before i: its run's first
+            while b - a > 1:
+                mid = (a + b) // 2
+                if ijk[mid, 0] <= i:
+                    a = mid
+                else:
+                    b = mid
+            out[t] = part[a]
+            break
+    return out

@@ -109,12 +109,17 @@ class Solids:
         out[odd] = True
         return out
 
-    def inside_parts(self, xyz_map_m: npt.NDArray[np.float64], part: npt.NDArray[np.int64]) -> npt.NDArray[np.uint8]:
+    def inside_parts(
+        self,
+        xyz_map_m: npt.NDArray[np.float64],
+        part: npt.NDArray[np.int64],
+        castable: npt.NDArray[np.bool_] | None = None,
+    ) -> npt.NDArray[np.uint8]:
         """:meth:`inside` of points known to lie alike in parts: ``part: (N,)`` (from 0) joins points
         that no solid's surface parts (all of one part lie inside the same solids or outside), so
         only a few points of each part are cast (up to :data:`PART_CASTS`, the part inside where
-        most of them are); each point under a top (see :meth:`inside`) of a part inside takes the
-        class of the highest top over it."""
+        most of them are; only those ``castable`` marks, if given); each point under a top (see
+        :meth:`inside`) of a part inside takes the class of the highest top over it."""
         out = np.zeros(xyz_map_m.shape[0], np.uint8)
         if self._tops.shape[0] == 0 or xyz_map_m.shape[0] == 0:
             return out
@@ -122,7 +127,8 @@ class Solids:
         candidate = np.flatnonzero(xyz_map_m[:, 2] <= top_z)
         if candidate.size == 0:
             return out
-        order = candidate[np.argsort(part[candidate], kind="stable")]
+        pool = candidate if castable is None else candidate[castable[candidate]]
+        order = pool[np.argsort(part[pool], kind="stable")]
         groups = part[order]
         first = np.searchsorted(groups, groups, side="left")
         cast = order[np.arange(order.shape[0]) - first < PART_CASTS]  # the first few of each part
