@@ -507,10 +507,13 @@ def camera_segments(
 def _camera_walks(
     spec: OccupancyGrid, camera: CameraSpec
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int32], npt.NDArray[np.float64]]:
-    """The voxel walks of the camera's grid-resolution rays over its whole range, with the distance
-    at which each ray enters each voxel (:func:`~gtgen.voxel_kernels.walk_steps`): the camera is
-    fixed on the ego and the grid lies in the ego frame, so they are the same every frame."""
+    """The voxel walks of the camera's grid-resolution rays over its whole range, with the reach
+    (:func:`camera_reach_m`) at which each ray enters each voxel: its ``t`` along the whole range
+    (:func:`~gtgen.voxel_kernels.walk_steps`) times the range, as the ray's end is its direction
+    times its reach. The camera is fixed on the ego and the grid lies in the ego frame, so they are
+    the same every frame."""
     grid = spec.grid
     starts, ends = camera_segments(spec, camera, np.full(camera_directions(spec, camera).shape[0], np.inf))
     lower = np.asarray(grid.lower_m, np.float64)
-    return voxel_kernels.walk_steps(np.ascontiguousarray(starts), ends, lower, grid.voxel_m, *grid.shape)
+    first, flat, t = voxel_kernels.walk_steps(np.ascontiguousarray(starts), ends, lower, grid.voxel_m, *grid.shape)
+    return first, flat, t * camera.range_m

@@ -224,8 +224,8 @@ def walk_steps(
     nz: int,
 ) -> tuple[I64, npt.NDArray[np.int32], npt.NDArray[np.float64]]:  # pragma: no cover - compiled
     """The voxels of :func:`walk` one segment at a time, in order: ``(first, flat, entry)``, segment
-    ``q``'s voxels ``flat[first[q]:first[q + 1]]`` and the distance (metres from its start) at
-    which the segment enters each (its first voxel: where it enters the grid)."""
+    ``q``'s voxels ``flat[first[q]:first[q + 1]]`` and where along it the segment enters each (the
+    parameter ``t``, 0 at its start, 1 at its end; its first voxel: where it enters the grid)."""
     first = np.zeros(s_m.shape[0] + 1, np.int64)
     flat = np.empty(1024, np.int32)
     entry = np.empty(1024, np.float64)
@@ -234,8 +234,6 @@ def walk_steps(
         first[q] = m
         s0, s1, s2, e0, e1, e2, t0, t1 = _clip_walk(s_m[q], e_m[q], lower_m, voxel_m, nx, ny, nz)
         if t0 < t1:
-            d0, d1, d2 = e_m[q, 0] - s_m[q, 0], e_m[q, 1] - s_m[q, 1], e_m[q, 2] - s_m[q, 2]
-            length = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
             x, sx, tx, dx = _setup(s0, e0 - s0, t0, nx)
             y, sy, ty, dy = _setup(s1, e1 - s1, t0, ny)
             z, sz, tz, dz = _setup(s2, e2 - s2, t0, nz)
@@ -248,7 +246,7 @@ def walk_steps(
                     grown_t = np.empty(2 * m, np.float64)
                     grown_t[:m] = entry[:m]
                     entry = grown_t
-                flat[m], entry[m] = (x * ny + y) * nz + z, t * length
+                flat[m], entry[m] = (x * ny + y) * nz + z, t
                 m += 1
                 if tx <= ty and tx <= tz:
                     t, x, tx = tx, x + sx, tx + dx
@@ -274,9 +272,9 @@ def mark_walked(
     out: npt.NDArray[np.bool_],
 ) -> None:  # pragma: no cover - compiled
     """Set ``out`` (flat) at the voxels of :func:`walk_steps`' segments as far as each reaches,
-    ``reach: (N,)`` metres from its start: a segment's first voxel where it starts in it (entry 0) or
-    enters it before ``reach``, each further voxel it enters within ``reach`` (``reach >= 0``; 0: a
-    point, in no voxel but the first, as :func:`walk` has it)."""
+    ``reach: (N,)`` in the units of ``entry`` (its ``t`` scaled): a segment's first voxel where it
+    starts in it (entry 0) or enters it before ``reach``, each further voxel it enters within
+    ``reach`` (``reach >= 0``; 0: a point, in no voxel but the first, as :func:`walk` has it)."""
     for q in range(first.shape[0] - 1):
         a, b = first[q], first[q + 1]
         if a == b or not (entry[a] == 0.0 or entry[a] < reach[q]):

@@ -472,27 +472,34 @@ def test_a_timed_sweep_from_a_moving_ego_puts_every_static_return_in_an_occupied
     assert np.abs(ends - raw)[:, 0].max() > 0.3
 
 
-@pytest.mark.parametrize("pitch_deg", [0.0, 12.0])
-def test_the_cameras_walks_made_once_mark_what_each_frames_walks_mark(pitch_deg):
+@pytest.mark.parametrize(("preset", "pitch_deg"), [("occ3d", 0.0), ("occ3d", 12.0), ("openoccupancy", 5.0)])
+def test_the_cameras_walks_made_once_mark_what_each_frames_walks_mark(preset, pitch_deg):
     """The camera's grid-resolution rays are fixed on the ego: their walks over the whole range,
     made once and cut at each ray's distance, mark the voxels that walking each ray as far as it
-    travelled marks (distances anywhere, on voxel faces, 0, beyond the grid and none)."""
+    travelled marks (distances anywhere, on voxel faces as float32 casts give them, 0, beyond the
+    grid and none)."""
     from gtgen import voxel_kernels
     from gtgen.occupancy import _camera_walks, camera_directions, camera_reach_m, camera_segments
-    from gtgen.voxels import walk_voxels
+    from gtgen.voxels import PRESETS, walk_voxels
 
+    spec = PRESETS[preset]
+    grid = spec.grid
     camera = CameraSpec(shading="flat", mount_rpy_deg=(0.0, pitch_deg, 20.0))
     rng = np.random.default_rng(5)
-    count = camera_directions(SPEC, camera).shape[0]
+    count = camera_directions(spec, camera).shape[0]
+    starts, ends = camera_segments(spec, camera, np.ones(count))  # ends: the unit directions from the mount
+    direction = ends - starts
+    face = grid.lower_m[0] + grid.voxel_m * rng.integers(np.ceil(grid.to_grid(starts[:1])[0, 0]), grid.shape[0], count)
+    on_face = np.where(direction[:, 0] > 0.05, (face - starts[:, 0]) / direction[:, 0], 10.0).astype(np.float32)
     for distance in (
         rng.uniform(0.0, 60.0, count),
-        np.round(rng.uniform(0.0, 30.0, count) / SPEC.voxel_m) * SPEC.voxel_m,
+        on_face.astype(np.float64),
         np.where(rng.random(count) < 0.3, np.inf, rng.exponential(8.0, count)),
         np.zeros(count),
     ):
-        walked = np.zeros(SPEC.grid.size, np.bool_)
-        walk_voxels(SPEC.grid, *camera_segments(SPEC, camera, distance), walked)
-        cut = np.zeros(SPEC.grid.size, np.bool_)
-        voxel_kernels.mark_walked(*_camera_walks(SPEC, camera), camera_reach_m(camera, distance), cut)
+        walked = np.zeros(grid.size, np.bool_)
+        walk_voxels(grid, *camera_segments(spec, camera, distance), walked)
+        cut = np.zeros(grid.size, np.bool_)
+        voxel_kernels.mark_walked(*_camera_walks(spec, camera), camera_reach_m(camera, distance), cut)
         assert walked.sum() > 0
         assert np.array_equal(cut, walked)
