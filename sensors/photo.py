@@ -179,6 +179,8 @@ _GROUND = {
 }
 _IS_GROUND = np.zeros(256, np.bool_)
 _IS_GROUND[list(_GROUND)] = True
+_IS_PAVED = _IS_GROUND.copy()
+_IS_PAVED[int(SemanticClass.TERRAIN)] = False
 
 
 def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple[F32, F32, F32]:
@@ -381,6 +383,8 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     c, inst, pt = cls[at], instance[at], part[at]
 
     albedo, mirror, glow = static_albedo(c, p, nrm)
+    wet = np.flatnonzero(_IS_PAVED[c] & (pt == 0)) if weather.wet_ground > 0 else np.zeros(0, np.intp)
+    mirror[wet] = np.float32(weather.wet_ground)
     agent = pt > 0
     if agent.any():
         ai = np.flatnonzero(agent)
@@ -427,6 +431,9 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     grazing = (np.float32(1.0) - cos_v[shiny_at]) ** 5
     env = sky_linear(weather, refl[shiny_at])
     env[refl[shiny_at, 2] < 0] = np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain))
+    if len(wet):  # a wet road mirrors what stands on it where the sky is hidden from it (under and beside vehicles)
+        film = np.flatnonzero(_IS_PAVED[c[shiny_at]] & (pt[shiny_at] == 0))
+        env[film] *= rays.sky_open[at[shiny_at[film]]][:, None]
     window = (
         night * np.float32(0.25) * np.array([0.25, 0.55, 0.9], np.float32) if night > 0 else np.zeros(3, np.float32)
     )

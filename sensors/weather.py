@@ -37,6 +37,9 @@ class Weather:
     over ``headlight_range_m``; ``haze_m`` is the distance of 63 % haze towards
     ``haze_bgr``; misses show a gradient from ``sky_horizon_bgr`` to ``sky_zenith_bgr``;
     ``exposure`` scales the image and ``noise_sigma`` (0..255 scale) adds Gaussian noise.
+    ``wet_ground``: the mirror strength of paved ground under a film of water at normal
+    incidence (0: dry; water 0.02), growing towards grazing angles by Schlick's term: a wet
+    road mirrors the sky in the distance and stays dark close by.
     At night ``lamp_key_gain`` stands for the street lamps overhead: one warm light from
     ``sun_dir_map`` with its shadows (the realistic camera's shadow rays), so that roofs and
     bonnets catch the light, sides fall darker and every road user casts a shadow.
@@ -65,6 +68,7 @@ class Weather:
     exposure: float = 1.0
     noise_sigma: float = 0.0
     saturation: float = 1.3
+    wet_ground: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0.0 < self.lidar_range_scale <= 1.0 or not 0.0 < self.lidar_intensity_scale <= 1.0:
@@ -75,6 +79,8 @@ class Weather:
             raise SensorConfigError(f"weather {self.name}: need 0 < lidar_spurious_min_m < lidar_spurious_max_m")
         if min(self.lidar_extinction_per_m, self.lidar_range_noise_m, self.noise_sigma, self.ambient) < 0:
             raise SensorConfigError(f"weather {self.name}: extinction, noise and ambient must be >= 0")
+        if not 0.0 <= self.wet_ground <= 1.0:
+            raise SensorConfigError(f"weather {self.name}: wet_ground must be in [0, 1], got {self.wet_ground}")
         if self.lamp_key_gain < 0:
             raise SensorConfigError(f"weather {self.name}: lamp_key_gain must be >= 0")
         if not 0.0 <= self.saturation <= 3.0:
@@ -100,12 +106,14 @@ PRESETS: dict[str, Weather] = {
         exposure=1.0, noise_sigma=6.0, saturation=1.0,
     ),
     # rain: haze_m 300 m puts the 5 % contrast visibility near 900 m, moderate rain's (WMO: 1-5 km
-    # light to moderate, under 1 km heavy); the camera's own spray and wet glass are not modelled
+    # light to moderate, under 1 km heavy); wet roads mirror the sky (water's 2 % at normal
+    # incidence); the camera's own spray and wet glass are not modelled
     "rain": Weather(
         "rain", lidar_range_scale=0.7, lidar_intensity_scale=0.8, lidar_extinction_per_m=0.004, lidar_dropout=0.08,
         lidar_range_noise_m=0.02, lidar_spurious_rate=0.004, lidar_spurious_max_m=6.0,
         sun_gain=0.2, ambient=0.4, headlight_gain=0.3, haze_m=300.0, haze_bgr=(150.0, 145.0, 140.0),
         sky_horizon_bgr=(160.0, 155.0, 150.0), sky_zenith_bgr=(120.0, 115.0, 110.0), exposure=0.8, noise_sigma=4.0,
+        wet_ground=0.02,
     ),
     "fog": Weather(
         "fog", lidar_range_scale=0.35, lidar_intensity_scale=0.6, lidar_extinction_per_m=0.015, lidar_dropout=0.15,

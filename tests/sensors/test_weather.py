@@ -61,3 +61,21 @@ def test_fog_hazes_far_surfaces_more_than_near_ones() -> None:
     f = haze_fraction(fog, np.array([5.0, 50.0, 150.0], np.float32), 200.0)
     assert f[0] < 0.2 < f[1] < f[2] <= 1.0
     assert haze_fraction(fog, np.array([200.0], np.float32), 200.0)[0] == pytest.approx(1.0)
+
+
+def test_a_wet_road_mirrors_the_sky_most_where_it_is_seen_at_a_grazing_angle(synth: SimpleNamespace) -> None:
+    from dataclasses import replace
+
+    camera = Camera(CameraSpec(width_px=320, height_px=180))
+    world = synth.scene([synth.ground()], synth.agents([(1, SemanticClass.CAR, 12.0, 0.0, 0.75, 4.5, 1.8, 1.5, 0.0)]))
+    rain = weather_preset("rain")
+    assert rain.wet_ground > 0
+    wet = camera.sense(world, synth.EGO, rain, np.random.default_rng(0)).frame
+    dry = camera.sense(world, synth.EGO, replace(rain, wet_ground=0.0), np.random.default_rng(0)).frame
+    grey_wet, grey_dry = shade_frame(wet).mean(axis=2), shade_frame(dry).mean(axis=2)
+    road = (wet.semantic_class == SemanticClass.ROAD) & (wet.instance_id == 0)
+    far, near = road & (wet.depth_m > 40.0), road & (wet.depth_m < 6.0)
+    assert far.sum() > 100 and near.sum() > 100  # the test means something: road far and near in view
+    gain_far = grey_wet[far].mean() - grey_dry[far].mean()
+    gain_near = grey_wet[near].mean() - grey_dry[near].mean()
+    assert gain_far > 20 and gain_far > 2 * gain_near  # Fresnel: the far road shines, the near one stays dark
