@@ -117,6 +117,10 @@ PRIORITY = (
     SemanticClass.BUS, SemanticClass.TRAILER, SemanticClass.CONSTRUCTION_VEHICLE, SemanticClass.TRAFFIC_CONE,
     SemanticClass.BARRIER, SemanticClass.NONE,
 )  # fmt: skip
+# A camera's walks are kept (12 bytes a step) where its rays times the grid's longest side are at
+# most this: the Occ3D grid's default camera (38,000 rays, 2.7 M steps, 33 MB), not the
+# OpenOccupancy grid's (250,000 rays, 42 M steps).
+KEPT_WALK_STEPS = 16_000_000
 _RANK = np.full(256, len(PRIORITY), np.uint8)
 for _rank, _cls in enumerate(PRIORITY):
     _RANK[int(_cls)] = _rank
@@ -214,8 +218,12 @@ def occupancy_frame(
         starts, ends = lidar_segments(lidar, ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64))
         walk_voxels(grid, starts, ends, mask_lidar)
     mask_camera = np.zeros(grid.size, np.bool_)
-    for camera, distance_m in cameras:  # the walks of the rig's fixed rays, made once, as far as each reached
-        voxel_kernels.mark_walked(*_camera_walks(spec, camera), camera_reach_m(camera, distance_m), mask_camera)
+    for camera, distance_m in cameras:
+        if camera_directions(spec, camera).shape[0] * max(grid.shape) <= KEPT_WALK_STEPS:
+            # the walks of the rig's fixed rays, made once, as far as each reached
+            voxel_kernels.mark_walked(*_camera_walks(spec, camera), camera_reach_m(camera, distance_m), mask_camera)
+        else:  # too many to keep (a fine grid): walked each frame
+            walk_voxels(grid, *camera_segments(spec, camera, distance_m), mask_camera)
     velocity = agents.velocity_map_mps @ ego_SE3_map.rotation.T
     relative = velocity - ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64)
     up = ego_SE3_map.rotation[:, 2]  # the map's +z in the ego's axes: turning is about it
