@@ -520,7 +520,7 @@ class IntensityResponse:
 # as the HDL-64E's per-laser minimum and maximum intensity calibration gives. Within one
 # laser's ring the asphalt reads down to 0.6 times its median at p10 and 0.4 at p5: each
 # footprint, 2-3 cm wide, holds its own mix of aggregate stone and bitumen binder (reflectivity
-# 0.25 and 0.02, the stone's share from Beta(0.6, 0.3); the reading only, returns still go by
+# 0.27 and 0.02, the stone's share from Beta(0.4, 0.3); the reading only, returns still go by
 # the class's 0.12). Number plates read 0.9-0.99 (the cars' 3 % at
 # 0.9-1.0): prismatic sheeting returns far more than road paint's beads (sheeting_echo 10).
 INTENSITY_RESPONSES: dict[str, IntensityResponse] = {
@@ -529,7 +529,7 @@ INTENSITY_RESPONSES: dict[str, IntensityResponse] = {
                                glint_falloff=2.0, glint_echo=RETRO_GAIN, fade_above_floor=5.0, fade_width=1.0,
                                laser_spread=0.2, point_spread=0.1,
                                laser_floors=((22, 0.115), (23, 0.069), (28, 0.152), (29, 0.184)), floor_reference=0.42,
-                               asphalt_binder=0.02, asphalt_stone=0.25, stone_share_beta=(0.6, 0.3),
+                               asphalt_binder=0.02, asphalt_stone=0.27, stone_share_beta=(0.4, 0.3),
                                sheeting_echo=RETRO_GAIN, top=0.99, step=0.01),
 }  # fmt: skip
 GLOSSY_PARTS = np.array([Part.PAINT, Part.LIVERY, Part.SAFETY_YELLOW], np.uint8)
