@@ -48,6 +48,7 @@ from networks.geometry import SE3
 from networks.hdmap import HdMap
 from networks.markings import is_left_hand
 from networks.street import street_objects
+from sensors.camera import CameraSpec
 from sensors.engine import Scene
 from sensors.scene import StaticCrop
 
@@ -232,7 +233,8 @@ def run(
         signals = StreetObjects(objects)
     occupancy = None
     if scenario.outputs.occupancy.enabled:
-        occupancy = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh)
+        cameras = tuple(s.spec for s in rig.sensors if isinstance(s.spec, CameraSpec))
+        occupancy = OccupancyStep(scenario.outputs.occupancy.grid, prepared.world.mesh, cameras)
     loop = FrameLoop(
         scenario=scenario,
         net_path=prepared.net_path,

@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 
 from cosim.state import WorldState
-from gtgen.occupancy import OccupancyFrame, camera_rays, occupancy_frame
+from gtgen.occupancy import OccupancyFrame, camera_rays, occupancy_frame, prepare_camera
 from gtgen.voxels import OccupancyGrid
 from networks.mesh import ClassedMesh
-from sensors.camera import CameraOutput
+from sensors.camera import CameraOutput, CameraSpec
 from sensors.engine import Scene
 from sensors.lidar import LidarOutput
 from sensors.sensor import SensorOutput
@@ -19,11 +19,14 @@ from sensors.solids import Solids
 
 class OccupancyStep:
     """Makes each frame's :class:`~gtgen.occupancy.OccupancyFrame` on ``grid`` (keeps the solids
-    of the whole static world ``world``)."""
+    of the whole static world ``world``; prepares the rig's ``cameras``' voxel walks, which are
+    the same every frame, before the first frame)."""
 
-    def __init__(self, grid: OccupancyGrid, world: ClassedMesh) -> None:
+    def __init__(self, grid: OccupancyGrid, world: ClassedMesh, cameras: tuple[CameraSpec, ...] = ()) -> None:
         self.grid = grid
         self._solids = Solids(world)
+        for camera in cameras:
+            prepare_camera(grid, camera)
 
     def frame(
         self, static: ClassedMesh, scene: Scene, state: WorldState, outputs: tuple[SensorOutput, ...]

@@ -219,8 +219,7 @@ def occupancy_frame(
         walk_voxels(grid, starts, ends, mask_lidar)
     mask_camera = np.zeros(grid.size, np.bool_)
     for camera, distance_m in cameras:
-        if camera_directions(spec, camera).shape[0] * max(grid.shape) <= KEPT_WALK_STEPS:
-            # the walks of the rig's fixed rays, made once, as far as each reached
+        if _walks_kept(spec, camera):  # the walks of the rig's fixed rays, made once, as far as each reached
             voxel_kernels.mark_walked(*_camera_walks(spec, camera), camera_reach_m(camera, distance_m), mask_camera)
         else:  # too many to keep (a fine grid): walked each frame
             walk_voxels(grid, *camera_segments(spec, camera, distance_m), mask_camera)
@@ -509,6 +508,17 @@ def camera_segments(
     dirs = _transform(SE3(ego_SE3_cam.rotation, np.zeros(3)), camera_directions(spec, camera))
     starts = np.broadcast_to(ego_SE3_cam.translation, dirs.shape)
     return starts, starts + dirs * camera_reach_m(camera, distance_m)[:, None]
+
+
+def _walks_kept(spec: OccupancyGrid, camera: CameraSpec) -> bool:
+    return bool(camera_directions(spec, camera).shape[0] * max(spec.grid.shape) <= KEPT_WALK_STEPS)
+
+
+def prepare_camera(spec: OccupancyGrid, camera: CameraSpec) -> None:
+    """Make the camera's voxel walks now (they are kept, :data:`KEPT_WALK_STEPS`), not in the first
+    frame."""
+    if _walks_kept(spec, camera):
+        _camera_walks(spec, camera)
 
 
 @functools.lru_cache(maxsize=16)
