@@ -431,7 +431,7 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     grazing = (np.float32(1.0) - cos_v[shiny_at]) ** 5
     env = sky_linear(weather, refl[shiny_at])
     env[refl[shiny_at, 2] < 0] = np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain))
-    if len(wet):  # a wet road mirrors what stands on it where the sky is hidden from it (under and beside vehicles)
+    if len(wet):  # a wet road mirrors the sky only as far as it sees it: less under and beside vehicles
         film = np.flatnonzero(_IS_PAVED[c[shiny_at]] & (pt[shiny_at] == 0))
         env[film] *= rays.sky_open[at[shiny_at[film]]][:, None]
     window = (
