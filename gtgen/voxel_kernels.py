@@ -7,6 +7,7 @@ into the C-ordered ``(nx, ny, nz)`` array. Compiled on first use and cached besi
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -18,8 +19,9 @@ I64 = npt.NDArray[np.int64]
 
 
 @njit(cache=True, nogil=True)
-def _grow(a: I64, n: int) -> I64:  # pragma: no cover - compiled
-    b = np.empty(max(2 * a.shape[0], n + 1024), np.int64)
+def _grow(a: npt.NDArray[Any], n: int) -> npt.NDArray[Any]:  # pragma: no cover - compiled
+    """``a`` copied into a longer array of its type (room for at least ``n`` elements)."""
+    b = np.empty(max(2 * a.shape[0], n + 1024), a.dtype)
     b[: a.shape[0]] = a
     return b
 
@@ -240,12 +242,7 @@ def walk_steps(
             t = t0
             while True:
                 if m >= flat.shape[0]:
-                    grown = np.empty(2 * m, np.int32)
-                    grown[:m] = flat[:m]
-                    flat = grown
-                    grown_t = np.empty(2 * m, np.float64)
-                    grown_t[:m] = entry[:m]
-                    entry = grown_t
+                    flat, entry = _grow(flat, m), _grow(entry, m)
                 flat[m], entry[m] = (x * ny + y) * nz + z, t
                 m += 1
                 if tx <= ty and tx <= tz:
@@ -777,23 +774,14 @@ def floor_joins(
         row_first[ijk[t, 1] * nz + ijk[t, 2] + 1] += 1
     for r in range(rows):
         row_first[r + 1] += row_first[r]
-    by_voxel = floor_flat
     out = np.full(count, -1, np.int64)
     for t in range(count):
         if part[t] >= 0:
             continue
         i, j, k = ijk[t, 0], ijk[t, 1], ijk[t, 2]
         v = (i * ny + j) * nz + k
-        lo, hi = 0, by_voxel.shape[0]  # the floor entries of v: by_voxel[lo:hi]
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if by_voxel[mid] < v:
-                lo = mid + 1
-            else:
-                hi = mid
-        hi = lo
-        while hi < by_voxel.shape[0] and by_voxel[hi] == v:
-            hi += 1
+        lo = np.searchsorted(floor_flat, v, side="left")  # the floor entries of v: floor_flat[lo:hi]
+        hi = np.searchsorted(floor_flat, v, side="right")
         for dk in (1, -1):
             if not 0 <= k + dk < nz or kind[v + dk] != 0:
                 continue
@@ -818,13 +806,7 @@ def floor_joins(
             if apart:
                 continue
             r = j * nz + k + dk
-            a, b = row_first[r], row_first[r + 1]  # the last voxel to cast at or before i: its run's first
-            while b - a > 1:
-                mid = (a + b) // 2
-                if ijk[mid, 0] <= i:
-                    a = mid
-                else:
-                    b = mid
-            out[t] = part[a]
+            a = row_first[r]  # the last voxel to cast at or before i: its run's first
+            out[t] = part[max(a, a + np.searchsorted(ijk[a : row_first[r + 1], 0], i, side="right") - 1)]
             break
     return out
