@@ -99,6 +99,7 @@ SIZE_STREAM = 0x5125
 """Vehicles' own sizes are drawn from a random stream of their own (seeded with the scene's seed
 and this), so that sizing them does not change the rest of the traffic's draws."""
 PARKED_CLEARANCE_M = 0.6
+GAIT_FORGET_S = 60.0  # a walker not read for this long (gone, or far from the ego) starts again at its own phase
 """A parked car is at most this much shorter than its parking space."""
 EGO_MOVING_MPS = 2.0
 """The ego is picked among the cars moving faster than this, where any are."""
@@ -729,19 +730,21 @@ class Traffic:
     ) -> npt.NDArray[np.float64]:  # fmt: skip
         """``(N,)`` the gait cycles each walker (rows ``walkers``) has walked: since its last read,
         its speed over its stride at that speed (:func:`sensors.bodies.stride_m`) times the time
-        between; a walker read for the first time starts at a phase of its own (from its track
-        id); NaN for the others."""
+        between; a walker read for the first time, or not read for :data:`GAIT_FORGET_S`, starts at
+        a phase of its own (from its track id); NaN for the others."""
         now = self._time()
         out = np.full(track.shape[0], np.nan)
         for i in walkers.tolist():
             tid = int(track[i])
             last = self._gait.get(tid)
-            if last is None:
+            if last is None or now - last[0] > GAIT_FORGET_S:
                 cycles = (tid * 0.6180339887) % 1.0
             else:
                 cycles = last[1] + float(speed[i]) * (now - last[0]) / stride_m(float(height[i]), float(speed[i]))
             self._gait[tid] = (now, cycles)
             out[i] = cycles
+        if len(self._gait) > 2 * max(len(walkers), 100):  # forget walkers gone for long, so the table stays small
+            self._gait = {tid: read for tid, read in self._gait.items() if now - read[0] <= GAIT_FORGET_S}
         return out
 
     def _yaw_rates(self, track: npt.NDArray[np.uint32], yaw: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:

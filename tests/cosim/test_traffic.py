@@ -351,3 +351,26 @@ def test_the_ego_stands_no_longer_than_max_stopped_s_then_a_moving_car_takes_ove
             longest = max(longest, stood)
     assert longest <= 4.0 / 0.05 + 1, longest
     assert cuts == len(egos) - 1 and cuts >= 1
+
+
+def test_walkers_gone_for_long_are_forgotten_and_start_again_at_their_own_phase(monkeypatch: pytest.MonkeyPatch):
+    """The gait table keeps only walkers read in the last GAIT_FORGET_S (it would otherwise grow
+    with every walker that ever walked); one back after longer starts at its own phase again."""
+    from cosim.sumo import traffic as traffic_module
+
+    clock = [0.0]
+    monkeypatch.setattr(Traffic, "_time", staticmethod(lambda: clock[0]))
+    traffic = Traffic.__new__(Traffic)
+    traffic._gait = {}
+    ones = np.ones(1)
+    first = traffic._gait_cycles(np.array([7], np.uint32), np.array([0]), ones, 1.7 * ones)[0]
+    clock[0] = 1.0
+    walked = traffic._gait_cycles(np.array([7], np.uint32), np.array([0]), ones, 1.7 * ones)[0]
+    assert walked > first
+    for t in range(300):  # 300 other walkers, each read once, long ago
+        clock[0] = 2.0 + t * 0.1
+        traffic._gait_cycles(np.array([1000 + t], np.uint32), np.array([0]), ones, 1.7 * ones)
+    clock[0] = 40.0 + traffic_module.GAIT_FORGET_S
+    traffic._gait_cycles(np.array([7], np.uint32), np.array([0]), ones, 1.7 * ones)
+    assert len(traffic._gait) < 100
+    assert traffic._gait[7][1] == pytest.approx(first)  # walker 7 unread for longer than GAIT_FORGET_S
