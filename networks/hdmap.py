@@ -239,7 +239,7 @@ def polygons_json(area: shapely.Geometry) -> list[list[list[list[float]]]]:
 
 
 def _areas(net: sumolib.net.Net) -> tuple[shapely.Geometry, shapely.Geometry, list[tuple[str, shapely.Geometry]]]:
-    """The drivable area (lanes open to vehicles, parking lanes and junctions), the walkways
+    """The drivable area (lanes open to vehicles, parking lanes, crossings and junctions), the walkways
     (sidewalks and walking areas) and the junctions' areas (an outline SUMO draws crossing
     itself makes several polygons, or one with holes, as in the world mesh)."""
     drive, driven, sidewalks, corners = [], [], [], []
@@ -247,7 +247,10 @@ def _areas(net: sumolib.net.Net) -> tuple[shapely.Geometry, shapely.Geometry, li
         function = edge.getFunction()
         for lane in edge.getLanes():
             shape = np.asarray(lane.getShape())
-            if shape.shape[0] < 2 or function == "crossing":
+            if shape.shape[0] < 2:
+                continue
+            if function == "crossing":  # paved at the road's level; its ends past the junction count too
+                drive.append(LineString(shape[:, :2]).buffer(lane.getWidth() / 2.0, cap_style="flat"))
                 continue
             if function == "walkingarea":
                 corners.append(Polygon(shape[:, :2]).buffer(0))
