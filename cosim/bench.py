@@ -19,7 +19,8 @@ stage (taken inside the loop), the engine's own cast time of the same rays on sc
 the first 100 frames (recast after the run), CPU milliseconds per frame of the loop's process
 and of its traffic and writer processes (load-independent, unlike wall time), their peak
 resident memory, and the growth of the three processes' summed resident memory from frame 100
-to the last frame. Frames: ``full`` 3,000 (so it is the memory-growth run), ``full-flat``, the
+to the last frame (sampled every 25 frames; the last tenth's highest over the first tenth's).
+Frames: ``full`` 3,000 (so it is the memory-growth run), ``full-flat``, the
 Open3D and LiDAR cases 600 (the kitti ones too), ``v500`` and ``v5000`` 150 each. ``--quick`` is a smoke run of 20
 to 60 frames a case.
 """
@@ -52,6 +53,8 @@ from sensors.engine import Scene
 SPAWN = multiprocessing.get_context("spawn")
 TICKS = os.sysconf("SC_CLK_TCK")
 MEMORY_FROM_FRAME = 100
+RSS_EVERY = 25  # frames between samples of the resident memory (from MEMORY_FROM_FRAME on)
+RSS_WINDOW_SHARE = 0.1  # memory growth compares the high-water marks of the first and last tenth
 CAST_REPEATS = 3
 LIDAR_ONLY = ("sensors.cameras=[]", "sensors.radars=[]", "outputs.kitti=false", "outputs.yolo=false")
 TARGETS = {"full_fps": 15.0, "lidar_fps": 80.0, "cast_ratio": 1.25, "v5000_over_v500": 1.5, "rss_growth_pct": 5.0,
@@ -148,6 +151,20 @@ def rss_by_process_mb(pid: int) -> dict[str, float]:
     return out
 
 
+def rss_growth_pct(rss_mb: dict[int, float], frames: int) -> float | None:
+    """The growth of resident memory over a run, in %: the highest sample in the last tenth of
+    the frames from :data:`MEMORY_FROM_FRAME` on over the highest in the first tenth (single
+    samples swing by a tenth with the camera's buffers; a leak raises the high-water mark).
+    ``None`` for runs not longer than ``MEMORY_FROM_FRAME`` frames."""
+    if frames <= MEMORY_FROM_FRAME or MEMORY_FROM_FRAME not in rss_mb:
+        return None
+    span = frames - MEMORY_FROM_FRAME
+    window = max(RSS_WINDOW_SHARE * span, RSS_EVERY)
+    first = [v for k, v in rss_mb.items() if k <= MEMORY_FROM_FRAME + window]
+    last = [v for k, v in rss_mb.items() if k >= frames - window]
+    return 100.0 * (max(last) / max(first) - 1.0)
+
+
 def tree_rss_mb(pid: int) -> float:
     """Resident memory of ``pid`` and its children."""
     return sum(_status_kb(p, "VmRSS") for p in [pid, *_children(pid)]) / 1024.0
@@ -195,9 +212,11 @@ class BenchProbe:
             me = os.getpid()
             for who, pids in (("main", [me]), ("helpers", _children(me))):
                 self.cpu_s[who] = self.cpu_s.get(who, 0.0) + sign * sum(cpu_s(p) for p in pids)
-        if frame_index in (MEMORY_FROM_FRAME - 1, self.frames - 1):
-            self.rss_mb[frame_index + 1] = tree_rss_mb(os.getpid())
-            self.rss_mb_by_process[frame_index + 1] = rss_by_process_mb(os.getpid())
+        done = frame_index + 1
+        if done >= MEMORY_FROM_FRAME and (done % RSS_EVERY == 0 or last):
+            self.rss_mb[done] = tree_rss_mb(os.getpid())
+        if done in (MEMORY_FROM_FRAME, self.frames):
+            self.rss_mb_by_process[done] = rss_by_process_mb(os.getpid())
         if last or frame_index % 25 == 0:
             self._peaks()
 
@@ -261,7 +280,6 @@ def _measure(case: Case, out_root: Path, one_process: bool, keep: bool) -> dict[
     stages = {name: 1e3 * s / case.frames for name, s in probe.times.seconds.items()}
     stages_cpu = {name: 1e3 * s / case.frames for name, s in probe.cpu_times.seconds.items()}
     rss = probe.rss_mb
-    grows = MEMORY_FROM_FRAME in rss and case.frames in rss and case.frames > MEMORY_FROM_FRAME
     return {
         "title": case.title, "scenario": case.scenario, "overrides": list(case.overrides), "frames": case.frames,
         "engine": rig.engine.name,
@@ -274,7 +292,7 @@ def _measure(case: Case, out_root: Path, one_process: bool, keep: bool) -> dict[
         "cpu_ms_per_frame": {who: 1e3 * s / case.frames for who, s in probe.cpu_s.items()},
         "peak_rss_mb": dict(probe.peak_mb), "rss_mb_at_frame": {str(k): v for k, v in rss.items()},
         "rss_mb_by_process_at_frame": {str(k): v for k, v in probe.rss_mb_by_process.items()},
-        "rss_growth_pct": 100.0 * (rss[case.frames] / rss[MEMORY_FROM_FRAME] - 1.0) if grows else None,
+        "rss_growth_pct": rss_growth_pct(rss, case.frames),
         "load_avg_1min": [load_start, os.getloadavg()[0]],
     }  # fmt: skip
 

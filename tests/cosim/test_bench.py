@@ -5,7 +5,7 @@ import pytest
 from cosim.bench import MEMORY_FROM_FRAME, BenchProbe, table, targets
 
 
-def test_the_probe_keeps_a_few_scenes_spread_over_the_run_and_samples_memory_at_both_ends():
+def test_the_probe_keeps_a_few_scenes_spread_over_the_run_and_samples_memory_every_25_frames():
     probe = BenchProbe(frames=200, cast_scenes=4)
     probe.frame_done(-1)
     for i in range(200):
@@ -14,7 +14,8 @@ def test_the_probe_keeps_a_few_scenes_spread_over_the_run_and_samples_memory_at_
         probe.frame_done(i)
     assert len(probe.scenes) == 4
     assert probe.times.calls["camera"] == 200 and len(probe.frame_end_s) == 201
-    assert sorted(probe.rss_mb) == [MEMORY_FROM_FRAME, 200] and probe.rss_mb[200] > 10
+    assert sorted(probe.rss_mb) == [MEMORY_FROM_FRAME, 125, 150, 175, 200] and probe.rss_mb[200] > 10
+    assert sorted(probe.rss_mb_by_process) == [MEMORY_FROM_FRAME, 200]
     assert probe.peak_mb["main"] >= probe.rss_mb[200] * 0.5
 
 
@@ -58,3 +59,16 @@ def test_the_timed_sweep_target_is_the_frame_rate_it_takes_by_the_main_process_c
     assert targets(results)["timed_sweep_cost_pct"]["met"] is False
     del results["lidar-kitti-instant"]
     assert targets(results)["timed_sweep_cost_pct"]["met"] is None
+
+
+def test_memory_growth_compares_the_high_water_marks_of_the_first_and_last_tenth():
+    """Samples that swing (the camera's buffers) but do not climb read as flat; a climb reads as
+    the climb."""
+    from cosim.bench import rss_growth_pct
+
+    swinging = {k: 600.0 + (60.0 if (k // 25) % 3 == 0 else 0.0) for k in range(100, 3001, 25)}
+    swinging[3000] = 600.0  # the last sample low, the first high: single samples would say -9 %
+    assert rss_growth_pct(swinging, 3000) == pytest.approx(0.0)
+    climbing = {k: 600.0 + 0.1 * (k - 100) for k in range(100, 3001, 25)}
+    assert rss_growth_pct(climbing, 3000) == pytest.approx(100 * (890.0 / 627.5 - 1))  # frame 3,000's over 375's
+    assert rss_growth_pct({100: 600.0}, 100) is None
