@@ -15,7 +15,8 @@ timed sweep takes, by the loop's CPU time a frame),
 (the full rig with ``outputs.occupancy``: its stage is the occupancy's cost a frame; its target
 is on the stage's CPU time, all threads, which load does not change). Per case: frames/s over
 the frame loop (after the warm-up; closing the sinks included), milliseconds per frame per
-stage (taken inside the loop), the engine's own cast time of the same rays on scenes kept from
+stage (taken inside the loop) and the CPU time of the loop's process in each of its stages
+(all its threads), the engine's own cast time of the same rays on scenes kept from
 the first 100 frames (recast after the run), CPU milliseconds per frame of the loop's process
 and of its traffic and writer processes (load-independent, unlike wall time), their peak
 resident memory, and the growth of the three processes' summed resident memory from frame 100
@@ -62,7 +63,7 @@ TARGETS = {"full_fps": 15.0, "lidar_fps": 80.0, "cast_ratio": 1.25, "v5000_over_
 FLAT_CAMERA = ("sensors.cameras=[{shading: flat}]",)
 KITTI = ("rig=kitti",)
 KITTI_CASES = ("lidar-kitti", "lidar-kitti-instant")  # the timed sweep's cost: timed against instant
-CPU_STAGES = ("occupancy", "lidar")  # stages whose CPU time the table shows too
+CPU_STAGES = ("scene", "lidar", "camera", "radar", "labels", "map", "handoff", "occupancy")  # CPU time shown too
 NO_STREET = ("street.markings=false", "street.traffic_lights=false", "street.signs=false", "outputs.map=false")
 
 

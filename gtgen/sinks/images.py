@@ -4,7 +4,10 @@ MCAP, KITTI and YOLO all write the first camera's image; one :class:`FrameImages
 frame is handed to every sink, so an image is shaded (:func:`sensors.shading.shade_frame`)
 once and an encoding asked for twice is encoded once.
 PNGs use zlib level 1 with the UP filter (lossless: the same pixels as any other level,
-a third of level 3's time).
+a third of level 3's time); the colour image's with Huffman coding only (zlib's
+``Z_HUFFMAN_ONLY``): its sensor noise leaves little for string matching to find, so it
+takes 18 ms of CPU instead of 30 (1280x720) and is 4 % (by day) to 20 % (at night) larger,
+the same pixels.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from sensors.shading import shade_frame
 
 JPEG_QUALITY = 90  # every sink that writes the camera image as JPEG writes this one encoding
 PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 1, cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_UP]
+IMAGE_PNG_PARAMS = [*PNG_PARAMS, cv2.IMWRITE_PNG_STRATEGY, cv2.IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY]
 
 
 def encode(ext: str, image: npt.NDArray[Any], params: list[int]) -> bytes:
@@ -61,7 +65,7 @@ class FrameImages:
     def png(self, camera: int) -> bytes:
         """The shaded image as a lossless 8-bit BGR PNG."""
         image = self.image(camera)
-        return self._once(("png", camera), lambda: encode(".png", image, PNG_PARAMS))
+        return self._once(("png", camera), lambda: encode(".png", image, IMAGE_PNG_PARAMS))
 
     def depth_png(self, camera: int, units_per_m: float) -> bytes:
         """z-depth as a 16-bit PNG in ``1 / units_per_m`` metres (0: nothing, or out of range)."""
