@@ -189,25 +189,32 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
     albedo = np.take(ALBEDO_BGR_BY_CLASS, cls, axis=0)  # a new array
     mirror = np.zeros(len(cls), np.float32)
     glow = np.zeros(len(cls), np.float32)
+    order = np.argsort(cls, kind="stable")  # each class's rows in order, as np.flatnonzero(cls == c)
+    count = np.bincount(cls, minlength=256)
+    end = np.cumsum(count)
+
+    def rows_of(c: int) -> npt.NDArray[np.int64]:
+        return np.asarray(order[end[c] - count[c] : end[c]], np.int64)
+
     for c, fn in (
         (SemanticClass.ROAD, textures.asphalt),
         (SemanticClass.CROSSING, textures.asphalt),
         (SemanticClass.SIDEWALK, textures.paving),
         (SemanticClass.CURB, textures.kerb),
     ):
-        at = np.flatnonzero(cls == c)
+        at = rows_of(c)
         if len(at):
-            albedo[at] *= fn(points[at])[:, None]
+            kernels.scale_rows(albedo, at, np.ascontiguousarray(fn(points[at]), np.float32))
     for c, seed in ((SemanticClass.VEGETATION, 71), (SemanticClass.TERRAIN, 73)):
-        at = np.flatnonzero(cls == c)
+        at = rows_of(c)
         if len(at):
-            albedo[at] *= textures.greenery(points[at], seed)[:, None]
+            kernels.scale_rows(albedo, at, np.ascontiguousarray(textures.greenery(points[at], seed), np.float32))
     for c in (SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW):
-        at = np.flatnonzero(cls == c)
+        at = rows_of(c)
         if len(at):
             wear = textures.fbm(points[at, 0] * 2, points[at, 1] * 2, 81, 2)
-            albedo[at] *= (np.float32(0.6) + np.float32(0.45) * wear)[:, None]
-    at = np.flatnonzero(cls == SemanticClass.BUILDING)
+            kernels.scale_rows(albedo, at, np.asarray(np.float32(0.6) + np.float32(0.45) * wear, np.float32))
+    at = rows_of(SemanticClass.BUILDING)
     if len(at):
         wall, glass, lit = textures.facade(points[at], normal[at])
         albedo[at] = wall
@@ -244,7 +251,7 @@ def contact_light(
         np.float32(0.6) * np.exp(-out / np.float32(CONTACT_M * 0.4)),
         np.float32(0.6) + np.float32(0.35) * depth,
     )
-    np.minimum.at(light, ground[near], np.float32(1.0) - occ)
+    kernels.minimum_at(light, np.asarray(ground[near], np.int64), np.asarray(np.float32(1.0) - occ, np.float32))
     agents = np.flatnonzero(instance > 0)
     if len(agents):
         ids = boxes.instance_id[order]
@@ -570,11 +577,8 @@ def soft_blur(image: F32, sigma_px: float) -> F32:
 
 def tone_map(linear: F32, exposure: float) -> F32:
     """Filmic tone curve (Narkowicz's fit of ACES) and display gamma: 0..255 floats."""
-    x = linear * (EXPOSURE_SCALE * np.float32(exposure))
-    y = (x * (np.float32(2.51) * x + np.float32(0.03))) / (
-        x * (np.float32(2.43) * x + np.float32(0.59)) + np.float32(0.14)
-    )
-    return np.asarray(np.clip(y, 0.0, 1.0) ** (np.float32(1.0) / GAMMA) * np.float32(255.0), np.float32)
+    y = kernels.filmic(np.ascontiguousarray(linear, np.float32), np.float32(EXPOSURE_SCALE * np.float32(exposure)))
+    return np.asarray(y ** (np.float32(1.0) / GAMMA) * np.float32(255.0), np.float32)
 
 
 def auto_levels(image: F32, saturation: float) -> F32:
@@ -615,9 +619,7 @@ def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32]
     surface (in the image, at each pixel's depth) among the pixels of agents."""
 
     h, w = depth_m.shape
-    facing = np.einsum("ij,ij->i", normal, dirs_map)
-    out = np.array(normal, np.float32)
-    np.negative(out, out=out, where=(facing > 0)[:, None])
+    out = kernels.turned_to_camera(np.ascontiguousarray(normal, np.float32), np.ascontiguousarray(dirs_map, np.float32))
     agent = (instance > 0).astype(np.float32)
     if not agent.any():
         return out
@@ -634,9 +636,7 @@ def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32]
         near = agent[rows, cols]
         num = soft_blur(grid[rows, cols] * near[..., None], sigma)
         den = soft_blur(near, sigma)
-        at = pick[rows, cols]
-        mean = num[at] / np.maximum(den[at], np.float32(1e-6))[:, None]
-        grid[rows, cols][at] = mean / np.maximum(np.linalg.norm(mean, axis=-1, keepdims=True), np.float32(1e-6))
+        kernels.blurred_unit(grid, rows.start, cols.start, np.ascontiguousarray(pick[rows, cols]), num, den)
     return out
 
 

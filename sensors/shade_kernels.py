@@ -358,3 +358,77 @@ def sky(
             cloud = horizon[k] * np.float32(1.05) + np.float32(0.02)
             out[i, k] = s + cover * (cloud - s)
     return out
+
+
+@njit(cache=True, nogil=True)
+def turned_to_camera(normal: F32, dirs: F32) -> F32:  # pragma: no cover - compiled
+    """``(N, 3)`` the normals turned to face the camera: negated where they face along the ray
+    (``einsum("ij,ij->i", normal, dirs) > 0``, its sum taken in the same order)."""
+    n = normal.shape[0]
+    out = np.empty((n, 3), np.float32)
+    for i in range(n):
+        n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
+        if n0 * dirs[i, 0] + n1 * dirs[i, 1] + n2 * dirs[i, 2] > 0:
+            n0, n1, n2 = -n0, -n1, -n2
+        out[i, 0], out[i, 1], out[i, 2] = n0, n1, n2
+    return out
+
+
+@njit(cache=True, nogil=True)
+def blurred_unit(
+    grid: F32, row0: int, col0: int, pick: npt.NDArray[np.bool_], num: F32, den: F32
+) -> None:  # pragma: no cover - compiled
+    """Where ``pick`` (a window of ``grid`` from ``row0``, ``col0``): ``grid`` set to
+    ``num / max(den, 1e-6)`` made unit (its length as ``np.linalg.norm``'s: squares summed left to
+    right, floored at 1e-6); in place."""
+    tiny = np.float32(1e-6)
+    for y in range(pick.shape[0]):
+        for x in range(pick.shape[1]):
+            if not pick[y, x]:
+                continue
+            d = den[y, x]
+            d = d if d > tiny else tiny
+            m0, m1, m2 = num[y, x, 0] / d, num[y, x, 1] / d, num[y, x, 2] / d
+            length = np.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+            length = length if length > tiny else tiny
+            grid[row0 + y, col0 + x, 0] = m0 / length
+            grid[row0 + y, col0 + x, 1] = m1 / length
+            grid[row0 + y, col0 + x, 2] = m2 / length
+
+
+@njit(cache=True, nogil=True)
+def scale_rows(table: F32, rows: npt.NDArray[np.int64], factor: F32) -> None:  # pragma: no cover - compiled
+    """``table[rows] *= factor[:, None]`` in place (``rows`` distinct)."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        for c in range(table.shape[1]):
+            table[i, c] = table[i, c] * factor[j]
+
+
+@njit(cache=True, nogil=True)
+def minimum_at(values: F32, rows: npt.NDArray[np.int64], other: F32) -> None:  # pragma: no cover - compiled
+    """``np.minimum.at(values, rows, other)`` (no NaNs): each row the least of what it holds and
+    every value given for it; in place."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        if other[j] < values[i]:
+            values[i] = other[j]
+
+
+@njit(cache=True, nogil=True)
+def filmic(linear: F32, gain: np.float32) -> F32:  # pragma: no cover - compiled
+    """:func:`sensors.photo.tone_map`'s curve before its gamma: Narkowicz's ACES fit of ``linear *
+    gain``, clipped to 0..1 (NaN stays NaN, as ``np.clip``), in its numpy form's float32 order."""
+    flat = linear.ravel()
+    out = np.empty(flat.shape[0], np.float32)
+    a, b, c, d, e = np.float32(2.51), np.float32(0.03), np.float32(2.43), np.float32(0.59), np.float32(0.14)
+    zero, one = np.float32(0.0), np.float32(1.0)
+    for i in range(flat.shape[0]):
+        x = flat[i] * gain
+        y = (x * (a * x + b)) / (x * (c * x + d) + e)
+        if y < zero:
+            y = zero
+        elif y > one:
+            y = one
+        out[i] = y
+    return out.reshape(linear.shape)

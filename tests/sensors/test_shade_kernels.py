@@ -1,0 +1,64 @@
+"""The realistic camera's compiled loops give their numpy forms' float32 results bit for bit
+(the images stay the same bytes)."""
+
+import numpy as np
+
+from sensors import shade_kernels as kernels
+
+
+def _unit_rows(rng: np.random.Generator, n: int) -> np.ndarray:
+    v = rng.standard_normal((n, 3)).astype(np.float32)
+    return np.asarray(v / np.linalg.norm(v, axis=1, keepdims=True), np.float32)
+
+
+def test_normals_are_turned_to_the_camera_as_numpy_turns_them() -> None:
+    rng = np.random.default_rng(3)
+    normal, dirs = _unit_rows(rng, 50_000), _unit_rows(rng, 50_000)
+    dirs[:100] = np.cross(normal[:100], _unit_rows(rng, 100))  # grazing: the sign decided by rounding
+    want = normal.copy()
+    np.negative(want, out=want, where=(np.einsum("ij,ij->i", normal, dirs) > 0)[:, None])
+    got = kernels.turned_to_camera(normal, dirs)
+    np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
+
+
+def test_blurred_normals_are_made_unit_as_numpy_makes_them() -> None:
+    rng = np.random.default_rng(4)
+    grid = rng.standard_normal((40, 60, 3)).astype(np.float32)
+    num = (rng.standard_normal((20, 30, 3)) * rng.uniform(1e-7, 3.0, (20, 30, 1))).astype(np.float32)
+    den = rng.uniform(0.0, 1.0, (20, 30)).astype(np.float32)
+    den[0, :5] = 0.0  # no neighbours' weight: floored
+    pick = rng.random((20, 30)) < 0.6
+    want = grid.copy()
+    mean = num[pick] / np.maximum(den[pick], np.float32(1e-6))[:, None]
+    want[5:25, 7:37][pick] = mean / np.maximum(np.linalg.norm(mean, axis=-1, keepdims=True), np.float32(1e-6))
+    kernels.blurred_unit(grid, 5, 7, pick, num, den)
+    np.testing.assert_array_equal(grid.view(np.uint32), want.view(np.uint32))
+
+
+def test_rows_scaled_and_least_values_kept_as_numpy_does() -> None:
+    rng = np.random.default_rng(5)
+    table = rng.uniform(0, 1, (1000, 3)).astype(np.float32)
+    rows = np.sort(rng.choice(1000, 300, replace=False)).astype(np.int64)
+    factor = rng.uniform(0.3, 1.7, 300).astype(np.float32)
+    want = table.copy()
+    want[rows] *= factor[:, None]
+    kernels.scale_rows(table, rows, factor)
+    np.testing.assert_array_equal(table, want)
+    light = np.ones(500, np.float32)
+    at = rng.integers(0, 500, 2000).astype(np.int64)  # a row given many values: the least is kept
+    values = rng.uniform(0, 1.2, 2000).astype(np.float32)
+    want_light = light.copy()
+    np.minimum.at(want_light, at, values)
+    kernels.minimum_at(light, at, values)
+    np.testing.assert_array_equal(light, want_light)
+
+
+def test_the_filmic_curve_is_numpys() -> None:
+    rng = np.random.default_rng(6)
+    linear = np.concatenate([rng.uniform(0, 3, 30_000), rng.uniform(-0.1, 0.0, 100), [0.0, 100.0]]).astype(np.float32)
+    linear = linear.reshape(-1, 2)[:, :, None].repeat(3, axis=2).reshape(-1, 3).copy()
+    gain = np.float32(1.8) * np.float32(1.3)
+    x = linear * gain
+    f = np.float32
+    y = (x * (f(2.51) * x + f(0.03))) / (x * (f(2.43) * x + f(0.59)) + f(0.14))
+    np.testing.assert_array_equal(kernels.filmic(linear, gain), np.clip(y, 0.0, 1.0))
