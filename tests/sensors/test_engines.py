@@ -99,3 +99,20 @@ def test_auto_falls_back_to_open3d_with_one_line_when_the_fast_engine_cannot_sta
 
     with pytest.raises(SensorConfigError, match="engine mitsuba cannot start here"):
         open_engine("mitsuba")
+
+
+def test_face_normals_are_numpys_bit_for_bit(town):
+    from sensors.agents import agent_meshes
+    from sensors.mitsuba_engine import _face_normals
+
+    static, agents, _ = town
+    meshes = agent_meshes(agents)
+    triangles = np.concatenate([meshes.triangles, [[0, 0, 1]]])  # one degenerate: a zero normal
+    for vertices, tris in ((static.vertices_m, static.triangles), (meshes.vertices_m, triangles)):
+        v = vertices.astype(np.float32)
+        n = np.cross(v[tris[:, 1]] - v[tris[:, 0]], v[tris[:, 2]] - v[tris[:, 0]])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        want = np.asarray(n / np.where(length > 0, length, 1.0), np.float32)
+        got = _face_normals(vertices, tris)
+        np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
+    assert not _face_normals(meshes.vertices_m, triangles)[-1].any()
