@@ -432,3 +432,19 @@ def filmic(linear: F32, gain: np.float32) -> F32:  # pragma: no cover - compiled
             y = one
         out[i] = y
     return out.reshape(linear.shape)
+
+
+@njit(cache=True, nogil=True)
+def add_subsamples(
+    linear: F32, pixel: npt.NDArray[np.int64], sub: F32, per_pixel: int
+) -> None:  # pragma: no cover - compiled
+    """``linear[pixel] = (linear[pixel] + sub.reshape(-1, per_pixel, 3).sum(axis=1)) / (per_pixel + 1)``
+    in place (the sub-rays summed left to right, as numpy sums that axis; ``pixel`` distinct)."""
+    count = np.float32(per_pixel + 1)
+    for j in range(pixel.shape[0]):
+        i = pixel[j]
+        for c in range(3):
+            total = sub[j * per_pixel, c]
+            for s in range(1, per_pixel):
+                total = total + sub[j * per_pixel + s, c]
+            linear[i, c] = (linear[i, c] + total) / count

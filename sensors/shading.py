@@ -255,7 +255,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         sub_rays = ShadedRays(sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, extra.part,
                               extra.normal, extra.sun_lit, extra.dirs_cam[:, 2], sub_open, sub_lamp)  # fmt: skip
         sub_lin = radiance(sub_rays, sh.origin_map_m, sh.weather, sh.range_m)
-        linear[extra.pixel] = (linear[extra.pixel] + sub_lin.reshape(-1, sub, 3).sum(axis=1)) / np.float32(sub + 1)
+        shade_kernels.add_subsamples(linear, np.asarray(extra.pixel, np.int64), sub_lin, sub)
     if sh.shutter_s > 0 and sh.ego_velocity_map_mps is not None:
         motion = image_motion_px(
             sh.pinhole, dirs_cam, range_m, instances, sh.map_R_cam, sh.boxes, sh.ego_velocity_map_mps, sh.shutter_s

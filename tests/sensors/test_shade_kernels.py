@@ -62,3 +62,14 @@ def test_the_filmic_curve_is_numpys() -> None:
     f = np.float32
     y = (x * (f(2.51) * x + f(0.03))) / (x * (f(2.43) * x + f(0.59)) + f(0.14))
     np.testing.assert_array_equal(kernels.filmic(linear, gain), np.clip(y, 0.0, 1.0))
+
+
+def test_sub_rays_are_averaged_into_their_pixels_as_numpy_averages_them() -> None:
+    rng = np.random.default_rng(7)
+    linear = rng.uniform(0, 2, (5000, 3)).astype(np.float32)
+    pixel = np.sort(rng.choice(5000, 700, replace=False)).astype(np.int64)
+    sub = (rng.uniform(0, 2, (700 * 4, 3)) * rng.uniform(1e-4, 30, (700 * 4, 1))).astype(np.float32)
+    want = linear.copy()
+    want[pixel] = (want[pixel] + sub.reshape(-1, 4, 3).sum(axis=1)) / np.float32(5)
+    kernels.add_subsamples(linear, pixel, sub, 4)
+    np.testing.assert_array_equal(linear.view(np.uint32), want.view(np.uint32))
