@@ -25,7 +25,7 @@ from sensors.hits import RayHits
 from sensors.photo import SUBPIXEL_OFFSETS, AgentBoxes, Supersamples
 from sensors.pinhole import EGO_AXES_R_OPTICAL, NO_DISTORTION, Pinhole
 from sensors.rays import sensor_rays
-from sensors.shade_kernels import edges, ids_seen, shadow_rays
+from sensors.shade_kernels import edges, ids_seen, shadow_rays, subpixel_directions
 from sensors.shading import CameraFrame, Shading
 from sensors.view import spheres_in_view
 from sensors.weather import Weather
@@ -188,11 +188,15 @@ class Camera:
             z = np.zeros(0, np.float32)
             return Supersamples(pixel, np.zeros((0, 3), np.float32), z, np.zeros(0, np.uint8), np.zeros(0, np.uint32),
                                 np.zeros(0, np.uint8), np.zeros((0, 3), np.float32), np.zeros(0, np.bool_))  # fmt: skip
-        v, u = np.divmod(pixel, w)
-        offsets = SUBPIXEL_OFFSETS
-        su = (u[:, None] + offsets[None, :, 0]).ravel()
-        sv = (v[:, None] + offsets[None, :, 1]).ravel()
-        dirs_cam = self.spec.pinhole.pixel_directions(su, sv).astype(np.float32)
+        pinhole = self.spec.pinhole
+        if pinhole.distorted:
+            v, u = np.divmod(pixel, w)
+            su = (u[:, None] + SUBPIXEL_OFFSETS[None, :, 0]).ravel()
+            sv = (v[:, None] + SUBPIXEL_OFFSETS[None, :, 1]).ravel()
+            dirs_cam = pinhole.pixel_directions(su, sv).astype(np.float32)
+        else:
+            K = pinhole.K
+            dirs_cam = subpixel_directions(pixel, w, SUBPIXEL_OFFSETS, K[0, 0], K[0, 2], K[1, 1], K[1, 2])
         sub = scene.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, dirs_cam)
         far = sub.range_m > np.float32(self.spec.range_m)
         sub.range_m[far] = np.inf

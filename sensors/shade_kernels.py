@@ -448,3 +448,26 @@ def add_subsamples(
             for s in range(1, per_pixel):
                 total = total + sub[j * per_pixel + s, c]
             linear[i, c] = (linear[i, c] + total) / count
+
+
+@njit(cache=True, nogil=True)
+def subpixel_directions(
+    pixel: npt.NDArray[np.int64], width: int, offsets: npt.NDArray[np.float64], fx: float, cx: float, fy: float,
+    cy: float,
+) -> F32:  # fmt: skip  # pragma: no cover - compiled
+    """``(K * S, 3)`` unit directions (optical frame) of a pinhole's rays through each of
+    ``pixel`` (row-major index) shifted by each of ``offsets (S, 2)`` pixels, sub-rays of a pixel
+    together: :meth:`sensors.pinhole.Pinhole.pixel_directions` of an undistorted lens in its
+    float64 order (the length's squares summed left to right), rounded to float32."""
+    per = offsets.shape[0]
+    out = np.empty((pixel.shape[0] * per, 3), np.float32)
+    for j in range(pixel.shape[0]):
+        v, u = pixel[j] // width, pixel[j] % width
+        for s in range(per):
+            x = (np.float64(u) + offsets[s, 0] - cx) / fx
+            y = (np.float64(v) + offsets[s, 1] - cy) / fy
+            length = np.sqrt(x * x + y * y + 1.0)
+            out[j * per + s, 0] = np.float32(x / length)
+            out[j * per + s, 1] = np.float32(y / length)
+            out[j * per + s, 2] = np.float32(1.0 / length)
+    return out

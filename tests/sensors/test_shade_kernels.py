@@ -73,3 +73,18 @@ def test_sub_rays_are_averaged_into_their_pixels_as_numpy_averages_them() -> Non
     want[pixel] = (want[pixel] + sub.reshape(-1, 4, 3).sum(axis=1)) / np.float32(5)
     kernels.add_subsamples(linear, pixel, sub, 4)
     np.testing.assert_array_equal(linear.view(np.uint32), want.view(np.uint32))
+
+
+def test_sub_rays_directions_are_the_pinholes_bit_for_bit() -> None:
+    from sensors.photo import SUBPIXEL_OFFSETS
+    from sensors.pinhole import Pinhole
+
+    pinhole = Pinhole(1280, 720, 85.0)
+    pixel = np.sort(np.random.default_rng(8).choice(1280 * 720, 20_000, replace=False)).astype(np.int64)
+    v, u = np.divmod(pixel, 1280)
+    su = (u[:, None] + SUBPIXEL_OFFSETS[None, :, 0]).ravel()
+    sv = (v[:, None] + SUBPIXEL_OFFSETS[None, :, 1]).ravel()
+    want = pinhole.pixel_directions(su, sv).astype(np.float32)
+    K = pinhole.K
+    got = kernels.subpixel_directions(pixel, 1280, SUBPIXEL_OFFSETS, K[0, 0], K[0, 2], K[1, 1], K[1, 2])
+    np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
