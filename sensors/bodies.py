@@ -15,6 +15,7 @@ instance id, so it is stable over its track (:func:`body_of`).
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Callable
@@ -1077,9 +1078,23 @@ FIT_SLACK = 0.12
 def body_of(semantic_class: int, lwh_m: F64, instance_id: int) -> int:
     """The index in :data:`BODIES` of an agent's body type: the best fit to its size, chosen
     among the near-best by its id, weighted by the types' shares (stable over its track)."""
-    bodies = BODIES.get(int(semantic_class), ())
-    if len(bodies) <= 1:
+    if len(BODIES.get(int(semantic_class), ())) <= 1:
         return 0
+    size = np.asarray(lwh_m)
+    if size.dtype != np.float64 or size.shape != (3,):
+        return _fit(int(semantic_class), size, int(instance_id))
+    length, width, height = (float(x) for x in size)
+    return _kept_fit(int(semantic_class), length, width, height, int(instance_id))
+
+
+@functools.lru_cache(maxsize=4096)
+def _kept_fit(semantic_class: int, length: float, width: float, height: float, instance_id: int) -> int:
+    """:func:`_fit` of a float64 size, kept for the agents seen lately (each asks every frame)."""
+    return _fit(semantic_class, np.array([length, width, height]), instance_id)
+
+
+def _fit(semantic_class: int, lwh_m: npt.NDArray[np.floating], instance_id: int) -> int:
+    bodies = BODIES[semantic_class]
     nominal = np.log(np.asarray([b.lwh_m for b in bodies]))
     misfit = np.abs(nominal - np.log(np.maximum(lwh_m, 1e-3))[None, :]).sum(axis=1)
     near = np.flatnonzero(misfit <= misfit.min() + FIT_SLACK)
