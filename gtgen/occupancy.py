@@ -68,7 +68,7 @@ import numpy.typing as npt
 
 from gtgen import voxel_kernels
 from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, LIDARSEG_LUT
-from gtgen.voxels import OccupancyGrid, VoxelGrid, box_voxels, triangle_voxels, walk_voxels
+from gtgen.voxels import OccupancyGrid, VoxelGrid, box_voxels, triangle_voxels, walk_from, walk_voxels
 from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
 from networks.mesh import ClassedMesh
@@ -215,8 +215,12 @@ def occupancy_frame(
     native, instance = _classes(grid, static, solids, agents, map_SE3_ego, agent_meshes)
     mask_lidar = np.zeros(grid.size, np.bool_)
     for lidar in lidars:
-        starts, ends = lidar_segments(lidar, ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64))
-        walk_voxels(grid, starts, ends, mask_lidar)
+        if np.any(lidar.scan.t_s != 0):  # a timed sweep: each ray from where the sensor was
+            starts, ends = lidar_segments(lidar, ego_SE3_map.rotation @ np.asarray(ego_velocity_map_mps, np.float64))
+            walk_voxels(grid, starts, ends, mask_lidar)
+        else:  # all from the mount: the returns placed in the ego frame as the walk goes
+            ego_SE3_lidar = lidar.spec.ego_SE3_sensor
+            walk_from(grid, lidar.scan.xyz_lidar_m, ego_SE3_lidar.rotation, ego_SE3_lidar.translation, mask_lidar)
     mask_camera = np.zeros(grid.size, np.bool_)
     for camera, distance_m in cameras:
         if _walks_kept(spec, camera):  # the walks of the rig's fixed rays, made once, as far as each reached

@@ -171,6 +171,46 @@ def _clip_walk(
     return s0, s1, s2, e0, e1, e2, max(lower_t, 0.0), min(upper_t, 1.0)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _walk_one(
+    s_m: npt.NDArray[np.float64],
+    e_m: npt.NDArray[np.float64],
+    lower_m: npt.NDArray[np.float64],
+    voxel_m: float,
+    nx: int,
+    ny: int,
+    nz: int,
+    out: npt.NDArray[np.bool_],
+) -> None:  # pragma: no cover - compiled
+    """The walk of one segment ``s_m -> e_m`` (:func:`walk`)."""
+    s0, s1, s2, e0, e1, e2, t0, t1 = _clip_walk(s_m, e_m, lower_m, voxel_m, nx, ny, nz)
+    if not t0 < t1:
+        return
+    big = nx + ny + nz + 1
+    x, sx, tx, dx = _setup(s0, e0 - s0, t0, nx)
+    y, sy, ty, dy = _setup(s1, e1 - s1, t0, ny)
+    z, sz, tz, dz = _setup(s2, e2 - s2, t0, nz)
+    cx = (nx - 1 - x) if sx > 0 else (x if sx < 0 else big)
+    cy = (ny - 1 - y) if sy > 0 else (y if sy < 0 else big)
+    cz = (nz - 1 - z) if sz > 0 else (z if sz < 0 else big)
+    fx, fy = sx * ny * nz, sy * nz
+    v = (x * ny + y) * nz + z
+    while True:
+        out[v] = True
+        if tx <= ty and tx <= tz:  # the first of the nearest faces, as numpy's argmin
+            if not (tx <= t1 and cx > 0):
+                break
+            v, tx, cx = v + fx, tx + dx, cx - 1
+        elif ty <= tz:
+            if not (ty <= t1 and cy > 0):
+                break
+            v, ty, cy = v + fy, ty + dy, cy - 1
+        else:
+            if not (tz <= t1 and cz > 0):
+                break
+            v, tz, cz = v + sz, tz + dz, cz - 1
+
+
 @njit(cache=True, nogil=True)
 def walk(
     s_m: npt.NDArray[np.float64],
@@ -186,33 +226,32 @@ def walk(
     metres; its lowest corner ``lower_m``) cross: :meth:`gtgen.voxels.SegmentWalk.of` and
     :func:`gtgen.voxels.walk_segments` in one loop (the flat index stepped by each axis's stride,
     the steps left before the grid's edge counted down along each axis)."""
-    big = nx + ny + nz + 1
     for q in range(s_m.shape[0]):
-        s0, s1, s2, e0, e1, e2, t0, t1 = _clip_walk(s_m[q], e_m[q], lower_m, voxel_m, nx, ny, nz)
-        if not t0 < t1:
-            continue
-        x, sx, tx, dx = _setup(s0, e0 - s0, t0, nx)
-        y, sy, ty, dy = _setup(s1, e1 - s1, t0, ny)
-        z, sz, tz, dz = _setup(s2, e2 - s2, t0, nz)
-        cx = (nx - 1 - x) if sx > 0 else (x if sx < 0 else big)
-        cy = (ny - 1 - y) if sy > 0 else (y if sy < 0 else big)
-        cz = (nz - 1 - z) if sz > 0 else (z if sz < 0 else big)
-        fx, fy = sx * ny * nz, sy * nz
-        v = (x * ny + y) * nz + z
-        while True:
-            out[v] = True
-            if tx <= ty and tx <= tz:  # the first of the nearest faces, as numpy's argmin
-                if not (tx <= t1 and cx > 0):
-                    break
-                v, tx, cx = v + fx, tx + dx, cx - 1
-            elif ty <= tz:
-                if not (ty <= t1 and cy > 0):
-                    break
-                v, ty, cy = v + fy, ty + dy, cy - 1
-            else:
-                if not (tz <= t1 and cz > 0):
-                    break
-                v, tz, cz = v + sz, tz + dz, cz - 1
+        _walk_one(s_m[q], e_m[q], lower_m, voxel_m, nx, ny, nz, out)
+
+
+@njit(cache=True, nogil=True)
+def walk_from(
+    points: npt.NDArray[np.floating],
+    rotation: npt.NDArray[np.float64],
+    translation: npt.NDArray[np.float64],
+    lower_m: npt.NDArray[np.float64],
+    voxel_m: float,
+    nx: int,
+    ny: int,
+    nz: int,
+    out: npt.NDArray[np.bool_],
+) -> None:  # pragma: no cover - compiled
+    """:func:`walk` of the segments from ``translation`` to each of ``points: (N, 3)`` (their own
+    frame, metres) placed in the grid's frame by ``rotation`` and ``translation``: each end's
+    coordinate ``i`` is ``p_0 R_i0 + p_1 R_i1 + p_2 R_i2 + t_i`` in float64, in that order (as
+    ``gtgen.occupancy._transform``'s einsum sums it)."""
+    end = np.empty(3)
+    for q in range(points.shape[0]):
+        p0, p1, p2 = np.float64(points[q, 0]), np.float64(points[q, 1]), np.float64(points[q, 2])
+        for i in range(3):
+            end[i] = p0 * rotation[i, 0] + p1 * rotation[i, 1] + p2 * rotation[i, 2] + translation[i]
+        _walk_one(translation, end, lower_m, voxel_m, nx, ny, nz, out)
 
 
 @njit(cache=True, nogil=True)

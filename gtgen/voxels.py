@@ -231,6 +231,19 @@ def walk_voxels(grid: VoxelGrid, start_m: F64, end_m: F64, out: npt.NDArray[np.b
     voxel_kernels.walk(s, e, np.asarray(grid.lower_m, np.float64), grid.voxel_m, *grid.shape, out)
 
 
+def walk_from(
+    grid: VoxelGrid, points: npt.NDArray[np.floating], rotation: F64, translation: F64, out: npt.NDArray[np.bool_]
+) -> None:
+    """:func:`walk_voxels` of the segments from ``translation`` to each of ``points: (N, 3)``
+    mapped into the grid's frame by ``rotation`` and ``translation`` (a sensor's rays from its
+    mount to its returns, without an array of ends)."""
+    from gtgen import voxel_kernels
+
+    lower = np.asarray(grid.lower_m, np.float64)
+    r, t = np.ascontiguousarray(rotation, np.float64), np.ascontiguousarray(translation, np.float64)
+    voxel_kernels.walk_from(np.asarray(points), r, t, lower, grid.voxel_m, *grid.shape, out)
+
+
 def _segment_chunks(grid: VoxelGrid, start_m: F64, end_m: F64) -> Iterator[tuple[I64, I64]]:
     s, e = grid.to_grid(start_m), grid.to_grid(end_m)
     shape = np.asarray(grid.shape)

@@ -4,7 +4,16 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from gtgen.voxels import SegmentWalk, VoxelGrid, box_voxels, segment_voxels, triangle_voxels, walk_segments, walk_voxels
+from gtgen.voxels import (
+    SegmentWalk,
+    VoxelGrid,
+    box_voxels,
+    segment_voxels,
+    triangle_voxels,
+    walk_from,
+    walk_segments,
+    walk_voxels,
+)
 from networks.geometry import box_rotations
 
 GRID = VoxelGrid((-4.0, -4.0, -1.0), 0.4, (20, 20, 10))
@@ -161,6 +170,27 @@ def test_compiled_voxel_walk_visits_the_same_voxels_as_numpy():
         walk_voxels(GRID, starts[i : i + 1], ends[i : i + 1], one)
         reference = _walked(lambda w, out: walk_segments(GRID, w, out), starts[i : i + 1], ends[i : i + 1])
         assert np.array_equal(one, reference)
+
+
+def test_walk_from_a_mount_visits_the_voxels_of_the_segments_it_places():
+    rng = np.random.default_rng(5)
+    rotation = box_rotations(np.array([0.7]), np.array([0.05]))[0]
+    translation = np.array([0.3, -0.2, 0.9])
+    points = rng.uniform([-6, -6, -2], [6, 6, 3], (4000, 3)).astype(np.float32)
+    points[:400] = np.round(points[:400] / GRID.voxel_m) * GRID.voxel_m  # ends on faces (before the turn)
+    ends = np.einsum("nj,ij->ni", points.astype(np.float64), rotation) + translation
+    reference = np.zeros(GRID.size, np.bool_)
+    walk_voxels(GRID, np.broadcast_to(translation, ends.shape), ends, reference)
+    walked = np.zeros(GRID.size, np.bool_)
+    walk_from(GRID, points, rotation, translation, walked)
+    assert reference.sum() > 500
+    assert np.array_equal(walked, reference)
+    axis_aligned = np.zeros(GRID.size, np.bool_)  # ends exactly on faces, edges and corners
+    snapped = np.round(points[:400].astype(np.float64) / GRID.voxel_m) * GRID.voxel_m
+    walk_from(GRID, snapped, np.eye(3), np.zeros(3), axis_aligned)
+    reference[:] = False
+    walk_voxels(GRID, np.zeros_like(snapped), snapped, reference)
+    assert np.array_equal(axis_aligned, reference)
 
 
 def _components(free):
