@@ -350,6 +350,45 @@ def paint(
 
 
 @njit(cache=True, nogil=True)
+def box_cells(
+    low: I64,
+    size: I64,
+    center: npt.NDArray[np.float64],
+    axes: npt.NDArray[np.float64],
+    bound: npt.NDArray[np.float64],
+    ny: int,
+    nz: int,
+) -> tuple[I64, I64]:  # pragma: no cover - compiled
+    """``(flat, box)`` of :func:`gtgen.voxels.box_voxels`: the voxels of each box ``b``'s bounding
+    voxels (from ``low[b]``, ``size[b]`` along each axis, x slowest) whose centre's offset from
+    ``center[b]`` (grid coordinates) projects on every axis ``axes[b, a]`` to less than
+    ``bound[b, a]`` (the summed reaches less the touch), the projection summed in numpy's order."""
+    count = 0
+    for b in range(low.shape[0]):
+        count += size[b, 0] * size[b, 1] * size[b, 2]
+    flat = np.empty(count, np.int64)
+    source = np.empty(count, np.int64)
+    m = 0
+    for b in range(low.shape[0]):
+        for i in range(low[b, 0], low[b, 0] + size[b, 0]):
+            d0 = (i + 0.5) - center[b, 0]
+            for j in range(low[b, 1], low[b, 1] + size[b, 1]):
+                d1 = (j + 0.5) - center[b, 1]
+                for k in range(low[b, 2], low[b, 2] + size[b, 2]):
+                    d2 = (k + 0.5) - center[b, 2]
+                    ok = True
+                    for a in range(axes.shape[1]):
+                        if not abs(d0 * axes[b, a, 0] + d1 * axes[b, a, 1] + d2 * axes[b, a, 2]) < bound[b, a]:
+                            ok = False
+                            break
+                    if ok:
+                        flat[m] = (i * ny + j) * nz + k
+                        source[m] = b
+                        m += 1
+    return flat[:m].copy(), source[:m].copy()
+
+
+@njit(cache=True, nogil=True)
 def enclosed(box: npt.NDArray[np.int64], wall: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:  # pragma: no cover
     """Which of a box's voxels ``box: (N, 3)`` (voxel indices) no path of face-neighbouring voxels
     inside the box, free of ``wall: (M, 3)``, joins to the box's outside (a flood from outside)."""

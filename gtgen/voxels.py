@@ -120,6 +120,8 @@ def box_voxels(grid: VoxelGrid, center_m: F64, grid_R_box: F64, lwh_m: F64) -> t
     """``(flat, source)``: the voxels whose cube overlaps the volume of each box (centre
     ``(B, 3)``, orientation ``(B, 3, 3)``, size ``(B, 3)``) by more than a touch, and its box: the
     voxels of each box's bounding box that no separating axis (the 15 of two boxes) parts from it."""
+    from gtgen import voxel_kernels
+
     half = lwh_m / 2.0 / grid.voxel_m
     center = grid.to_grid(center_m)
     reach = np.einsum("bij,bj->bi", np.abs(grid_R_box), half)
@@ -127,14 +129,11 @@ def box_voxels(grid: VoxelGrid, center_m: F64, grid_R_box: F64, lwh_m: F64) -> t
     low = np.maximum(np.floor(center - reach).astype(np.int64), 0)
     high = np.minimum(np.ceil(center + reach).astype(np.int64), shape) - 1
     size = np.maximum(high - low + 1, 0)
-    box, local = _ragged(size.prod(axis=1))
-    n = size[box]
-    ijk = low[box] + np.stack([local // (n[:, 1] * n[:, 2]), local // n[:, 2] % n[:, 1], local % n[:, 2]], axis=-1)
     axes, radius = _separating_axes(grid_R_box, half)
-    d = ijk + 0.5 - center[box]
-    projected = np.abs(np.einsum("pj,paj->pa", d, axes[box]))
-    ok = np.all(projected < radius[box] - TOUCH, axis=1)
-    return grid.flat(ijk[ok]), box[ok]
+    _, ny, nz = grid.shape
+    return voxel_kernels.box_cells(
+        low, size, np.ascontiguousarray(center), np.ascontiguousarray(axes), radius - TOUCH, ny, nz
+    )
 
 
 def _separating_axes(R: F64, half: F64) -> tuple[F64, F64]:
