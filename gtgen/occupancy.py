@@ -347,7 +347,7 @@ def _static_near_index(grid: VoxelGrid, static: ClassedMesh, map_SE3_ego: SE3) -
     lo, hi = np.asarray(grid.lower_m), np.asarray(grid.upper_m)
     grid_center = map_SE3_ego.transform_from((lo + hi) / 2.0)
     reach = float(np.linalg.norm(hi - lo)) / 2.0
-    return np.flatnonzero(np.linalg.norm(centroid - grid_center, axis=1) <= reach + radius)
+    return voxel_kernels.within(centroid, np.asarray(grid_center, np.float64), reach + radius)
 
 
 _CIRCLES: list[tuple[ClassedMesh, npt.NDArray[np.float64], npt.NDArray[np.float64]]] = []
@@ -378,7 +378,9 @@ def _agent_voxels(
     if meshes is None or meshes.triangles.shape[0] == 0 or flat.size == 0:
         return flat, row
     in_grid = np.isin(meshes.triangle_instance, agents.instance_id[np.unique(row)])
-    surface, tri = triangle_voxels(grid, _transform(ego_SE3_map, meshes.vertices_m), meshes.triangles[in_grid])
+    surface, tri = triangle_voxels(
+        grid, meshes.vertices_m, meshes.triangles[in_grid], ego_SE3_map.rotation, ego_SE3_map.translation
+    )
     surface_id = meshes.triangle_instance[in_grid][tri]
     by_id = np.argsort(surface_id, kind="stable")
     order = np.argsort(row, kind="stable")

@@ -389,6 +389,22 @@ def box_cells(
 
 
 @njit(cache=True, nogil=True)
+def within(
+    points: npt.NDArray[np.float64], center: npt.NDArray[np.float64], reach: npt.NDArray[np.float64]
+) -> I64:  # pragma: no cover - compiled
+    """The rows of ``points: (N, 3)`` at most ``reach: (N,)`` from ``center: (3,)`` (the distance
+    as ``np.linalg.norm`` computes it: the squares summed in order, then the root)."""
+    out = np.empty(points.shape[0], np.int64)
+    m = 0
+    for n in range(points.shape[0]):
+        d0, d1, d2 = points[n, 0] - center[0], points[n, 1] - center[1], points[n, 2] - center[2]
+        if math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) <= reach[n]:
+            out[m] = n
+            m += 1
+    return out[:m].copy()
+
+
+@njit(cache=True, nogil=True)
 def enclosed(box: npt.NDArray[np.int64], wall: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:  # pragma: no cover
     """Which of a box's voxels ``box: (N, 3)`` (voxel indices) no path of face-neighbouring voxels
     inside the box, free of ``wall: (M, 3)``, joins to the box's outside (a flood from outside)."""
@@ -733,21 +749,36 @@ def solid_fill(
 
 @njit(cache=True, nogil=True)
 def mesh_voxels(
-    vertices_m: npt.NDArray[np.float64],
+    vertices_m: npt.NDArray[np.floating],
     triangles: I64,
     lower_m: npt.NDArray[np.float64],
     voxel_m: float,
     nx: int,
     ny: int,
     nz: int,
+    rotation: npt.NDArray[np.float64],
+    translation: npt.NDArray[np.float64],
 ) -> tuple[I64, I64]:  # pragma: no cover - compiled
     """:func:`triangle_voxels` of the triangles ``triangles: (T, 3)`` (corner indices) of
-    ``vertices_m: (V, 3)`` (the grid's frame, metres; the grid's lowest corner ``lower_m``)."""
+    ``vertices_m: (V, 3)`` (metres; the grid's lowest corner ``lower_m``), in the grid's frame, or
+    placed in it by ``rotation: (3, 3)`` and ``translation: (3,)`` where ``rotation`` is given
+    (not empty): coordinate ``i`` is ``p_0 R_i0 + p_1 R_i1 + p_2 R_i2 + t_i``, summed in that
+    order (as ``gtgen.occupancy._transform``'s einsum sums it)."""
+    placed = rotation.shape[0] > 0
     tri = np.empty((triangles.shape[0], 3, 3))
     for t in range(triangles.shape[0]):
         for c in range(3):
+            v = triangles[t, c]
             for a in range(3):
-                tri[t, c, a] = (vertices_m[triangles[t, c], a] - lower_m[a]) / voxel_m
+                x = np.float64(vertices_m[v, a])
+                if placed:
+                    x = (
+                        vertices_m[v, 0] * rotation[a, 0]
+                        + vertices_m[v, 1] * rotation[a, 1]
+                        + vertices_m[v, 2] * rotation[a, 2]
+                        + translation[a]
+                    )
+                tri[t, c, a] = (x - lower_m[a]) / voxel_m
     return triangle_voxels(tri, nx, ny, nz)
 
 

@@ -91,10 +91,18 @@ PRESETS = {
 EPS = 1e-9  # in voxels: a point this close to a voxel's face counts as on it
 
 
-def triangle_voxels(grid: VoxelGrid, triangles_m: F64, corners: npt.ArrayLike | None = None) -> tuple[I64, I64]:
+def triangle_voxels(
+    grid: VoxelGrid,
+    triangles_m: npt.NDArray[np.floating],
+    corners: npt.ArrayLike | None = None,
+    rotation: F64 | None = None,
+    translation: F64 | None = None,
+) -> tuple[I64, I64]:
     """``(flat, source)``: the voxels each triangle ``(T, 3, 3)`` meets (closed cubes: a triangle on
     a voxel face meets the voxels on both sides), and the triangle each pair comes from. With
-    ``corners: (T, 3)`` (indices), ``triangles_m`` are the vertices ``(V, 3)`` the triangles index.
+    ``corners: (T, 3)`` (indices), ``triangles_m`` are the vertices ``(V, 3)`` the triangles index;
+    with ``rotation`` and ``translation``, the vertices are in another frame and placed in the
+    grid's by them (each triangle's corners only, not every vertex).
 
     For each row of voxels along x (a ``(y, z)`` cell of the triangle's bounding box), the part of
     the triangle inside that row is a convex polygon; its x extent, from the polygon's corners
@@ -102,10 +110,13 @@ def triangle_voxels(grid: VoxelGrid, triangles_m: F64, corners: npt.ArrayLike | 
     four edges' crossings of the triangle), names exactly the voxels of the row it meets."""
     from gtgen import voxel_kernels
 
-    points = np.ascontiguousarray(np.asarray(triangles_m, np.float64).reshape(-1, 3))
+    points = np.asarray(triangles_m)  # float32 vertices as they are (each corner made float64 in the walk)
+    points = np.ascontiguousarray(points.reshape(-1, 3), np.float32 if points.dtype == np.float32 else np.float64)
     index = np.arange(points.shape[0]).reshape(-1, 3) if corners is None else np.asarray(corners, np.int64)
     lower = np.asarray(grid.lower_m, np.float64)
-    return voxel_kernels.mesh_voxels(points, np.ascontiguousarray(index), lower, grid.voxel_m, *grid.shape)
+    r = np.zeros((0, 3)) if rotation is None else np.ascontiguousarray(rotation, np.float64)
+    t = np.zeros(3) if translation is None else np.ascontiguousarray(translation, np.float64)
+    return voxel_kernels.mesh_voxels(points, np.ascontiguousarray(index), lower, grid.voxel_m, *grid.shape, r, t)
 
 
 def _ragged(count: I64) -> tuple[I64, I64]:
