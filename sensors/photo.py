@@ -517,9 +517,7 @@ LAMP_SPACING_M, LAMP_POOL_M, LAMP_BETWEEN = 28.0, 7.0, np.float32(0.2)
 def lamp_pools(points: F32) -> F32:
     """``(N,)`` how much of the street lamps' light reaches ``points``: 1 under a lamp, falling
     to :data:`LAMP_BETWEEN` between them (the pools of light along a lit street at night)."""
-    s = np.float32(LAMP_SPACING_M)
-    off = points[:, :2] - np.round(points[:, :2] / s) * s  # from the nearest lamp, per axis
-    d2 = (off**2).sum(axis=1)
+    d2 = kernels.lamp_offsets_sq(np.ascontiguousarray(points, np.float32), np.float32(LAMP_SPACING_M))
     pool = np.exp(-d2 / np.float32(2.0 * LAMP_POOL_M**2))
     return np.asarray(LAMP_BETWEEN + (np.float32(1.0) - LAMP_BETWEEN) * pool, np.float32)
 

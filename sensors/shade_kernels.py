@@ -471,3 +471,15 @@ def subpixel_directions(
             out[j * per + s, 1] = np.float32(y / length)
             out[j * per + s, 2] = np.float32(1.0 / length)
     return out
+
+
+@njit(cache=True, nogil=True)
+def lamp_offsets_sq(points: F32, spacing: np.float32) -> F32:  # pragma: no cover - compiled
+    """``(N,)`` squared distance in the plane from each point to the nearest node of a square grid
+    of ``spacing`` (per axis ``p - rint(p / spacing) * spacing``, as numpy computes it)."""
+    out = np.empty(points.shape[0], np.float32)
+    for i in range(points.shape[0]):
+        x = points[i, 0] - np.rint(points[i, 0] / spacing) * spacing
+        y = points[i, 1] - np.rint(points[i, 1] / spacing) * spacing
+        out[i] = x * x + y * y
+    return out

@@ -88,3 +88,13 @@ def test_sub_rays_directions_are_the_pinholes_bit_for_bit() -> None:
     K = pinhole.K
     got = kernels.subpixel_directions(pixel, 1280, SUBPIXEL_OFFSETS, K[0, 0], K[0, 2], K[1, 1], K[1, 2])
     np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
+
+
+def test_street_lamp_offsets_are_numpys() -> None:
+    rng = np.random.default_rng(9)
+    points = rng.uniform(-500, 500, (40_000, 3)).astype(np.float32)
+    points[:50, :2] = np.float32(14.0) + np.float32(28.0) * rng.integers(-5, 5, (50, 2))  # halfway: rounds to even
+    s = np.float32(28.0)
+    off = points[:, :2] - np.round(points[:, :2] / s) * s
+    want = (off**2).sum(axis=1)
+    np.testing.assert_array_equal(kernels.lamp_offsets_sq(points, s).view(np.uint32), want.view(np.uint32))
