@@ -65,6 +65,9 @@ from the frame. Without it our frames' darkest 5 % sat at 37-74 of 255 (real KIT
 MAX_REFLECTION = 0.45
 """The most of the surroundings a surface mirrors, even at grazing angles (clear coat and
 glass are not perfect mirrors: dirt, curvature and roughness blur and dim what they show)."""
+WET_MIN_UP = np.float32(0.5)
+"""Water lies on paved surfaces facing up (the normal towards the camera's side with z at least
+this): a bridge deck's underside and sides, classed road, stay dry."""
 CONTACT_M = 0.45
 """How far from a vehicle's footprint its contact shadow fades out."""
 STREET_LIGHT = np.float32(0.18)
@@ -390,7 +393,9 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     c, inst, pt = cls[at], instance[at], part[at]
 
     albedo, mirror, glow = static_albedo(c, p, nrm)
-    wet = np.flatnonzero(_IS_PAVED[c] & (pt == 0)) if weather.wet_ground > 0 else np.zeros(0, np.intp)
+    wet = np.zeros(0, np.intp)
+    if weather.wet_ground > 0:  # water lies on paved surfaces facing up: not under a bridge's deck nor on its sides
+        wet = np.flatnonzero(_IS_PAVED[c] & (pt == 0) & (nrm[:, 2] >= WET_MIN_UP))
     mirror[wet] = np.float32(weather.wet_ground)
     agent = pt > 0
     if agent.any():
@@ -439,7 +444,7 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     env = sky_linear(weather, refl[shiny_at])
     env[refl[shiny_at, 2] < 0] = np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain))
     if len(wet):  # a wet road mirrors the sky only as far as it sees it: less under and beside vehicles
-        film = np.flatnonzero(_IS_PAVED[c[shiny_at]] & (pt[shiny_at] == 0))
+        film = np.flatnonzero(_IS_PAVED[c[shiny_at]] & (pt[shiny_at] == 0) & (nrm[shiny_at, 2] >= WET_MIN_UP))
         env[film] *= rays.sky_open[at[shiny_at[film]]][:, None]
     window = (
         night * np.float32(0.25) * np.array([0.25, 0.55, 0.9], np.float32) if night > 0 else np.zeros(3, np.float32)

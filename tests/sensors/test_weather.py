@@ -79,3 +79,22 @@ def test_a_wet_road_mirrors_the_sky_most_where_it_is_seen_at_a_grazing_angle(syn
     gain_far = grey_wet[far].mean() - grey_dry[far].mean()
     gain_near = grey_wet[near].mean() - grey_dry[near].mean()
     assert gain_far > 20 and gain_far > 2 * gain_near  # Fresnel: the far road shines, the near one stays dark
+
+
+def test_a_bridge_decks_side_stays_dry_in_rain(synth: SimpleNamespace) -> None:
+    from dataclasses import replace
+
+    camera = Camera(CameraSpec(width_px=320, height_px=180))
+    # the side of a deck (classed road) along the street, 5 m to the left, 3-6 m high: seen at a grazing angle
+    side = synth.quad([(8.0, 5.0, 3.0), (200.0, 5.0, 3.0), (200.0, 5.0, 6.0), (8.0, 5.0, 6.0)], SemanticClass.ROAD)
+    world = synth.scene([synth.ground(), side])
+    rain = weather_preset("rain")
+    wet = camera.sense(world, synth.EGO, rain, np.random.default_rng(0)).frame
+    dry = camera.sense(world, synth.EGO, replace(rain, wet_ground=0.0), np.random.default_rng(0)).frame
+    grey_wet, grey_dry = shade_frame(wet).mean(axis=2), shade_frame(dry).mean(axis=2)
+    road = wet.semantic_class == SemanticClass.ROAD
+    above = np.arange(180)[:, None] < 88  # above the horizon: the side; below it: the street
+    street = road & ~above & (wet.depth_m > 30.0)
+    assert (road & above).sum() > 200 and street.sum() > 100  # the test means something: both in view
+    assert np.abs(grey_wet[road & above] - grey_dry[road & above]).mean() < 3  # no film of water on a wall
+    assert grey_wet[street].mean() - grey_dry[street].mean() > 10  # the street: wet
