@@ -63,6 +63,16 @@ def test_fog_hazes_far_surfaces_more_than_near_ones() -> None:
     assert haze_fraction(fog, np.array([200.0], np.float32), 200.0)[0] == pytest.approx(1.0)
 
 
+def test_a_clear_day_barely_hazes_road_users_at_their_usual_distances() -> None:
+    # clear-day visibility of several km (5 % contrast at 3 x haze_m): a car 40 m away keeps
+    # 98 % of its own light, the rain's and fog's haze take far more
+    near = np.array([10.0, 40.0, 80.0], np.float32)
+    assert haze_fraction(DAY, near, 200.0).max() < 0.04
+    assert haze_fraction(DAY, near[1:2], 200.0)[0] < 0.02
+    assert haze_fraction(weather_preset("rain"), near[1:2], 200.0)[0] > 0.1
+    assert haze_fraction(DAY, np.array([200.0], np.float32), 200.0)[0] == pytest.approx(1.0)  # the far cut-off
+
+
 def test_a_wet_road_mirrors_the_sky_most_where_it_is_seen_at_a_grazing_angle(synth: SimpleNamespace) -> None:
     from dataclasses import replace
 
