@@ -36,8 +36,9 @@ def test_night_and_rain_darken_the_image_and_add_noise(synth: SimpleNamespace) -
     day = camera.sense(world, synth.EGO, weather_preset("day"), np.random.default_rng(0)).frame
     night = camera.sense(world, synth.EGO, weather_preset("night"), np.random.default_rng(0)).frame
     rain = camera.sense(world, synth.EGO, weather_preset("rain"), np.random.default_rng(0)).frame
-    # the auto contrast takes the day frame's veil out (mean 172 -> 94; night 68 -> 56)
-    assert shade_frame(night).mean() < 0.6 * shade_frame(day).mean()
+    # the auto contrast takes the day frame's veil out (day's mean 85 with the clear day's thin
+    # haze, the far wall no longer pale; night 56)
+    assert shade_frame(night).mean() < 0.7 * shade_frame(day).mean()
     assert shade_frame(rain).mean() < shade_frame(day).mean()
     night_again = camera.sense(world, synth.EGO, weather_preset("night"), np.random.default_rng(1)).frame
     day_again = camera.sense(world, synth.EGO, weather_preset("day"), np.random.default_rng(1)).frame
