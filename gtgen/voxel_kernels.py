@@ -172,6 +172,17 @@ def _clip_walk(
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _placed(
+    p: npt.NDArray[np.floating], rotation: npt.NDArray[np.float64], translation: npt.NDArray[np.float64], i: int
+) -> float:  # pragma: no cover - compiled
+    """Coordinate ``i`` of the point ``p: (3,)`` placed by ``rotation`` and ``translation``, in
+    float64: ``p_0 R_i0 + p_1 R_i1 + p_2 R_i2 + t_i``, summed in that order (as
+    ``gtgen.occupancy._transform``'s einsum sums it)."""
+    p0, p1, p2 = np.float64(p[0]), np.float64(p[1]), np.float64(p[2])
+    return float(p0 * rotation[i, 0] + p1 * rotation[i, 1] + p2 * rotation[i, 2] + translation[i])
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _walk_one(
     s_m: npt.NDArray[np.float64],
     e_m: npt.NDArray[np.float64],
@@ -243,14 +254,11 @@ def walk_from(
     out: npt.NDArray[np.bool_],
 ) -> None:  # pragma: no cover - compiled
     """:func:`walk` of the segments from ``translation`` to each of ``points: (N, 3)`` (their own
-    frame, metres) placed in the grid's frame by ``rotation`` and ``translation``: each end's
-    coordinate ``i`` is ``p_0 R_i0 + p_1 R_i1 + p_2 R_i2 + t_i`` in float64, in that order (as
-    ``gtgen.occupancy._transform``'s einsum sums it)."""
+    frame, metres) placed in the grid's frame by ``rotation`` and ``translation`` (:func:`_placed`)."""
     end = np.empty(3)
     for q in range(points.shape[0]):
-        p0, p1, p2 = np.float64(points[q, 0]), np.float64(points[q, 1]), np.float64(points[q, 2])
         for i in range(3):
-            end[i] = p0 * rotation[i, 0] + p1 * rotation[i, 1] + p2 * rotation[i, 2] + translation[i]
+            end[i] = _placed(points[q], rotation, translation, i)
         _walk_one(translation, end, lower_m, voxel_m, nx, ny, nz, out)
 
 
@@ -761,23 +769,15 @@ def mesh_voxels(
 ) -> tuple[I64, I64]:  # pragma: no cover - compiled
     """:func:`triangle_voxels` of the triangles ``triangles: (T, 3)`` (corner indices) of
     ``vertices_m: (V, 3)`` (metres; the grid's lowest corner ``lower_m``), in the grid's frame, or
-    placed in it by ``rotation: (3, 3)`` and ``translation: (3,)`` where ``rotation`` is given
-    (not empty): coordinate ``i`` is ``p_0 R_i0 + p_1 R_i1 + p_2 R_i2 + t_i``, summed in that
-    order (as ``gtgen.occupancy._transform``'s einsum sums it)."""
+    placed in it by ``rotation: (3, 3)`` and ``translation: (3,)`` (:func:`_placed`) where
+    ``rotation`` is given (not empty)."""
     placed = rotation.shape[0] > 0
     tri = np.empty((triangles.shape[0], 3, 3))
     for t in range(triangles.shape[0]):
         for c in range(3):
             v = triangles[t, c]
             for a in range(3):
-                x = np.float64(vertices_m[v, a])
-                if placed:
-                    x = (
-                        vertices_m[v, 0] * rotation[a, 0]
-                        + vertices_m[v, 1] * rotation[a, 1]
-                        + vertices_m[v, 2] * rotation[a, 2]
-                        + translation[a]
-                    )
+                x = _placed(vertices_m[v], rotation, translation, a) if placed else np.float64(vertices_m[v, a])
                 tri[t, c, a] = (x - lower_m[a]) / voxel_m
     return triangle_voxels(tri, nx, ny, nz)
 
