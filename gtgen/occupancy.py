@@ -271,6 +271,38 @@ def _classes(
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32]]:  # fmt: skip
     """Flat ``(native class, instance)`` of every voxel."""
     ego_SE3_map = map_SE3_ego.inverse()
+    surface, source, surface_class, tri_ego, inside, inside_class = _static_voxels(grid, static, solids, map_SE3_ego)
+    parts = [(surface, surface_class, _NO_INSTANCE), (inside, inside_class, _NO_INSTANCE)]
+    if len(agents):
+        flat, row = _agent_voxels(grid, agents, agent_meshes, ego_SE3_map)
+        parts.append((flat, agents.semantic_class[row], agents.instance_id[row]))
+    native, instance, best = _paint(grid, parts)
+    keep = _shared_surfaces(grid, surface, surface_class, tri_ego, source, native)
+    if not keep.all():  # painted again where surface entries left: those voxels' entries only
+        again = np.zeros(grid.size, np.bool_)
+        again[surface[~keep]] = True
+        native[again], instance[again], best[again] = FREE_NATIVE, 0, len(PRIORITY) + 1
+        _paint(grid, parts, keep, (native, instance, best, again))
+    return native, instance
+
+
+_StaticVoxels = tuple[
+    npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.uint8], npt.NDArray[np.float64],
+    npt.NDArray[np.int64], npt.NDArray[np.uint8],
+]  # fmt: skip
+_STATIC: list[tuple[ClassedMesh, Solids, tuple[object, ...], _StaticVoxels]] = []
+
+
+def _static_voxels(grid: VoxelGrid, static: ClassedMesh, solids: Solids, map_SE3_ego: SE3) -> _StaticVoxels:
+    """The static world's voxels in the ego frame: its surfaces' ``(flat, triangle, class)``, the
+    triangles ``(T, 3, 3)`` in the ego frame, and the solids' insides ``(flat, class)``
+    (:func:`_solid_insides`). They depend only on the grid, the static mesh, the solids and the
+    ego's pose: kept for the last frame's, and used again while the ego stands exactly where it
+    stood (the same pose bit for bit, the same mesh and solids objects), as it does at a red light."""
+    key = (grid, map_SE3_ego.rotation.tobytes(), map_SE3_ego.translation.tobytes())
+    if _STATIC and _STATIC[0][0] is static and _STATIC[0][1] is solids and _STATIC[0][2] == key:
+        return _STATIC[0][3]
+    ego_SE3_map = map_SE3_ego.inverse()
     near = _static_near_index(grid, static, map_SE3_ego)
     tri_m = np.asarray(static.vertices_m[static.triangles[near]], np.float64)
     tri_ego = _transform(ego_SE3_map, tri_m.reshape(-1, 3)).reshape(-1, 3, 3)
@@ -278,18 +310,10 @@ def _classes(
     tri_class = np.asarray(static.triangle_class[near], np.uint8)
     surface_class = tri_class[source]
     solid = np.isin(tri_class, solids.classes)[source]
-    parts = [
-        (surface, surface_class, _NO_INSTANCE),
-        (*_solid_insides(grid, solids, map_SE3_ego, surface[solid]), _NO_INSTANCE),
-    ]
-    if len(agents):
-        flat, row = _agent_voxels(grid, agents, agent_meshes, ego_SE3_map)
-        parts.append((flat, agents.semantic_class[row], agents.instance_id[row]))
-    native, instance = _paint(grid, parts)
-    keep = _shared_surfaces(grid, surface, surface_class, tri_ego, source, native)
-    if not keep.all():
-        native, instance = _paint(grid, parts, keep)
-    return native, instance
+    inside, inside_class = _solid_insides(grid, solids, map_SE3_ego, surface[solid])
+    out = (surface, source, surface_class, tri_ego, inside, inside_class)  # kept: nothing writes to them
+    _STATIC[:] = [(static, solids, key, out)]
+    return out
 
 
 _NO_INSTANCE = np.zeros(0, np.uint32)
@@ -300,20 +324,28 @@ def _paint(
     grid: VoxelGrid,
     parts: list[tuple[npt.NDArray[np.int64], npt.NDArray[np.uint8], npt.NDArray[np.uint32]]],
     keep_first: npt.NDArray[np.bool_] = _ALL,
-) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32]]:
+    into: tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32], npt.NDArray[np.uint8], npt.NDArray[np.bool_]]
+    | None = None,
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32], npt.NDArray[np.uint8]]:
     """Each voxel's class and instance: those of its entry earliest in :data:`PRIORITY` (entries
     ``(flat, class, instance)`` part after part, no instance: 0; of the first part only those
-    ``keep_first`` marks, if given)."""
-    native = np.full(grid.size, FREE_NATIVE, np.uint8)
-    instance = np.zeros(grid.size, np.uint32)
-    best = np.full(grid.size, len(PRIORITY) + 1, np.uint8)
+    ``keep_first`` marks, if given), and its entry's rank. ``into``: painted over arrays
+    ``(native, instance, rank, only)`` at the voxels ``only`` marks (those cleared: every one of
+    their entries painted again), not new ones."""
+    if into is None:
+        native = np.full(grid.size, FREE_NATIVE, np.uint8)
+        instance = np.zeros(grid.size, np.uint32)
+        best = np.full(grid.size, len(PRIORITY) + 1, np.uint8)
+        only = _ALL
+    else:
+        native, instance, best, only = into
     for n, (flat, cls, inst) in enumerate(parts):
         keep = keep_first if n == 0 else _ALL
         voxel_kernels.paint(
             np.asarray(flat, np.int64), np.asarray(cls, np.uint8), np.asarray(inst, np.uint32), keep, _RANK, native,
-            instance, best,
+            instance, best, only,
         )  # fmt: skip
-    return native, instance
+    return native, instance, best
 
 
 def _shared_surfaces(

@@ -342,14 +342,18 @@ def paint(
     native: npt.NDArray[np.uint8],
     instance: npt.NDArray[np.uint32],
     best: npt.NDArray[np.uint8],
+    only: npt.NDArray[np.bool_],
 ) -> None:  # pragma: no cover - compiled
     """Each voxel takes the class and instance of its entry of lowest rank (``rank_of[cls]``), the
     last such one in the entries' order (a stable sort by falling rank, then every entry written in
-    turn). ``inst`` empty: instance 0; ``keep`` empty: every entry, else those it marks."""
+    turn). ``inst`` empty: instance 0; ``keep`` empty: every entry, else those it marks; ``only``
+    empty: every voxel, else the voxels it marks (flat)."""
     for n in range(flat.shape[0]):
         if keep.shape[0] and not keep[n]:
             continue
         v = flat[n]
+        if only.shape[0] and not only[v]:
+            continue
         rank = rank_of[cls[n]]
         if rank <= best[v]:
             best[v] = rank
