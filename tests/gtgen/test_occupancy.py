@@ -175,6 +175,35 @@ def _tree_for_test(x: float, y: float):
     return merge([trunk, ellipsoid_mesh((x, y, 3.5), (2.0, 2.0, 1.6), SemanticClass.VEGETATION)])
 
 
+def test_a_standing_ego_gets_the_same_occupancy_from_the_static_voxels_kept_from_its_last_frame(monkeypatch):
+    import gtgen.occupancy as occupancy_module
+
+    made = []
+    near_index = occupancy_module._static_near_index
+    monkeypatch.setattr(occupancy_module, "_static_near_index", lambda *a: made.append(1) or near_index(*a))
+    building = prism(rect(6.0, 3.0, 12.0, 9.0), -0.05, 8.0, SemanticClass.BUILDING)
+    curb = prism(rect(-30.0, -4.3, 30.0, -4.0), -0.05, 0.15, SemanticClass.CURB)
+    static = merge([GROUND, building, curb, _tree_for_test(-8.0, 6.0)])
+    solids = Solids(static)
+    pose = SE3.from_matrix(_pose(0.3, 0.01, (1.3, -0.7, 0.2)))
+
+    def at(agents, solids):
+        return occupancy_frame(SPEC, static, solids, agents, pose, np.zeros(3), ())
+
+    at(car(2.0, -1.0), solids)
+    kept = at(car(4.0, -1.5), solids)  # the same pose, mesh and solids: the static voxels kept
+    assert len(made) == 1
+    fresh = at(car(4.0, -1.5), Solids(static))  # other solids: made again
+    assert len(made) == 2
+    for name in ("semantics_native", "instance", "mask_lidar", "mask_camera"):
+        assert np.array_equal(getattr(kept, name), getattr(fresh, name))
+    assert (kept.semantics_native == SemanticClass.BUILDING).sum() > 1000
+    assert (kept.semantics_native == SemanticClass.CAR).any()
+    moved = SE3(pose.rotation, pose.translation + np.array([0.0, 0.0, 1e-12]))
+    occupancy_frame(SPEC, static, solids, car(4.0, -1.5), moved, np.zeros(3), ())
+    assert len(made) == 3  # a pose not the same bit for bit: made again
+
+
 def test_wall_hides_the_voxels_behind_it_from_both_masks():
     wall = prism(rect(8.0, -6.0, 8.4, 6.0), -0.05, 4.0, SemanticClass.BUILDING)
     occupancy, _ = frame(merge([GROUND, wall]), Agents.empty())
