@@ -409,17 +409,27 @@ def _agent_voxels(
     flat, row = box_voxels(grid, center, rotations, agents.lwh_m)
     if meshes is None or meshes.triangles.shape[0] == 0 or flat.size == 0:
         return flat, row
-    in_grid = np.isin(meshes.triangle_instance, agents.instance_id[np.unique(row)])
+    triangle_id = meshes.triangle_instance
+    if row.size > 1 and np.any(row[1:] < row[:-1]):  # box_voxels lists the boxes in order: never
+        order = np.argsort(row, kind="stable")
+        flat, row = flat[order], row[order]
+    bounds = np.flatnonzero(np.r_[True, row[1:] != row[:-1], True])
+    group_id = agents.instance_id[row[bounds[:-1]]].astype(np.uint32)
+    if np.all(triangle_id[1:] >= triangle_id[:-1]):  # the agents' triangles one after another, ids rising
+        first = np.searchsorted(triangle_id, group_id, side="left")
+        last = np.searchsorted(triangle_id, group_id, side="right")
+        meshed = last > first
+        in_grid = np.zeros(triangle_id.shape[0], np.bool_)
+        for a, b in zip(first[meshed].tolist(), last[meshed].tolist(), strict=True):
+            in_grid[a:b] = True
+    else:
+        in_grid = np.isin(triangle_id, group_id)
+        meshed = np.isin(group_id, triangle_id)
     surface, tri = triangle_voxels(
         grid, meshes.vertices_m, meshes.triangles[in_grid], ego_SE3_map.rotation, ego_SE3_map.translation
     )
-    surface_id = meshes.triangle_instance[in_grid][tri]
+    surface_id = triangle_id[in_grid][tri]
     by_id = np.argsort(surface_id, kind="stable")
-    order = np.argsort(row, kind="stable")
-    flat, row = flat[order], row[order]
-    bounds = np.flatnonzero(np.r_[True, row[1:] != row[:-1], True])
-    group_id = agents.instance_id[row[bounds[:-1]]].astype(np.uint32)
-    meshed = np.isin(group_id, meshes.triangle_instance)
     _, ny, nz = grid.shape
     keep = voxel_kernels.boxes_filled(
         flat, bounds, group_id, meshed, surface[by_id], surface_id[by_id].astype(np.uint32), ny, nz
