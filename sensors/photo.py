@@ -231,40 +231,8 @@ def contact_light(
 ) -> F32:
     """``(N,)`` share of sky light reaching each point: less on the ground near and under
     vehicles and people (their contact shadows) and on agents' own lowest parts."""
-    light = np.ones(len(cls), np.float32)
-    if boxes is None or len(boxes.instance_id) == 0:
-        return light
-    ground = np.flatnonzero(_IS_GROUND[cls] & (instance == 0))
-    gp = points[ground]
-    gx, gy = np.ascontiguousarray(gp[:, 0]), np.ascontiguousarray(gp[:, 1])
-    order = np.argsort(boxes.instance_id)
-    length, w = boxes.lwh_m[:, 0], boxes.lwh_m[:, 1]
-    reach = np.array([0.5 * np.hypot(a, b) + CONTACT_M for a, b in zip(length, w, strict=True)], np.float64)
-    cs = np.array([np.float32(np.cos(y)) for y in boxes.yaw_rad], np.float32)
-    sn = np.array([np.float32(np.sin(y)) for y in boxes.yaw_rad], np.float32)
-    near, k, ax, ay = kernels.contact_pairs(
-        gx, gy, np.ascontiguousarray(boxes.centre_m[:, 0]), np.ascontiguousarray(boxes.centre_m[:, 1]), reach, cs, sn
-    )
-    half_l, half_w = (length / 2).astype(np.float32)[k], (w / 2).astype(np.float32)[k]
-    out = np.hypot(np.maximum(ax - half_l, 0), np.maximum(ay - half_w, 0))
-    inside = np.minimum(half_l - ax, half_w - ay)
-    depth = np.clip(inside / np.float32(0.6), 0.0, 1.0)  # darkest well under the body
-    occ = np.where(
-        out > 0,
-        np.float32(0.6) * np.exp(-out / np.float32(CONTACT_M * 0.4)),
-        np.float32(0.6) + np.float32(0.35) * depth,
-    )
-    kernels.minimum_at(light, np.asarray(ground[near], np.int64), np.asarray(np.float32(1.0) - occ, np.float32))
-    agents = np.flatnonzero(instance > 0)
-    if len(agents):
-        ids = boxes.instance_id[order]
-        pos = np.minimum(np.searchsorted(ids, instance[agents]), len(ids) - 1)
-        found = ids[pos] == instance[agents]
-        k = order[pos[found]]
-        a = agents[found]
-        height = points[a, 2] - (boxes.centre_m[k, 2] - boxes.lwh_m[k, 2] / 2).astype(np.float32)
-        light[a] = np.float32(0.45) + np.float32(0.55) * np.clip(height / np.float32(0.5), 0.0, 1.0)
-    return light
+    points = np.ascontiguousarray(points, np.float32)
+    return sky_light(points, np.ones(len(cls), np.float32), cls, instance, np.zeros(3), boxes)
 
 
 def sky_light(
@@ -275,13 +243,35 @@ def sky_light(
     origin_map_m: npt.NDArray[np.float64],
     boxes: AgentBoxes | None,
 ) -> F32:
-    """``(N,)`` share of sky light at each ray's hit (1 for misses): :func:`contact_light`
-    over a whole frame at once."""
-    out = np.ones(len(cls), np.float32)
-    at = np.flatnonzero(np.isfinite(range_m))
-    points = kernels.hit_points(at, dirs_map, range_m, origin_map_m.astype(np.float32))
-    out[at] = contact_light(points, cls[at], instance[at], boxes)
-    return out
+    """``(N,)`` share of sky light at each ray's hit (``origin_map_m + dirs_map * range_m``; 1
+    for misses): :func:`contact_light` over a whole frame at once, the hit points made on the fly."""
+    light = np.ones(len(cls), np.float32)
+    if boxes is None or len(boxes.instance_id) == 0:
+        return light
+    dirs = np.ascontiguousarray(dirs_map, np.float32)
+    origin = np.asarray(origin_map_m).astype(np.float32)
+    length, w = boxes.lwh_m[:, 0], boxes.lwh_m[:, 1]
+    reach = np.array([0.5 * np.hypot(a, b) + CONTACT_M for a, b in zip(length, w, strict=True)], np.float64)
+    cs = np.array([np.float32(np.cos(y)) for y in boxes.yaw_rad], np.float32)
+    sn = np.array([np.float32(np.sin(y)) for y in boxes.yaw_rad], np.float32)
+    near, k, ax, ay = kernels.contact_pairs(
+        dirs, range_m, cls, instance, _IS_GROUND, origin, np.ascontiguousarray(boxes.centre_m[:, 0]),
+        np.ascontiguousarray(boxes.centre_m[:, 1]), reach, cs, sn,
+    )  # fmt: skip
+    half_l, half_w = (length / 2).astype(np.float32)[k], (w / 2).astype(np.float32)[k]
+    out = np.hypot(np.maximum(ax - half_l, 0), np.maximum(ay - half_w, 0))
+    inside = np.minimum(half_l - ax, half_w - ay)
+    depth = np.clip(inside / np.float32(0.6), 0.0, 1.0)  # darkest well under the body
+    occ = np.where(
+        out > 0,
+        np.float32(0.6) * np.exp(-out / np.float32(CONTACT_M * 0.4)),
+        np.float32(0.6) + np.float32(0.35) * depth,
+    )
+    kernels.minimum_at(light, near, np.asarray(np.float32(1.0) - occ, np.float32))
+    order = np.argsort(boxes.instance_id)
+    floor_z = (boxes.centre_m[:, 2] - boxes.lwh_m[:, 2] / 2).astype(np.float32)
+    kernels.agents_low_light(light, dirs, range_m, instance, origin, boxes.instance_id[order], floor_z[order])
+    return light
 
 
 LAMP_BGR = np.zeros((256, 3), np.float32)

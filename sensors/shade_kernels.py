@@ -280,54 +280,109 @@ def edges(
 
 @njit(cache=True, nogil=True)
 def contact_pairs(
-    gx: F32, gy: F32, cx: npt.NDArray[np.float64], cy: npt.NDArray[np.float64], reach: npt.NDArray[np.float64],
-    cs: F32, sn: F32,
+    dirs: F32, range_m: F32, cls: npt.NDArray[np.uint8], instance: npt.NDArray[np.uint32],
+    is_ground: npt.NDArray[np.bool_], origin: F32, cx: npt.NDArray[np.float64], cy: npt.NDArray[np.float64],
+    reach: npt.NDArray[np.float64], cs: F32, sn: F32,
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], F32, F32]:  # fmt: skip  # pragma: no cover - compiled
-    """The ground points within each box's ``reach`` of its centre ``(cx, cy)`` along x and
-    along y (``|g - c| < reach`` in float64, as :func:`sensors.photo.contact_light` tests them):
-    per pair the point, the box, and the point's distances along the box's axes from its
-    centre (``cs``, ``sn``: the box's yaw's cosine and sine; float32). Points are bucketed
-    by x first (2 m buckets), so a box looks at its own strip only."""
-    n, k = gx.shape[0], cx.shape[0]
-    empty_i, empty_f = np.zeros(0, np.int64), np.zeros(0, np.float32)
+    """The rays hitting the static world's ground (a finite ``range_m``, ``is_ground[cls]``,
+    instance 0) whose hit point ``origin + dirs * range_m`` (float32, as :func:`hit_points`)
+    lies within each box's ``reach`` of its centre ``(cx, cy)`` along x and along y (``|g - c| <
+    reach`` in float64, as :func:`sensors.photo.contact_light` tests them): per pair the ray,
+    the box, and the point's distances along the box's axes from its centre (``cs``, ``sn``:
+    the box's yaw's cosine and sine; float32). Pairs come ray by ray (boxes in order within a
+    ray). The boxes' squares (widened by :data:`CELL_MARGIN_M`) are listed on a grid of cells
+    (1 m or wider, at most 256 a side), so a point looks at the boxes of its own cell only."""
+    n, k = range_m.shape[0], cx.shape[0]
     if n == 0 or k == 0:
-        return empty_i, empty_i, empty_f, empty_f
-    cell = 2.0
-    x0 = np.float64(gx.min())
-    cells = int((np.float64(gx.max()) - x0) / cell) + 1
-    start = np.zeros(cells + 1, np.int64)
-    for i in range(n):
-        start[int((np.float64(gx[i]) - x0) / cell) + 1] += 1
-    for c in range(cells):
-        start[c + 1] += start[c]
-    fill = start[:-1].copy()
-    by_x = np.empty(n, np.int64)
-    for i in range(n):
-        c = int((np.float64(gx[i]) - x0) / cell)
-        by_x[fill[c]] = i
-        fill[c] += 1
-    total = 0
-    for b in range(2):  # count, then fill
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.float32), np.zeros(0, np.float32)
+    x0, y0, x1, y1 = np.inf, np.inf, -np.inf, -np.inf
+    for j in range(k):
+        x0, x1 = min(x0, cx[j] - reach[j] - CELL_MARGIN_M), max(x1, cx[j] + reach[j] + CELL_MARGIN_M)
+        y0, y1 = min(y0, cy[j] - reach[j] - CELL_MARGIN_M), max(y1, cy[j] + reach[j] + CELL_MARGIN_M)
+    cell = max(1.0, max(x1 - x0, y1 - y0) / 256.0)
+    nx, ny = int((x1 - x0) / cell) + 1, int((y1 - y0) / cell) + 1
+    start = np.zeros(nx * ny + 1, np.int64)
+    listed = np.empty(0, np.int64)
+    fill = start[:-1]
+    for b in range(2):  # count, then fill: the boxes whose widened square touches each cell
         if b == 1:
-            pt, box = np.empty(total, np.int64), np.empty(total, np.int64)
-            ax, ay = np.empty(total, np.float32), np.empty(total, np.float32)
-        m = 0
+            for c in range(nx * ny):
+                start[c + 1] += start[c]
+            fill = start[:-1].copy()
+            listed = np.empty(start[nx * ny], np.int64)
         for j in range(k):
-            lo = max(int(np.floor((cx[j] - reach[j] - 1.0 - x0) / cell)), 0)
-            hi = min(int(np.floor((cx[j] + reach[j] + 1.0 - x0) / cell)), cells - 1)
-            cxf, cyf = np.float32(cx[j]), np.float32(cy[j])
-            for c in range(lo, hi + 1):
-                for s in range(start[c], start[c + 1]):
-                    i = by_x[s]
-                    if abs(np.float64(gx[i]) - cx[j]) < reach[j] and abs(np.float64(gy[i]) - cy[j]) < reach[j]:
-                        if b == 1:
-                            dx, dy = gx[i] - cxf, gy[i] - cyf
-                            pt[m], box[m] = i, j
-                            ax[m] = abs(cs[j] * dx + sn[j] * dy)
-                            ay[m] = abs(-sn[j] * dx + cs[j] * dy)
-                        m += 1
-        total = m
-    return pt, box, ax, ay
+            ux0 = min(max(int((cx[j] - reach[j] - CELL_MARGIN_M - x0) / cell), 0), nx - 1)
+            ux1 = min(max(int((cx[j] + reach[j] + CELL_MARGIN_M - x0) / cell), 0), nx - 1)
+            uy0 = min(max(int((cy[j] - reach[j] - CELL_MARGIN_M - y0) / cell), 0), ny - 1)
+            uy1 = min(max(int((cy[j] + reach[j] + CELL_MARGIN_M - y0) / cell), 0), ny - 1)
+            for u in range(ux0, ux1 + 1):
+                for v in range(uy0, uy1 + 1):
+                    if b == 0:
+                        start[u * ny + v + 1] += 1
+                    else:
+                        listed[fill[u * ny + v]] = j
+                        fill[u * ny + v] += 1
+    cell_of = np.empty(n, np.int32)  # each ray's cell when it is a ground hit in a listed one, else -1
+    total = 0
+    for i in range(n):
+        cell_of[i] = -1
+        r = range_m[i]
+        if not np.isfinite(r) or instance[i] != 0 or not is_ground[cls[i]]:
+            continue
+        fx, fy = np.float64(origin[0] + dirs[i, 0] * r), np.float64(origin[1] + dirs[i, 1] * r)
+        if fx >= x0 and fx < x1 and fy >= y0 and fy < y1:
+            c = int((fx - x0) / cell) * ny + int((fy - y0) / cell)
+            if start[c + 1] > start[c]:
+                cell_of[i] = c
+                total += start[c + 1] - start[c]
+    pt, box = np.empty(total, np.int64), np.empty(total, np.int64)
+    ax, ay = np.empty(total, np.float32), np.empty(total, np.float32)
+    m = 0
+    for i in range(n):
+        c = cell_of[i]
+        if c < 0:
+            continue
+        r = range_m[i]
+        gx, gy = origin[0] + dirs[i, 0] * r, origin[1] + dirs[i, 1] * r
+        fx, fy = np.float64(gx), np.float64(gy)
+        for s in range(start[c], start[c + 1]):
+            j = listed[s]
+            if abs(fx - cx[j]) < reach[j] and abs(fy - cy[j]) < reach[j]:
+                dx, dy = gx - np.float32(cx[j]), gy - np.float32(cy[j])
+                pt[m], box[m] = i, j
+                ax[m] = abs(cs[j] * dx + sn[j] * dy)
+                ay[m] = abs(-sn[j] * dx + cs[j] * dy)
+                m += 1
+    return pt[:m], box[:m], ax[:m], ay[:m]
+
+
+CELL_MARGIN_M = 0.05
+"""How much wider than a box's square the cells :func:`contact_pairs` lists it in are: far more
+than the rounding of the cell arithmetic, so every point within reach finds its box."""
+
+
+@njit(cache=True, nogil=True)
+def agents_low_light(
+    out: F32, dirs: F32, range_m: F32, instance: npt.NDArray[np.uint32], origin: F32,
+    ids: npt.NDArray[np.uint32], floor_z: F32,
+) -> None:  # fmt: skip  # pragma: no cover - compiled
+    """In place: ``out`` at the rays hitting an agent (a finite ``range_m``, an instance found
+    among the sorted ``ids``) set to the sky light of its lower parts, ``0.45 + 0.55 *
+    clip(height / 0.5, 0, 1)`` of the hit's height (``origin + dirs * range_m``, float32) over
+    its box's floor ``floor_z`` (by the first of ``ids`` equal to its instance)."""
+    k = ids.shape[0]
+    if k == 0:
+        return
+    zero, one = np.float32(0.0), np.float32(1.0)
+    for i in range(range_m.shape[0]):
+        r = range_m[i]
+        if instance[i] == 0 or not np.isfinite(r):
+            continue
+        pos = min(np.searchsorted(ids, instance[i]), k - 1)
+        if ids[pos] != instance[i]:
+            continue
+        height = (origin[2] + dirs[i, 2] * r) - floor_z[pos]
+        out[i] = np.float32(0.45) + np.float32(0.55) * min(max(height / np.float32(0.5), zero), one)
 
 
 @njit(cache=True, nogil=True)

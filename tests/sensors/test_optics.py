@@ -168,20 +168,31 @@ def test_auto_contrast_sets_the_frames_black_level_and_keeps_its_order() -> None
 
 
 def test_contact_shadow_pairs_are_the_points_within_each_boxs_reach() -> None:
-    # the bucketed search against every point and box tested directly
+    # the gridded search against every ground hit and box tested directly
     from sensors.shade_kernels import contact_pairs
 
     rng = np.random.default_rng(12)
-    gx, gy = (rng.uniform(-60, 60, 20_000).astype(np.float32) for _ in range(2))
+    n = 20_000
+    dirs = rng.uniform(-0.6, 0.6, (n, 3)).astype(np.float32)
+    range_m = rng.uniform(1.0, 100.0, n).astype(np.float32)
+    range_m[::97] = np.inf  # misses
+    origin = np.array([3.5, -2.25, 1.7], np.float32)
+    cls = rng.integers(0, 4, n).astype(np.uint8)
+    instance = np.where(rng.random(n) < 0.1, rng.integers(1, 50, n), 0).astype(np.uint32)
+    is_ground = np.zeros(256, np.bool_)
+    is_ground[[1, 2]] = True
     cx, cy = rng.uniform(-70, 70, 25), rng.uniform(-70, 70, 25)
     reach = rng.uniform(0.5, 9.0, 25)
     yaw = rng.uniform(-np.pi, np.pi, 25)
     cs, sn = np.cos(yaw).astype(np.float32), np.sin(yaw).astype(np.float32)
-    pt, box, ax, ay = contact_pairs(gx, gy, cx, cy, reach, cs, sn)
+    pt, box, ax, ay = contact_pairs(dirs, range_m, cls, instance, is_ground, origin, cx, cy, reach, cs, sn)
+    p = origin + dirs * range_m[:, None]
+    gx, gy = p[:, 0], p[:, 1]
+    ground = np.isfinite(range_m) & is_ground[cls] & (instance == 0)
     want = {
         (i, k)
         for k in range(25)
-        for i in np.flatnonzero((np.abs(gx - cx[k]) < reach[k]) & (np.abs(gy - cy[k]) < reach[k]))
+        for i in np.flatnonzero(ground & (np.abs(gx - cx[k]) < reach[k]) & (np.abs(gy - cy[k]) < reach[k]))
     }
     assert set(zip(pt.tolist(), box.tolist(), strict=True)) == want and len(pt) == len(want) > 100
     dx, dy = gx[pt] - cx[box].astype(np.float32), gy[pt] - cy[box].astype(np.float32)
