@@ -34,12 +34,14 @@ from sensors import shade_kernels as kernels
 from sensors import textures
 from sensors.materials import ALBEDO_BGR_BY_CLASS
 from sensors.parts import (
+    ALBEDO_BGR_BY_PART,
     EMISSIVE_BY_PART,
     MIRROR_BY_PART,
+    PALETTE_SALT,
+    PALETTES,
     SHININESS_BY_PART,
     SPECULAR_BY_PART,
     Part,
-    part_albedo,
 )
 from sensors.pinhole import Pinhole
 from sensors.weather import Weather, haze_fraction
@@ -171,6 +173,24 @@ _CLOUD_SEEDS = np.array([textures._seed32(61 + o) for o in range(4)], np.uint64)
 """The clouds' four octaves of :func:`sensors.textures.fbm` (seed 61, as :func:`sensors.textures.clouds`)."""
 
 
+def _part_linear() -> tuple[F32, F32, npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.uint64]]:
+    """:func:`sensors.parts.part_albedo`'s tables in linear units (each colour to the power
+    :data:`GAMMA`, as numpy raises the picked colours) for :func:`sensors.shade_kernels.part_rows`:
+    the colour by part, the palettes one after another, each part's first row and size in them
+    (size 0: no palette) and its salt."""
+    first, size = np.zeros(256, np.int64), np.zeros(256, np.int64)
+    salt = np.zeros(256, np.uint64)
+    at = 0
+    for part, palette in PALETTES.items():
+        first[part], size[part], salt[part] = at, len(palette), PALETTE_SALT[part]
+        at += len(palette)
+    palettes = np.concatenate(list(PALETTES.values())).astype(np.float32)
+    return ALBEDO_BGR_BY_PART**GAMMA, palettes**GAMMA, first, size, salt
+
+
+_PART_LINEAR = _part_linear()
+
+
 _GROUND = {
     int(SemanticClass.ROAD),
     int(SemanticClass.CROSSING),
@@ -192,12 +212,10 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
     albedo = np.take(ALBEDO_BGR_BY_CLASS, cls, axis=0)  # a new array
     mirror = np.zeros(len(cls), np.float32)
     glow = np.zeros(len(cls), np.float32)
-    order = np.argsort(cls, kind="stable")  # each class's rows in order, as np.flatnonzero(cls == c)
-    count = np.bincount(cls, minlength=256)
-    end = np.cumsum(count)
+    order, end = kernels.class_order(cls)  # each class's rows in order, as np.flatnonzero(cls == c)
 
     def rows_of(c: int) -> npt.NDArray[np.int64]:
-        return np.asarray(order[end[c] - count[c] : end[c]], np.int64)
+        return np.asarray(order[(end[c - 1] if c > 0 else 0) : end[c]], np.int64)
 
     for c, fn in (
         (SemanticClass.ROAD, textures.asphalt),
@@ -220,10 +238,9 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
     at = rows_of(SemanticClass.BUILDING)
     if len(at):
         wall, glass, lit = textures.facade(points[at], normal[at])
-        albedo[at] = wall
-        mirror[at[glass]] = np.float32(0.35)
-        glow[at[lit]] = np.float32(1.0)
-    return np.asarray(np.clip(albedo, 0.0, 1.0) ** GAMMA, np.float32), mirror, glow
+        kernels.facade_rows(albedo, mirror, glow, at, wall, glass, lit, np.float32(0.35))
+    np.clip(albedo, 0.0, 1.0, out=albedo)
+    return np.power(albedo, GAMMA, out=albedo), mirror, glow
 
 
 def contact_light(
@@ -390,7 +407,7 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     agent = pt > 0
     if agent.any():
         ai = np.flatnonzero(agent)
-        albedo[ai] = part_albedo(pt[ai], inst[ai]) ** GAMMA
+        kernels.part_rows(albedo, ai, pt[ai], inst[ai], *_PART_LINEAR)
         mirror[ai] = MIRROR_BY_PART[pt[ai]]
         glow[ai] = 0.0
         plate = ai[pt[ai] == Part.PLATE]
@@ -571,7 +588,9 @@ def soft_blur(image: F32, sigma_px: float) -> F32:
 def tone_map(linear: F32, exposure: float) -> F32:
     """Filmic tone curve (Narkowicz's fit of ACES) and display gamma: 0..255 floats."""
     y = kernels.filmic(np.ascontiguousarray(linear, np.float32), np.float32(EXPOSURE_SCALE * np.float32(exposure)))
-    return np.asarray(y ** (np.float32(1.0) / GAMMA) * np.float32(255.0), np.float32)
+    np.power(y, np.float32(1.0) / GAMMA, out=y)
+    y *= np.float32(255.0)
+    return y
 
 
 def auto_levels(image: F32, saturation: float) -> F32:
@@ -619,10 +638,10 @@ def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32]
     grid = out.reshape(h, w, 3)  # a view: agents' pixels are written back through it
     on_agent = agent > 0
     want_px = np.float32(focal_px * ROUNDING_M) / np.maximum(depth_m[on_agent], np.float32(0.1))
-    level = np.full((h, w), -1, np.intp)  # the nearest level in scale, on agents' pixels only
+    level = np.full((h, w), -1, np.int8)  # the nearest level in scale, on agents' pixels only
     level[on_agent] = np.abs(np.log(want_px[:, None] / np.asarray(ROUNDING_LEVELS_PX, np.float32))).argmin(axis=-1)
     for k, sigma in enumerate(ROUNDING_LEVELS_PX):
-        pick = (level == k) & (agent > 0)
+        pick = level == k
         rows, cols = _span(pick, 3.0 * sigma)
         if rows is None or cols is None:
             continue

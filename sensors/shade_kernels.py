@@ -538,3 +538,65 @@ def lamp_offsets_sq(points: F32, spacing: np.float32) -> F32:  # pragma: no cove
         y = points[i, 1] - np.rint(points[i, 1] / spacing) * spacing
         out[i] = x * x + y * y
     return out
+
+
+@njit(cache=True, nogil=True)
+def part_rows(
+    albedo: F32, rows: npt.NDArray[np.int64], part: npt.NDArray[np.uint8], instance: npt.NDArray[np.uint32],
+    by_part: F32, palettes: F32, first: npt.NDArray[np.int64], size: npt.NDArray[np.int64],
+    salt: npt.NDArray[np.uint64],
+) -> None:  # fmt: skip  # pragma: no cover - compiled
+    """``albedo[rows[j]]`` set to the colour of ``part[j]`` on ``instance[j]`` in place, as
+    :func:`sensors.parts.part_albedo` picks it: ``by_part[part]``, or for a part with a palette
+    (``size[part] > 0``, its colours from ``palettes[first[part]]``) the colour the instance's
+    key ``(id * 2654435761 >> 7) + salt[part]`` (modulo 2**64) picks modulo the palette's size."""
+    for j in range(rows.shape[0]):
+        p = part[j]
+        if size[p] > 0:
+            key = ((np.uint64(instance[j]) * np.uint64(2654435761)) >> np.uint64(7)) + salt[p]
+            src = palettes[first[p] + np.int64(key % np.uint64(size[p]))]
+        else:
+            src = by_part[p]
+        i = rows[j]
+        for c in range(3):
+            albedo[i, c] = src[c]
+
+
+@njit(cache=True, nogil=True)
+def class_order(
+    cls: npt.NDArray[np.uint8],
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:  # pragma: no cover - compiled
+    """Each class's rows in order (``np.argsort(cls, kind="stable")``) and where each class's
+    run ends in it (``np.cumsum(np.bincount(cls, minlength=256))``): a counting sort."""
+    end = np.zeros(256, np.int64)
+    for i in range(cls.shape[0]):
+        end[cls[i]] += 1
+    for c in range(1, 256):
+        end[c] += end[c - 1]
+    fill = np.empty(256, np.int64)
+    fill[0] = 0
+    fill[1:] = end[:-1]
+    order = np.empty(cls.shape[0], np.int64)
+    for i in range(cls.shape[0]):
+        c = cls[i]
+        order[fill[c]] = i
+        fill[c] += 1
+    return order, end
+
+
+@njit(cache=True, nogil=True)
+def facade_rows(
+    albedo: F32, mirror: F32, glow: F32, rows: npt.NDArray[np.int64], wall: F32, glass: npt.NDArray[np.bool_],
+    lit: npt.NDArray[np.bool_], glass_mirror: np.float32,
+) -> None:  # fmt: skip  # pragma: no cover - compiled
+    """In place, per row ``rows[j]``: ``albedo`` set to ``wall[j]``, ``mirror`` to
+    ``glass_mirror`` where ``glass[j]``, ``glow`` to 1 where ``lit[j]`` (the building walls'
+    :func:`sensors.textures.facade`)."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        for c in range(3):
+            albedo[i, c] = wall[j, c]
+        if glass[j]:
+            mirror[i] = glass_mirror
+        if lit[j]:
+            glow[i] = np.float32(1.0)

@@ -229,7 +229,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     h, w = frame.depth_m.shape
     dirs_cam = sh.pinhole.image_directions()
     depth = frame.depth_m.ravel()
-    range_m = np.where(depth > 0, depth / dirs_cam[:, 2], np.float32(np.inf)).astype(np.float32)
+    range_m = np.where(depth > 0, depth / dirs_cam[:, 2], np.float32(np.inf)).astype(np.float32, copy=False)
     dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
     classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
     normal = rounded_normals(sh.normal, dirs_map, frame.instance_id, frame.depth_m, sh.pinhole.focal_px)

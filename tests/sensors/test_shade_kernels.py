@@ -98,3 +98,26 @@ def test_street_lamp_offsets_are_numpys() -> None:
     off = points[:, :2] - np.round(points[:, :2] / s) * s
     want = (off**2).sum(axis=1)
     np.testing.assert_array_equal(kernels.lamp_offsets_sq(points, s).view(np.uint32), want.view(np.uint32))
+
+
+def test_agents_part_colours_are_part_albedo_to_the_gamma_bit_for_bit() -> None:
+    from sensors.parts import MATERIALS, part_albedo
+    from sensors.photo import _PART_LINEAR, GAMMA
+
+    rng = np.random.default_rng(9)
+    parts = np.array([int(p) for p in MATERIALS], np.uint8)
+    part = rng.choice(parts, 200_000)
+    instance = rng.integers(0, 2**32, 200_000, dtype=np.uint64).astype(np.uint32)
+    rows = rng.permutation(300_000)[:200_000].astype(np.int64)
+    albedo = np.full((300_000, 3), 7.0, np.float32)
+    want = albedo.copy()
+    want[rows] = part_albedo(part, instance) ** GAMMA
+    kernels.part_rows(albedo, rows, part, instance, *_PART_LINEAR)
+    np.testing.assert_array_equal(albedo.view(np.uint32), want.view(np.uint32))
+
+
+def test_class_order_is_numpys_stable_argsort() -> None:
+    cls = np.random.default_rng(10).choice(np.array([0, 1, 4, 7, 200, 255], np.uint8), 100_000)
+    order, end = kernels.class_order(cls)
+    np.testing.assert_array_equal(order, np.argsort(cls, kind="stable"))
+    np.testing.assert_array_equal(end, np.cumsum(np.bincount(cls, minlength=256)))
