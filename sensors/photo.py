@@ -546,18 +546,16 @@ BLOOM_GAIN = np.float32(0.6)
 
 def bloom(linear: F32) -> F32:
     """Light beyond :data:`BLOOM_THRESHOLD` spread around its source (lamps at night, sun
-    glints), as a lens and sensor do."""
-
-    over = linear[..., 0] > BLOOM_THRESHOLD
-    over |= linear[..., 1] > BLOOM_THRESHOLD
-    over |= linear[..., 2] > BLOOM_THRESHOLD
-    rows, cols = _span(over, 3.0 * BLOOM_SIGMA_PX)
-    if rows is None or cols is None:
+    glints), as a lens and sensor do: ``(H, W, 3)`` ``linear`` in place (and returned)."""
+    r0, r1, c0, c1 = kernels.over_span(linear, BLOOM_THRESHOLD)
+    if r0 < 0:
         return linear
+    m = math.ceil(3.0 * BLOOM_SIGMA_PX)
+    h, w = linear.shape[:2]
+    rows, cols = slice(max(r0 - m, 0), min(r1 + m + 1, h)), slice(max(c0 - m, 0), min(c1 + m + 1, w))
     bright = np.maximum(linear[rows, cols] - BLOOM_THRESHOLD, np.float32(0.0))
-    out = linear.copy()
-    out[rows, cols] += BLOOM_GAIN * soft_blur(bright, BLOOM_SIGMA_PX)
-    return out
+    linear[rows, cols] += BLOOM_GAIN * soft_blur(bright, BLOOM_SIGMA_PX)
+    return linear
 
 
 def _span(where: npt.NDArray[np.bool_], margin_px: float) -> tuple[slice | None, slice | None]:

@@ -600,3 +600,23 @@ def facade_rows(
             mirror[i] = glass_mirror
         if lit[j]:
             glow[i] = np.float32(1.0)
+
+
+@njit(cache=True, nogil=True)
+def over_span(image: F32, threshold: np.float32) -> tuple[int, int, int, int]:  # pragma: no cover - compiled
+    """The first and last row and column of ``(H, W, C)`` ``image`` holding a pixel with a
+    channel above ``threshold`` (-1, -1, -1, -1: none)."""
+    r0, r1, c0, c1 = -1, -1, image.shape[1], -1
+    for v in range(image.shape[0]):
+        for u in range(image.shape[1]):
+            for c in range(image.shape[2]):
+                if image[v, u, c] > threshold:
+                    if r0 < 0:
+                        r0 = v
+                    r1 = v
+                    c0 = min(c0, u)
+                    c1 = max(c1, u)
+                    break
+    if r0 < 0:
+        return -1, -1, -1, -1
+    return r0, r1, c0, c1

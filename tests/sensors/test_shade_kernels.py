@@ -121,3 +121,15 @@ def test_class_order_is_numpys_stable_argsort() -> None:
     order, end = kernels.class_order(cls)
     np.testing.assert_array_equal(order, np.argsort(cls, kind="stable"))
     np.testing.assert_array_equal(end, np.cumsum(np.bincount(cls, minlength=256)))
+
+
+def test_bright_span_is_numpys() -> None:
+    rng = np.random.default_rng(11)
+    image = rng.uniform(0.0, 1.0, (60, 80, 3)).astype(np.float32)
+    threshold = np.float32(1.6)
+    assert kernels.over_span(image, threshold) == (-1, -1, -1, -1)
+    image[[7, 40], [55, 12], [2, 0]] = 1.7
+    image[20, 70, 1] = np.nan  # never above
+    over = (image > threshold).any(axis=-1)
+    rows, cols = np.flatnonzero(over.any(axis=1)), np.flatnonzero(over.any(axis=0))
+    assert kernels.over_span(image, threshold) == (rows[0], rows[-1], cols[0], cols[-1]) == (7, 40, 12, 55)
