@@ -392,21 +392,26 @@ def sky(
     """``(N, 3)`` :func:`sensors.photo.sky_linear` along unit ``dirs``: the gradient from
     ``horizon`` to ``zenith`` and the clouds (:func:`sensors.textures.clouds`: fractal noise of
     ``seeds32``' octaves, summed weights ``norm``) above the horizon, in their float32 order."""
-    out = np.empty((dirs.shape[0], 3), np.float32)
+    n = dirs.shape[0]
+    out = np.empty((n, 3), np.float32)
     zero, one = np.float32(0.0), np.float32(1.0)
-    for i in range(dirs.shape[0]):
+    x, y, total = np.empty(n, np.float32), np.empty(n, np.float32), np.zeros(n, np.float32)
+    for i in range(n):
+        up = max(dirs[i, 2], np.float32(0.02))
+        x[i], y[i] = (dirs[i, 0] / up) * np.float32(2.0), (dirs[i, 1] / up) * np.float32(2.0)
+    amp, f = 1.0, one
+    for o in range(seeds32.shape[0]):  # an octave at a time over every ray (vector instructions)
+        a, seed = np.float32(amp), seeds32[o]
+        for i in range(n):
+            total[i] += a * _noise_at(x[i] * f, y[i] * f, seed)
+        amp *= 0.5
+        f *= np.float32(2.0)
+    for i in range(n):
         dz = dirs[i, 2]
         t = np.sqrt(min(max(dz, zero), one))
         cover = zero
         if dz > 0:  # clouds lie above the horizon
-            up = max(dz, np.float32(0.02))
-            x, y = (dirs[i, 0] / up) * np.float32(2.0), (dirs[i, 1] / up) * np.float32(2.0)
-            total, amp, f = zero, 1.0, one
-            for o in range(seeds32.shape[0]):
-                total += np.float32(amp) * _noise_at(x * f, y * f, seeds32[o])
-                amp *= 0.5
-                f *= np.float32(2.0)
-            c = min(max((total / norm - np.float32(0.45)) * np.float32(2.5), zero), one)
+            c = min(max((total[i] / norm - np.float32(0.45)) * np.float32(2.5), zero), one)
             cover = c * np.float32(0.85) * min(max(dz * np.float32(6.0), zero), one)
         for k in range(3):
             s = horizon[k] + t * (zenith[k] - horizon[k])

@@ -80,15 +80,18 @@ def _value_noise(x: F32, y: F32, seed32: np.uint64) -> F32:  # pragma: no cover 
 def _fbm(
     x: F32, y: F32, seeds32: npt.NDArray[np.uint64], f0: np.float32, norm: np.float32
 ) -> F32:  # pragma: no cover - compiled
-    out = np.empty(x.shape[0], np.float32)
+    """Per point the octaves' sum in octave order, ``total / norm`` (an octave's pass over every
+    point at a time: the loop over points is compiled to vector instructions)."""
+    out = np.zeros(x.shape[0], np.float32)
+    amp, f = 1.0, f0
+    for o in range(seeds32.shape[0]):
+        a, seed = np.float32(amp), seeds32[o]
+        for i in range(x.shape[0]):
+            out[i] += a * _noise_at(x[i] * f, y[i] * f, seed)
+        amp *= 0.5
+        f *= np.float32(2.0)
     for i in range(x.shape[0]):
-        total = np.float32(0.0)
-        amp, f = 1.0, f0
-        for o in range(seeds32.shape[0]):
-            total += np.float32(amp) * _noise_at(x[i] * f, y[i] * f, seeds32[o])
-            amp *= 0.5
-            f *= np.float32(2.0)
-        out[i] = total / norm
+        out[i] = out[i] / norm
     return out
 
 
