@@ -304,6 +304,9 @@ CABIN_NIGHT = np.float32(0.3)
 and trucks' cabins stay dark)."""
 
 
+_EMITS_BY_PART = EMISSIVE_BY_PART > 0
+
+
 def _emits(part: npt.NDArray[np.uint8], cls: npt.NDArray[np.uint8] | None, night: float) -> npt.NDArray[np.bool_]:
     """Hits that may send out light: lamps, and by night a bus's windows (where ``cls`` is given)."""
     emits = EMISSIVE_BY_PART[part] > 0
@@ -359,7 +362,10 @@ def lamp_rays(
     """``(N,)`` :func:`lamp_light` at each ray's hit (0 for misses) over a whole frame."""
     out = np.zeros(len(part), np.float32)
     night = night_of(weather)
-    at = np.flatnonzero(np.isfinite(range_m) & _emits(part, cls, night))
+    at = kernels.emitting_rows(
+        range_m, part, part if cls is None else cls, _EMITS_BY_PART, cls is not None and night > 0,
+        int(Part.GLASS), int(SemanticClass.BUS),
+    )  # fmt: skip  # the rows _emits picks, with a finite range
     points = kernels.hit_points(at, dirs_map, range_m, origin_map_m.astype(np.float32))
     out[at] = lamp_light(points, instance[at], part[at], boxes, night, None if cls is None else cls[at])
     return out

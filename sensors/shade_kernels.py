@@ -625,3 +625,19 @@ def over_span(image: F32, threshold: np.float32) -> tuple[int, int, int, int]:  
     if r0 < 0:
         return -1, -1, -1, -1
     return r0, r1, c0, c1
+
+
+@njit(cache=True, nogil=True)
+def emitting_rows(
+    range_m: F32, part: npt.NDArray[np.uint8], cls: npt.NDArray[np.uint8], emits: npt.NDArray[np.bool_],
+    lit_buses: bool, glass: int, bus: int,
+) -> npt.NDArray[np.int64]:  # fmt: skip  # pragma: no cover - compiled
+    """The rows with a finite ``range_m`` whose part ``emits`` light, and when ``lit_buses`` the
+    ``glass`` of a ``bus`` (class ``cls``) too (:func:`sensors.photo._emits`), in order."""
+    at = np.empty(range_m.shape[0], np.int64)
+    k = 0
+    for i in range(range_m.shape[0]):
+        if np.isfinite(range_m[i]) and (emits[part[i]] or (lit_buses and part[i] == glass and cls[i] == bus)):
+            at[k] = i
+            k += 1
+    return at[:k]

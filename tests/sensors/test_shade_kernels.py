@@ -133,3 +133,21 @@ def test_bright_span_is_numpys() -> None:
     over = (image > threshold).any(axis=-1)
     rows, cols = np.flatnonzero(over.any(axis=1)), np.flatnonzero(over.any(axis=0))
     assert kernels.over_span(image, threshold) == (rows[0], rows[-1], cols[0], cols[-1]) == (7, 40, 12, 55)
+
+
+def test_emitting_rows_are_the_lamps_and_lit_bus_windows_hit() -> None:
+    from networks.classes import SemanticClass
+    from sensors.parts import Part
+    from sensors.photo import _EMITS_BY_PART, _emits
+
+    rng = np.random.default_rng(13)
+    part = rng.integers(0, 30, 50_000).astype(np.uint8)
+    cls = rng.choice(np.array([int(SemanticClass.BUS), int(SemanticClass.CAR), 0], np.uint8), 50_000)
+    range_m = np.where(rng.random(50_000) < 0.1, np.inf, 10.0).astype(np.float32)
+    for night in (0.0, 1.0):
+        want = np.flatnonzero(np.isfinite(range_m) & _emits(part, cls, night))
+        got = kernels.emitting_rows(
+            range_m, part, cls, _EMITS_BY_PART, night > 0, int(Part.GLASS), int(SemanticClass.BUS)
+        )
+        np.testing.assert_array_equal(got, want)
+    assert len(want) > len(np.flatnonzero(np.isfinite(range_m) & _emits(part, cls, 0.0))) > 0
