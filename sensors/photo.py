@@ -599,10 +599,11 @@ def tone_map(linear: F32, exposure: float) -> F32:
 
 def auto_levels(image: F32, saturation: float) -> F32:
     """``(N, 3)`` display values 0..255 (from :func:`tone_map`) with the frame's black level
-    set (:data:`BLACK_PERCENTILE`) and colours ``saturation`` times further from their grey, as
-    a camera's colour processing does (the weather's; by day 1.3: our frames' mean saturation
-    was 27-33 against 72-85 in real KITTI frames; at night 1.0, where cameras' colour fades);
-    in place."""
+    set (:data:`BLACK_PERCENTILE`: the grey stretched, not the colours: a veiled rain frame's
+    black level near 100 would push its colours 1.6 times further from grey, the grass neon) and
+    colours ``saturation`` times further from their grey, as a camera's colour processing does
+    (the weather's; by day 1.3: our frames' mean saturation was 27-33 against 72-85 in real KITTI
+    frames; at night 1.0, where cameras' colour fades); in place."""
     grey = kernels.grey_of(image)
     black = np.float32(np.percentile(grey[::7], BLACK_PERCENTILE))
     scale = np.float32(255.0) / (np.float32(255.0) - black) if black > 0 else np.float32(1.0)

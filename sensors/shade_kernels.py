@@ -205,17 +205,14 @@ def grey_of(image: F32) -> F32:  # pragma: no cover - compiled
 def levels(
     image: F32, grey: F32, black: np.float32, scale: np.float32, saturation: np.float32
 ) -> None:  # pragma: no cover - compiled
-    """In place: ``image`` ``(N, 3)`` less ``black`` times ``scale`` (when ``black > 0``), its
-    colours ``saturation`` times further from their ``grey`` (levelled alike)."""
+    """In place: ``image`` ``(N, 3)``'s grey less ``black`` times ``scale`` (when ``black > 0``),
+    its colours ``saturation`` times further from that grey than from their own ``grey``: the
+    stretch lifts brightness, not colour."""
     for i in range(image.shape[0]):
         g = grey[i]
-        if black > 0:
-            g = (g - black) * scale
+        levelled = (g - black) * scale if black > 0 else g
         for c in range(3):
-            v = image[i, c]
-            if black > 0:
-                v = (v - black) * scale
-            image[i, c] = (v - g) * saturation + g
+            image[i, c] = (image[i, c] - g) * saturation + levelled
 
 
 @njit(cache=True, nogil=True)

@@ -161,7 +161,9 @@ def test_auto_contrast_sets_the_frames_black_level_and_keeps_its_order() -> None
     assert np.all(np.diff(out_grey[np.argsort(grey)]) >= -1e-3)  # darker stays darker
     assert np.all(out_grey <= image.mean(axis=1) + 1e-3)  # it never brightens
     red_before = image[:, 2] - image.mean(axis=1)
-    assert np.all(out[:, 2] - out_grey >= 1.3 * red_before - 1e-3)  # further from grey
+    # colours 1.3 times further from grey, not stretched with it: a veiled rain frame's black
+    # level (60 here) would otherwise push its colours 1.3 x 1.31 from grey
+    np.testing.assert_allclose(out[:, 2] - out_grey, 1.3 * red_before, atol=1e-3)
     # a frame whose darkest pixels are black already keeps its greys
     dark = np.repeat(np.concatenate([np.zeros(100), np.linspace(0.0, 255.0, 900)]).astype(np.float32)[:, None], 3, 1)
     np.testing.assert_allclose(auto_levels(dark.copy(), 1.0), dark, atol=1e-3)
