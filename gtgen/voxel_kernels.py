@@ -176,8 +176,9 @@ def _placed(
     p: npt.NDArray[np.floating], rotation: npt.NDArray[np.float64], translation: npt.NDArray[np.float64], i: int
 ) -> float:  # pragma: no cover - compiled
     """Coordinate ``i`` of the point ``p: (3,)`` placed by ``rotation`` and ``translation``, in
-    float64: ``p_0 R_i0 + p_1 R_i1 + p_2 R_i2 + t_i``, summed in that order (as
-    ``gtgen.occupancy._transform``'s einsum sums it)."""
+    float64: ``p_0 R_i0 + p_1 R_i1 + p_2 R_i2 + t_i``, summed in that order (numpy's einsum,
+    which ``gtgen.occupancy._transform`` uses, may sum in another order for some inputs: the two
+    can differ in the last bit, about 1e-13 m)."""
     p0, p1, p2 = np.float64(p[0]), np.float64(p[1]), np.float64(p[2])
     return float(p0 * rotation[i, 0] + p1 * rotation[i, 1] + p2 * rotation[i, 2] + translation[i])
 
