@@ -42,11 +42,16 @@ scenario: $(STAMP)
 list: $(STAMP)
 	@$(PY) -m cosim list
 
+# The suite on JOBS processes (pytest-xdist), each test file whole on one of them (its module
+# fixtures made once): `make test JOBS=1` runs it in this process.
+JOBS ?= 2
+PYTEST_JOBS := $(if $(filter 1,$(JOBS)),,-n $(JOBS) --dist loadfile)
+
 test: $(STAMP) $(NUSC_STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q $(PYTEST_JOBS)
 
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q -m "not slow" $(PYTEST_JOBS)
 
 bench: $(STAMP)
 	$(PY) -m cosim.bench $(ARGS)

@@ -16,7 +16,7 @@ from gtgen.sinks.background import BackgroundSinks
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.sinks.nuscenes_sink import NuscenesSetup
 from gtgen.timing import NO_CLOCK, StageClock
-from networks.cache import cache_dir, digest, intact, seal
+from networks.cache import cache_dir, digest, intact, place
 from networks.hdmap import MAP_VERSION, HdMap, build_map
 from networks.markings import is_left_hand
 from networks.vocabulary import SensorKind
@@ -115,6 +115,5 @@ def prepare_map(prepared: PreparedNetwork) -> tuple[HdMap, Path]:
     if not intact(path):
         partial = path.with_suffix(f".{os.getpid()}.partial")
         partial.write_text(json.dumps(hdmap.static_json(), separators=(",", ":")))
-        partial.replace(path)
-        seal(path)
+        place(partial, path)
     return hdmap, path

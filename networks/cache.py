@@ -75,6 +75,16 @@ def seal(path: Path) -> None:
     tmp.replace(_seal_path(path))
 
 
+def place(partial: Path, path: Path) -> None:
+    """Move a finished file into the cache, its seal first: a process that looks at the entry
+    meanwhile finds either the old file or none with the new seal (and makes it again), never the
+    new file without a seal (which it would take for a damaged one)."""
+    tmp = _seal_path(path).with_suffix(f".{os.getpid()}.partial")
+    tmp.write_text(f"{partial.stat().st_size} {file_sha256(partial)}\n")
+    tmp.replace(_seal_path(path))
+    partial.replace(path)
+
+
 def intact(path: Path) -> bool:
     """Whether a cached file is there and matches its seal; a damaged one is removed, with a notice."""
     if not path.exists():
@@ -84,10 +94,8 @@ def intact(path: Path) -> bool:
         good = path.stat().st_size == int(size) and file_sha256(path) == sha
     except (OSError, ValueError):
         good = False
-    if not good:
+    if not good:  # made again and put in place atomically; not removed, another process may read it
         _notices.append(f"note: {path}: the cached file was damaged or incomplete; it is made again")
-        path.unlink(missing_ok=True)
-        _seal_path(path).unlink(missing_ok=True)
     return good
 
 

@@ -9,7 +9,7 @@ from xml.etree import ElementTree
 
 import shapely
 
-from networks.cache import cache_dir, digest, intact, scratch_dir, seal
+from networks.cache import cache_dir, digest, intact, place, scratch_dir
 from networks.errors import NetconvertError, NetworkError, SumoRefusedError
 from networks.opendrive import opendrive_root
 from networks.sumo_tools import sumo_binary, sumo_refusal
@@ -129,8 +129,7 @@ def import_opendrive(xodr_path: Path) -> Path:
             raise SumoRefusedError(
                 f"{xodr_path}: SUMO does not load the network converted from it ({refused}): {refusal}"
             )
-        partial.replace(net)
-    seal(net)
+        place(partial, net)
     return net
 
 

@@ -25,7 +25,7 @@ from shapely.geometry import LineString, Point, Polygon, box
 from shapely.prepared import prep
 
 from networks.buildings import Districts, place_buildings
-from networks.cache import cache_dir, digest, intact, seal
+from networks.cache import cache_dir, digest, intact, place
 from networks.classes import SemanticClass
 from networks.errors import NetworkError
 from networks.markings import MARKINGS_VERSION, is_left_hand, marking_mesh, read_road_marks
@@ -133,8 +133,7 @@ def build_world(
         bounds_m=np.asarray(world.bounds_m),
         num_buildings=world.num_buildings,
     )
-    tmp.replace(cached)
-    seal(cached)
+    place(tmp, cached)
     return dataclasses.replace(world, path=cached)
 
 

@@ -60,3 +60,30 @@ def test_a_world_file_that_is_not_a_world_is_one_clear_error(tmp_path, damage):
     path.write_bytes(damage)
     with pytest.raises(NetworkError, match="not a readable world file"):
         read_world(path)
+
+
+def test_a_file_is_placed_after_its_seal_and_a_damaged_one_stays_until_replaced(tmp_path, monkeypatch):
+    """Several processes may fill one cache entry: one that looks while another places the file
+    must never find the new file without its seal (it would take it for a damaged one), and a
+    file found damaged is not deleted under a process that reads it (it is replaced atomically)."""
+    from networks.cache import _seal_path, intact, place
+
+    path = tmp_path / "entry.bin"
+    partial = tmp_path / "entry.partial"
+    partial.write_bytes(b"new content")
+    seen = []
+    real_replace = type(partial).replace
+
+    def watching_replace(self, target):  # what another process would see just before each move
+        seen.append((target.name, path.exists(), _seal_path(path).exists()))
+        return real_replace(self, target)
+
+    monkeypatch.setattr(type(partial), "replace", watching_replace)
+    place(partial, path)
+    monkeypatch.undo()
+    assert [s for s in seen if s[0] == path.name] == [(path.name, False, True)]  # the seal was there first
+    assert intact(path) and path.read_bytes() == b"new content"
+    path.write_bytes(b"new cont")  # damaged
+    take_notices()
+    assert not intact(path) and path.exists()  # made again by the caller, not removed here
+    assert len(take_notices()) == 1
