@@ -70,19 +70,22 @@ def file_sha256(path: Path) -> str:
 
 def seal(path: Path) -> None:
     """Mark a complete cached file as good (after it is in place)."""
-    tmp = _seal_path(path).with_suffix(f".{os.getpid()}.partial")
-    tmp.write_text(f"{path.stat().st_size} {file_sha256(path)}\n")
-    tmp.replace(_seal_path(path))
+    _write_seal(path, path)
 
 
 def place(partial: Path, path: Path) -> None:
     """Move a finished file into the cache, its seal first: a process that looks at the entry
     meanwhile finds either the old file or none with the new seal (and makes it again), never the
     new file without a seal (which it would take for a damaged one)."""
-    tmp = _seal_path(path).with_suffix(f".{os.getpid()}.partial")
-    tmp.write_text(f"{partial.stat().st_size} {file_sha256(partial)}\n")
-    tmp.replace(_seal_path(path))
+    _write_seal(partial, path)
     partial.replace(path)
+
+
+def _write_seal(content: Path, path: Path) -> None:
+    """``path``'s seal, from the size and SHA-256 of ``content``."""
+    tmp = _seal_path(path).with_suffix(f".{os.getpid()}.partial")
+    tmp.write_text(f"{content.stat().st_size} {file_sha256(content)}\n")
+    tmp.replace(_seal_path(path))
 
 
 def intact(path: Path) -> bool:
