@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from networks.cache import cache_dir, scratch_dir, take_notices
+from networks.cache import _seal_path, cache_dir, intact, place, scratch_dir, take_notices
 from networks.convert import import_opendrive
 from networks.towns import town_opendrive
 from networks.world import build_world
@@ -66,8 +66,6 @@ def test_a_file_is_placed_after_its_seal_and_a_damaged_one_stays_until_replaced(
     """Several processes may fill one cache entry: one that looks while another places the file
     must never find the new file without its seal (it would take it for a damaged one), and a
     file found damaged is not deleted under a process that reads it (it is replaced atomically)."""
-    from networks.cache import _seal_path, intact, place
-
     path = tmp_path / "entry.bin"
     partial = tmp_path / "entry.partial"
     partial.write_bytes(b"new content")
