@@ -14,7 +14,6 @@ Written under ``map/`` in the run folder (:class:`MapSink`):
 
 from __future__ import annotations
 
-import io
 import json
 import shutil
 from dataclasses import dataclass
@@ -26,6 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from gtgen.errors import SinkError
+from gtgen.npz import npz_bytes
 from gtgen.objects import ObjectBoxes
 from networks.classes import SemanticClass
 from networks.geometry import SE3
@@ -89,11 +89,9 @@ class MapSink:
         if frame is None:
             return {}
         name = f"{record.frame_index:06d}"
-        buffer = io.BytesIO()
-        np.savez_compressed(buffer, layers=frame.raster, names=np.asarray(RASTER_LAYERS))
         return {
             f"vectors/{name}.json": json.dumps(frame.vectors, separators=(",", ":")).encode(),
-            f"raster/{name}.npz": buffer.getvalue(),
+            f"raster/{name}.npz": npz_bytes(layers=frame.raster, names=np.asarray(RASTER_LAYERS)),
         }
 
     def write(self, encoded: dict[str, bytes]) -> None:

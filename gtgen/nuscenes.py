@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import io
 import json
 import math
 import sys
@@ -48,6 +47,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from gtgen.npz import npz_bytes
 from gtgen.nuscenes_lidarseg import LIDARSEG_CATEGORIES, lidarseg_of_objects, number_instances, panoptic_labels
 from gtgen.nuscenes_versions import (
     DAY_US,
@@ -377,10 +377,8 @@ def _point_labels(root: Path, name: str, tables: Tables, lidar_channel: str,
             sd = token(name, "sample_data", lidar_channel, at)
             annotated = by_frame[f]["annotations"]
             special = {a["id"]: a["category"] for a in annotated if a["category"] in SUBTYPE_CATEGORIES}
-            panoptic = io.BytesIO()
-            np.savez_compressed(panoptic, data=panoptic_labels(semantic_class, instance_id, number_of, special))
             files[f"lidarseg:{sd}"] = lidarseg_of_objects(semantic_class, instance_id, special).tobytes()
-            files[f"panoptic:{sd}"] = panoptic.getvalue()
+            files[f"panoptic:{sd}"] = npz_bytes(data=panoptic_labels(semantic_class, instance_id, number_of, special))
             for task in ("lidarseg", "panoptic"):
                 tables[task].append({"token": sd, "sample_data_token": sd, "filename": ""})
     return files

@@ -13,7 +13,6 @@ values) stay beside them for that.
 
 from __future__ import annotations
 
-import io
 import json
 import shutil
 from dataclasses import dataclass
@@ -25,6 +24,7 @@ import numpy.typing as npt
 
 from gtgen.counting import count_hits
 from gtgen.frame import FrameRecord
+from gtgen.npz import npz_bytes
 from gtgen.nuscenes import (
     KEYFRAME_S,
     TEST_VERSION,
@@ -238,9 +238,7 @@ def _calibration(channel: str, output: SensorOutput) -> dict[str, Any]:
 
 def _point_classes(scan: LidarScan) -> bytes:
     """``rows/<frame>.lidar.npz``: each point's class and instance (see :mod:`gtgen.nuscenes_lidarseg`)."""
-    buffer = io.BytesIO()
-    np.savez_compressed(buffer, semantic_class=scan.semantic_class, instance_id=scan.instance_id)
-    return buffer.getvalue()
+    return npz_bytes(semantic_class=scan.semantic_class, instance_id=scan.instance_id)
 
 
 def _drop_after(partial: Path, keep_frames: int) -> None:

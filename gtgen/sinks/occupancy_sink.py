@@ -10,7 +10,6 @@ none), ``flow`` and ``flow_relative`` ``(X, Y, Z, 3) float32`` (m/s, ego axes), 
 
 from __future__ import annotations
 
-import io
 import json
 import shutil
 from pathlib import Path
@@ -19,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from gtgen.errors import SinkError
+from gtgen.npz import npz_bytes
 from gtgen.occupancy import FREE_NATIVE, OCC3D_CLASSES, OCC3D_OF_CLASS, OccupancyFrame
 from gtgen.sinks.folder import PartialFolder, frame_of
 from networks.classes import SemanticClass
@@ -27,14 +27,12 @@ from networks.classes import SemanticClass
 def labels_npz(occupancy: OccupancyFrame) -> bytes:
     grid = occupancy.grid
     upper = grid.upper_m
-    buffer = io.BytesIO()
-    np.savez_compressed(
-        buffer, semantics=occupancy.semantics, mask_lidar=occupancy.mask_lidar, mask_camera=occupancy.mask_camera,
+    return npz_bytes(
+        semantics=occupancy.semantics, mask_lidar=occupancy.mask_lidar, mask_camera=occupancy.mask_camera,
         semantics_native=occupancy.semantics_native, instance=occupancy.instance, flow=occupancy.flow_mps,
         flow_relative=occupancy.flow_relative_mps, voxel_m=np.float64(grid.voxel_m),
         range_m=np.asarray([*grid.lower_m, *upper], np.float64), occ3d_classes=np.asarray(OCC3D_CLASSES),
     )  # fmt: skip
-    return buffer.getvalue()
 
 
 def classes_json() -> dict[str, Any]:
