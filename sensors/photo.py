@@ -64,6 +64,11 @@ BLACK_PERCENTILE = 2.0
 to black and the rest stretched over 0..255, as a camera's processing sets its black level
 from the frame. Without it our frames' darkest 5 % sat at 37-74 of 255 (real KITTI frames:
 9-10): a veil of ambient and sky light over everything."""
+BLACK_TOE = 8.0
+"""The grey level the frame's black level is set to, the darker greys kept in order below it: a
+camera's black is never one flat level (real KITTI frames' darkest 1 % sit at 7-9; setting the
+darkest 2 % to 0 flattened 1.4-2.8 % of our frames, dark cars' shaded sides, tyres and windows,
+into one black)."""
 MAX_REFLECTION = 0.45
 """The most of the surroundings a surface mirrors, even at grazing angles (clear coat and
 glass are not perfect mirrors: dirt, curvature and roughness blur and dim what they show)."""
@@ -599,15 +604,17 @@ def tone_map(linear: F32, exposure: float) -> F32:
 
 def auto_levels(image: F32, saturation: float) -> F32:
     """``(N, 3)`` display values 0..255 (from :func:`tone_map`) with the frame's black level
-    set (:data:`BLACK_PERCENTILE`: the grey stretched, not the colours: a veiled rain frame's
-    black level near 60 would push its colours 1.3 times further from grey, the grass neon) and
-    colours ``saturation`` times further from their grey, as a camera's colour processing does
-    (the weather's; by day 1.3: our frames' mean saturation was 27-33 against 72-85 in real KITTI
-    frames; at night 1.0, where cameras' colour fades); in place."""
+    set (:data:`BLACK_PERCENTILE` to :data:`BLACK_TOE`, the darker greys kept in order below it;
+    the grey stretched, not the colours: a veiled rain frame's black level near 60 would push its
+    colours 1.3 times further from grey, the grass neon) and colours ``saturation`` times further
+    from their grey, as a camera's colour processing does (the weather's; by day 1.3: our frames'
+    mean saturation was 27-33 against 72-85 in real KITTI frames; at night 1.0, where cameras'
+    colour fades); in place."""
     grey = kernels.grey_of(image)
     black = np.float32(np.percentile(grey[::7], BLACK_PERCENTILE))
-    scale = np.float32(255.0) / (np.float32(255.0) - black) if black > 0 else np.float32(1.0)
-    kernels.levels(image, grey, black, scale, np.float32(saturation))
+    toe = np.float32(BLACK_TOE)
+    scale = (np.float32(255.0) - toe) / (np.float32(255.0) - black) if black > 0 else np.float32(1.0)
+    kernels.levels(image, grey, black, scale, np.float32(saturation), toe)
     return image
 
 

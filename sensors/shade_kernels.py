@@ -203,14 +203,20 @@ def grey_of(image: F32) -> F32:  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True)
 def levels(
-    image: F32, grey: F32, black: np.float32, scale: np.float32, saturation: np.float32
+    image: F32, grey: F32, black: np.float32, scale: np.float32, saturation: np.float32, toe: np.float32
 ) -> None:  # pragma: no cover - compiled
-    """In place: ``image`` ``(N, 3)``'s grey less ``black`` times ``scale`` (when ``black > 0``),
-    its colours ``saturation`` times further from that grey than from their own ``grey``: the
-    stretch lifts brightness, not colour."""
+    """In place: ``image`` ``(N, 3)``'s grey less ``black`` times ``scale`` plus ``toe`` (when
+    ``black > 0``; greys below ``black`` scaled onto 0..``toe``), its colours ``saturation``
+    times further from that grey than from their own ``grey``: the stretch lifts brightness, not
+    colour."""
     for i in range(image.shape[0]):
         g = grey[i]
-        levelled = (g - black) * scale if black > 0 else g
+        if black <= 0:
+            levelled = g
+        elif g >= black:
+            levelled = toe + (g - black) * scale
+        else:
+            levelled = g * (toe / black)
         for c in range(3):
             image[i, c] = (image[i, c] - g) * saturation + levelled
 
