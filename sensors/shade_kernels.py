@@ -394,28 +394,38 @@ def sky(
 ) -> F32:  # pragma: no cover - compiled
     """``(N, 3)`` :func:`sensors.photo.sky_linear` along unit ``dirs``: the gradient from
     ``horizon`` to ``zenith`` and the clouds (:func:`sensors.textures.clouds`: fractal noise of
-    ``seeds32``' octaves, summed weights ``norm``) above the horizon, in their float32 order."""
+    ``seeds32``' octaves, summed weights ``norm``) above the horizon, in their float32 order
+    (the noise drawn for the rays above the horizon only)."""
     n = dirs.shape[0]
     out = np.empty((n, 3), np.float32)
     zero, one = np.float32(0.0), np.float32(1.0)
-    x, y, total = np.empty(n, np.float32), np.empty(n, np.float32), np.zeros(n, np.float32)
+    up_at = np.empty(n, np.int64)  # the rays above the horizon: the only ones with clouds
+    m = 0
     for i in range(n):
+        if dirs[i, 2] > 0:
+            up_at[m] = i
+            m += 1
+    x, y, total = np.empty(m, np.float32), np.empty(m, np.float32), np.zeros(m, np.float32)
+    for j in range(m):
+        i = up_at[j]
         up = max(dirs[i, 2], np.float32(0.02))
-        x[i], y[i] = (dirs[i, 0] / up) * np.float32(2.0), (dirs[i, 1] / up) * np.float32(2.0)
+        x[j], y[j] = (dirs[i, 0] / up) * np.float32(2.0), (dirs[i, 1] / up) * np.float32(2.0)
     amp, f = 1.0, one
     for o in range(seeds32.shape[0]):  # an octave at a time over every ray (vector instructions)
         a, seed = np.float32(amp), seeds32[o]
-        for i in range(n):
-            total[i] += a * _noise_at(x[i] * f, y[i] * f, seed)
+        for j in range(m):
+            total[j] += a * _noise_at(x[j] * f, y[j] * f, seed)
         amp *= 0.5
         f *= np.float32(2.0)
+    j = 0
     for i in range(n):
         dz = dirs[i, 2]
         t = np.sqrt(min(max(dz, zero), one))
         cover = zero
         if dz > 0:  # clouds lie above the horizon
-            c = min(max((total[i] / norm - np.float32(0.45)) * np.float32(2.5), zero), one)
+            c = min(max((total[j] / norm - np.float32(0.45)) * np.float32(2.5), zero), one)
             cover = c * np.float32(0.85) * min(max(dz * np.float32(6.0), zero), one)
+            j += 1
         for k in range(3):
             s = horizon[k] + t * (zenith[k] - horizon[k])
             cloud = horizon[k] * np.float32(1.05) + np.float32(0.02)
@@ -616,6 +626,12 @@ def over_span(image: F32, threshold: np.float32) -> tuple[int, int, int, int]:  
     channel above ``threshold`` (-1, -1, -1, -1: none)."""
     r0, r1, c0, c1 = -1, -1, image.shape[1], -1
     for v in range(image.shape[0]):
+        row = image[v].ravel()
+        over = False
+        for k in range(row.shape[0]):  # without a branch: compiled to vector instructions
+            over |= row[k] > threshold
+        if not over:
+            continue
         for u in range(image.shape[1]):
             for c in range(image.shape[2]):
                 if image[v, u, c] > threshold:

@@ -168,7 +168,7 @@ def facade(p: F32, normal: F32) -> tuple[F32, npt.NDArray[np.bool_], npt.NDArray
     p = np.ascontiguousarray(p, np.float32)
     normal = np.ascontiguousarray(normal, np.float32)
     angle = np.round(np.arctan2(normal[:, 1], normal[:, 0]) * np.float32(8.0 / np.pi)).astype(np.int64)  # the wall's
-    return _facade(p, normal, angle, FACADE_BGR, _seed32(4), _seed32(41), _seed32(5), _seed32(7), _seed32(13))
+    return _facade(p, normal, angle, FACADE_BGR, _BAYS, _seed32(4), _seed32(41), _seed32(7), _seed32(13))
 
 
 @njit(cache=True, nogil=True)
@@ -180,13 +180,19 @@ def _hash_at(ix: np.int64, iy: np.int64, seed32: np.uint64) -> np.float32:  # pr
     return _mixed_at(h, np.uint64(1274126177))
 
 
+_BAYS = hash01(np.arange(len(FACADE_BGR), dtype=np.int64), np.zeros(len(FACADE_BGR), np.int64), 5)
+"""Each facade style's hash of its bay width (:func:`hash01` of ``(style, 0)``, seed 5)."""
+
+
 @njit(cache=True, nogil=True)
 def _facade(
-    p: F32, normal: F32, angle: npt.NDArray[np.int64], colours: F32, s_noise: np.uint64, s_wall: np.uint64,
-    s_bay: np.uint64, s_glass: np.uint64, s_lit: np.uint64,
+    p: F32, normal: F32, angle: npt.NDArray[np.int64], colours: F32, bays: F32, s_noise: np.uint64,
+    s_wall: np.uint64, s_glass: np.uint64, s_lit: np.uint64,
 ) -> tuple[F32, npt.NDArray[np.bool_], npt.NDArray[np.bool_]]:  # fmt: skip  # pragma: no cover - compiled
     """:func:`facade` per point, in its numpy form's float32 arithmetic (``angle``: the wall's
-    direction in sixteenths of a turn, from numpy's arctan2)."""
+    direction in sixteenths of a turn, from numpy's arctan2; ``bays``: each style's hash of its
+    bay width). A wall's shading noise is drawn only where its colour shows (not on glass,
+    window frames, ledges and roofs, whose colour replaces it)."""
     n = p.shape[0]
     albedo = np.empty((n, 3), np.float32)
     glass_out = np.zeros(n, np.bool_)
@@ -201,11 +207,8 @@ def _facade(
         offset = p[i, 0] * nx / horiz + p[i, 1] * ny / horiz  # which wall: its distance from the origin
         wall = _hash_at(np.int64(np.round(offset / f32(2.0))), angle[i], s_wall)
         style = np.int64(np.floor(wall * f32(10.0)))
-        shade = f32(0.9) + f32(0.2) * _noise_at(s * f32(3.0), p[i, 2] * f32(3.0), s_noise)
-        for c in range(3):
-            albedo[i, c] = colours[style, c] * shade
         floor_h = f32(3.2)
-        bay = f32(2.2) + f32(1.6) * _hash_at(style, np.int64(0), s_bay)
+        bay = f32(2.2) + f32(1.6) * bays[style]
         win_w = f32(0.45) + f32(0.25) * wall
         u = s / bay
         fu = u - np.floor(u)
@@ -218,11 +221,15 @@ def _facade(
         frame = abs(off - win_w / f32(2.0)) < f32(0.03) and fz > f32(0.3) and fz < f32(0.87) and storey >= 1
         ledge = storey >= 1 and fz > f32(0.28) and fz < f32(0.32) and off < win_w / f32(2.0) + f32(0.06)
         glass = window or shop
-        if frame or ledge:
-            albedo[i, 0] = albedo[i, 1] = albedo[i, 2] = f32(0.8)
         iu, istorey = np.int64(np.floor(u)), np.int64(storey)
         if glass:
             albedo[i, 0] = albedo[i, 1] = albedo[i, 2] = f32(0.06) + f32(0.05) * _hash_at(iu, istorey, s_glass)
+        elif frame or ledge:
+            albedo[i, 0] = albedo[i, 1] = albedo[i, 2] = f32(0.8)
+        elif normal[i, 2] <= f32(0.7):  # the wall's own colour, shaded (a roof's is set below)
+            shade = f32(0.9) + f32(0.2) * _noise_at(s * f32(3.0), p[i, 2] * f32(3.0), s_noise)
+            for c in range(3):
+                albedo[i, c] = colours[style, c] * shade
         if normal[i, 2] > f32(0.7):  # a roof
             albedo[i, 0], albedo[i, 1], albedo[i, 2] = f32(0.22), f32(0.22), f32(0.24)
             glass = False

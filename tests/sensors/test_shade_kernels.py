@@ -151,3 +151,22 @@ def test_emitting_rows_are_the_lamps_and_lit_bus_windows_hit() -> None:
         )
         np.testing.assert_array_equal(got, want)
     assert len(want) > len(np.flatnonzero(np.isfinite(range_m) & _emits(part, cls, 0.0))) > 0
+
+
+def test_sky_is_its_numpy_form_with_clouds_above_the_horizon_only() -> None:
+    from sensors import photo, textures
+
+    rng = np.random.default_rng(12)
+    dirs = _unit_rows(rng, 40_000)
+    dirs[:200, 2] = 0.0  # on the horizon: no clouds
+    dirs[200:400, 2] = -0.0
+    horizon, zenith = photo.to_linear((200.0, 180.0, 160.0)), photo.to_linear((190.0, 120.0, 60.0))
+    t = np.sqrt(np.clip(dirs[:, 2], 0.0, 1.0))[:, None]
+    sky = horizon + t * (zenith - horizon)
+    up = np.flatnonzero(dirs[:, 2] > 0)
+    cover = np.zeros((len(dirs), 1), np.float32)
+    cover[up] = textures.clouds(dirs[up])[:, None] * np.float32(0.85) * np.clip(dirs[up, 2:3] * 6.0, 0.0, 1.0)
+    cloud = horizon * np.float32(1.05) + np.float32(0.02)
+    want = np.asarray(sky + cover * (cloud - sky), np.float32)
+    got = kernels.sky(dirs, horizon, zenith, photo._CLOUD_SEEDS, np.float32(1.875))
+    np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
