@@ -594,9 +594,12 @@ def soft_blur(image: F32, sigma_px: float) -> F32:
     return np.asarray(cv2.resize(blurred, (w, h), interpolation=cv2.INTER_LINEAR), np.float32).reshape(image.shape)
 
 
-def tone_map(linear: F32, exposure: float) -> F32:
-    """Filmic tone curve (Narkowicz's fit of ACES) and display gamma: 0..255 floats."""
-    y = kernels.filmic(np.ascontiguousarray(linear, np.float32), np.float32(EXPOSURE_SCALE * np.float32(exposure)))
+def tone_map(linear: F32, exposure: float, keep: F32 | None = None) -> F32:
+    """Filmic tone curve (Narkowicz's fit of ACES) and display gamma of ``(N, 3)`` ``linear``
+    times ``keep (N,)`` (the light kept through the lens, :func:`vignette`; None: all): 0..255 floats."""
+    linear = np.ascontiguousarray(linear, np.float32).reshape(-1, 3)
+    keep = np.ones(len(linear), np.float32) if keep is None else np.ascontiguousarray(keep, np.float32)
+    y = kernels.filmic(linear, keep, np.float32(EXPOSURE_SCALE * np.float32(exposure)))
     np.power(y, np.float32(1.0) / GAMMA, out=y)
     y *= np.float32(255.0)
     return y
@@ -610,12 +613,19 @@ def auto_levels(image: F32, saturation: float) -> F32:
     from their grey, as a camera's colour processing does (the weather's; by day 1.3: our frames'
     mean saturation was 27-33 against 72-85 in real KITTI frames; at night 1.0, where cameras'
     colour fades); in place."""
+    grey, black, scale = black_level(image)
+    kernels.levels(image, grey, black, scale, np.float32(saturation), np.float32(BLACK_TOE))
+    return image
+
+
+def black_level(image: F32) -> tuple[F32, np.float32, np.float32]:
+    """:func:`auto_levels`' measure of ``(N, 3)`` ``image``: each pixel's grey, the frame's black
+    level and the stretch of the greys above it."""
     grey = kernels.grey_of(image)
     black = np.float32(np.percentile(grey[::7], BLACK_PERCENTILE))
     toe = np.float32(BLACK_TOE)
     scale = (np.float32(255.0) - toe) / (np.float32(255.0) - black) if black > 0 else np.float32(1.0)
-    kernels.levels(image, grey, black, scale, np.float32(saturation), toe)
-    return image
+    return grey, black, scale
 
 
 @functools.lru_cache(maxsize=4)

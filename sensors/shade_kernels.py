@@ -222,6 +222,28 @@ def levels(
 
 
 @njit(cache=True, nogil=True)
+def levelled_bytes(
+    image: F32, grey: F32, black: np.float32, scale: np.float32, saturation: np.float32, toe: np.float32,
+    noise: F32, sigma: np.float32,
+) -> npt.NDArray[np.uint8]:  # fmt: skip  # pragma: no cover - compiled
+    """:func:`levels` then :func:`to_bytes` in one pass: ``(N, 3) uint8`` (``image`` left as it is)."""
+    out = np.empty(image.shape, np.uint8)
+    for i in range(image.shape[0]):
+        g = grey[i]
+        if black <= 0:
+            levelled = g
+        elif g >= black:
+            levelled = toe + (g - black) * scale
+        else:
+            levelled = g * (toe / black)
+        nz = noise[i, 0] * sigma
+        for c in range(3):
+            v = ((image[i, c] - g) * saturation + levelled + nz) + np.float32(0.5)
+            out[i, c] = np.uint8(min(max(v, np.float32(0.0)), np.float32(255.0)))
+    return out
+
+
+@njit(cache=True, nogil=True)
 def to_bytes(image: F32, noise: F32, sigma: np.float32) -> npt.NDArray[np.uint8]:  # pragma: no cover - compiled
     """``(N, 3) uint8``: ``image`` plus ``noise * sigma`` (one draw per pixel, ``(N, 1)``),
     rounded and clipped to 0..255."""
@@ -488,22 +510,28 @@ def minimum_at(values: F32, rows: npt.NDArray[np.int64], other: F32) -> None:  #
             values[i] = other[j]
 
 
-@njit(cache=True, nogil=True)
-def filmic(linear: F32, gain: np.float32) -> F32:  # pragma: no cover - compiled
-    """:func:`sensors.photo.tone_map`'s curve before its gamma: Narkowicz's ACES fit of ``linear *
-    gain``, clipped to 0..1 (NaN stays NaN, as ``np.clip``), in its numpy form's float32 order."""
+@njit(cache=True, nogil=True, error_model="numpy")
+def filmic(linear: F32, keep: F32, gain: np.float32) -> F32:  # pragma: no cover - compiled
+    """:func:`sensors.photo.tone_map`'s curve before its gamma: Narkowicz's ACES fit of ``linear
+    (N, 3)`` times ``keep (N,)`` (the vignetting, rounded to float32 as an in-place product) times
+    ``gain``, clipped to 0..1 (NaN stays NaN, as ``np.clip``), in its numpy form's float32 order.
+    (numpy's error model: the curve's denominator is never 0, and the loop is compiled to vector
+    instructions.)"""
     flat = linear.ravel()
     out = np.empty(flat.shape[0], np.float32)
+    for i in range(keep.shape[0]):
+        k = keep[i]
+        out[3 * i] = (flat[3 * i] * k) * gain
+        out[3 * i + 1] = (flat[3 * i + 1] * k) * gain
+        out[3 * i + 2] = (flat[3 * i + 2] * k) * gain
     a, b, c, d, e = np.float32(2.51), np.float32(0.03), np.float32(2.43), np.float32(0.59), np.float32(0.14)
     zero, one = np.float32(0.0), np.float32(1.0)
-    for i in range(flat.shape[0]):
-        x = flat[i] * gain
+    for j in range(out.shape[0]):
+        x = out[j]
         y = (x * (a * x + b)) / (x * (c * x + d) + e)
-        if y < zero:
-            y = zero
-        elif y > one:
-            y = one
-        out[i] = y
+        y = zero if y < zero else y
+        y = one if y > one else y
+        out[j] = y
     return out.reshape(linear.shape)
 
 

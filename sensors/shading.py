@@ -27,13 +27,14 @@ from sensors import shade_kernels
 from sensors.hits import RayHits
 from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAINT_BGR
 from sensors.photo import (
+    BLACK_TOE,
     LENS_BLUR_PX,
     READ_NOISE,
     STRIPE_PX,
     AgentBoxes,
     ShadedRays,
     Supersamples,
-    auto_levels,
+    black_level,
     bloom,
     image_motion_px,
     lamp_rays,
@@ -262,12 +263,14 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         )
         linear = motion_blur(linear.reshape(h, w, 3), motion.reshape(h, w, 2)).reshape(-1, 3)
     lens = np.asarray(cv2.GaussianBlur(linear.reshape(h, w, 3), (0, 0), LENS_BLUR_PX), np.float32)
-    linear = bloom(lens).reshape(-1, 3)
-    linear *= vignette(h, w)[:, None]
-    image = auto_levels(tone_map(linear, sh.weather.exposure), sh.weather.saturation)
+    image = tone_map(bloom(lens).reshape(-1, 3), sh.weather.exposure, vignette(h, w))
+    grey, black, scale = black_level(image)  # auto_levels and the noise in one pass
     rng = np.random.default_rng(sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w))
     sigma = np.float32(np.hypot(READ_NOISE, sh.weather.noise_sigma))
-    out = shade_kernels.to_bytes(image, rng.standard_normal((h * w, 1), dtype=np.float32), sigma)
+    noise = rng.standard_normal((h * w, 1), dtype=np.float32)
+    out = shade_kernels.levelled_bytes(
+        image, grey, black, scale, np.float32(sh.weather.saturation), np.float32(BLACK_TOE), noise, sigma
+    )
     if sh.faces is not None:
         street = (classes == SemanticClass.TRAFFIC_LIGHT) | (classes == SemanticClass.TRAFFIC_SIGN)
         pixels = np.flatnonzero(street & (depth > 0))

@@ -58,10 +58,13 @@ def test_the_filmic_curve_is_numpys() -> None:
     linear = np.concatenate([rng.uniform(0, 3, 30_000), rng.uniform(-0.1, 0.0, 100), [0.0, 100.0]]).astype(np.float32)
     linear = linear.reshape(-1, 2)[:, :, None].repeat(3, axis=2).reshape(-1, 3).copy()
     gain = np.float32(1.8) * np.float32(1.3)
-    x = linear * gain
+    keep = rng.uniform(0.7, 1.0, len(linear)).astype(np.float32)
+    vignetted = linear.copy()
+    vignetted *= keep[:, None]
+    x = vignetted * gain
     f = np.float32
     y = (x * (f(2.51) * x + f(0.03))) / (x * (f(2.43) * x + f(0.59)) + f(0.14))
-    np.testing.assert_array_equal(kernels.filmic(linear, gain), np.clip(y, 0.0, 1.0))
+    np.testing.assert_array_equal(kernels.filmic(linear, keep, gain), np.clip(y, 0.0, 1.0))
 
 
 def test_sub_rays_are_averaged_into_their_pixels_as_numpy_averages_them() -> None:
@@ -170,3 +173,18 @@ def test_sky_is_its_numpy_form_with_clouds_above_the_horizon_only() -> None:
     want = np.asarray(sky + cover * (cloud - sky), np.float32)
     got = kernels.sky(dirs, horizon, zenith, photo._CLOUD_SEEDS, np.float32(1.875))
     np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
+
+
+def test_levelled_bytes_are_levels_then_to_bytes() -> None:
+    rng = np.random.default_rng(13)
+    image = rng.uniform(-5.0, 260.0, (20_000, 3)).astype(np.float32)
+    grey = kernels.grey_of(image)
+    noise = rng.standard_normal((20_000, 1), dtype=np.float32)
+    for black in (np.float32(0.0), np.float32(37.5)):
+        scale = np.float32(247.0) / (np.float32(255.0) - black) if black > 0 else np.float32(1.0)
+        levelled = image.copy()
+        kernels.levels(levelled, grey, black, scale, np.float32(1.3), np.float32(8.0))
+        want = kernels.to_bytes(levelled, noise, np.float32(2.5))
+        sat, toe, sigma = np.float32(1.3), np.float32(8.0), np.float32(2.5)
+        got = kernels.levelled_bytes(image, grey, black, scale, sat, toe, noise, sigma)
+        np.testing.assert_array_equal(got, want)
