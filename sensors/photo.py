@@ -399,16 +399,13 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     dirs_map, range_m, cls, instance, part = rays.dirs_map, rays.range_m, rays.cls, rays.instance, rays.part
     n = len(cls)
     out = np.empty((n, 3), np.float32)
-    hit = np.isfinite(range_m) & (range_m <= np.float32(max_range_m))
-    miss = np.flatnonzero(~hit)
+    at, miss, c, inst, pt = kernels.split_hits(range_m, np.float32(max_range_m), cls, instance, part)
     if len(miss):
         out[miss] = sky_linear(weather, dirs_map[miss])
-    at = np.flatnonzero(hit)
     if len(at) == 0:
         return out
     origin = origin_map_m.astype(np.float32)
     p, nrm, cos_v = kernels.hit_geometry(at, dirs_map, range_m, rays.normal, origin)
-    c, inst, pt = cls[at], instance[at], part[at]
 
     albedo, mirror, glow = static_albedo(c, p, nrm)
     wet = np.zeros(0, np.intp)

@@ -50,6 +50,59 @@ def shadow_rays(
 
 
 @njit(cache=True, nogil=True)
+def ray_range(depth: F32, dirs: F32) -> F32:  # pragma: no cover - compiled
+    """``(N,)`` the range along each ray of unit ``dirs (N, 3)`` (optical frame) to its hit at
+    z-depth ``depth (N,)``: ``depth / dirs[:, 2]``, inf where ``depth`` is not above 0."""
+    out = np.empty(depth.shape[0], np.float32)
+    for i in range(depth.shape[0]):
+        d = depth[i]
+        out[i] = d / dirs[i, 2] if d > 0 else np.float32(np.inf)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def street_pixels(
+    cls: npt.NDArray[np.uint8], depth: F32, light: int, sign: int
+) -> npt.NDArray[np.int64]:  # pragma: no cover - compiled
+    """The pixels (in order) of class ``light`` or ``sign`` with a hit (``depth`` above 0)."""
+    at = np.empty(cls.shape[0], np.int64)
+    k = 0
+    for i in range(cls.shape[0]):
+        c = cls[i]
+        if ((c == light) | (c == sign)) and depth[i] > 0:
+            at[k] = i
+            k += 1
+    return at[:k]
+
+
+@njit(cache=True, nogil=True)
+def split_hits(
+    range_m: F32, max_range_m: np.float32, cls: npt.NDArray[np.uint8], instance: npt.NDArray[np.uint32],
+    part: npt.NDArray[np.uint8],
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.uint8], npt.NDArray[np.uint32],
+           npt.NDArray[np.uint8]]:  # fmt: skip  # pragma: no cover - compiled
+    """The rays hitting something (a finite ``range_m`` up to ``max_range_m``) and the others, in
+    order (``np.flatnonzero`` of the hits and of the misses), and the hits' class, instance and
+    part."""
+    n = range_m.shape[0]
+    at, miss = np.empty(n, np.int64), np.empty(n, np.int64)
+    k = m = 0
+    for i in range(n):
+        r = range_m[i]
+        if np.isfinite(r) and r <= max_range_m:
+            at[k] = i
+            k += 1
+        else:
+            miss[m] = i
+            m += 1
+    c, inst, pt = np.empty(k, np.uint8), np.empty(k, np.uint32), np.empty(k, np.uint8)
+    for j in range(k):
+        i = at[j]
+        c[j], inst[j], pt[j] = cls[i], instance[i], part[i]
+    return at[:k], miss[:m], c, inst, pt
+
+
+@njit(cache=True, nogil=True)
 def hit_geometry(
     at: npt.NDArray[np.int64], dirs: F32, range_m: F32, normal: F32, origin: F32
 ) -> tuple[F32, F32, F32]:  # pragma: no cover - compiled

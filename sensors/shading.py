@@ -230,7 +230,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     h, w = frame.depth_m.shape
     dirs_cam = sh.pinhole.image_directions()
     depth = frame.depth_m.ravel()
-    range_m = np.where(depth > 0, depth / dirs_cam[:, 2], np.float32(np.inf)).astype(np.float32, copy=False)
+    range_m = shade_kernels.ray_range(depth, dirs_cam)
     dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
     classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
     normal = rounded_normals(sh.normal, dirs_map, frame.instance_id, frame.depth_m, sh.pinhole.focal_px)
@@ -272,8 +272,8 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         image, grey, black, scale, np.float32(sh.weather.saturation), np.float32(BLACK_TOE), noise, sigma
     )
     if sh.faces is not None:
-        street = (classes == SemanticClass.TRAFFIC_LIGHT) | (classes == SemanticClass.TRAFFIC_SIGN)
-        pixels = np.flatnonzero(street & (depth > 0))
+        light, sign = int(SemanticClass.TRAFFIC_LIGHT), int(SemanticClass.TRAFFIC_SIGN)
+        pixels = shade_kernels.street_pixels(classes, depth, light, sign)
         points = dirs_cam[pixels] * range_m[pixels, None]
         sh.faces.paint(out, points, instances[pixels], pixels, sh.weather.exposure)
     return out.reshape(h, w, 3)

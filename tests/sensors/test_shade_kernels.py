@@ -188,3 +188,28 @@ def test_levelled_bytes_are_levels_then_to_bytes() -> None:
         sat, toe, sigma = np.float32(1.3), np.float32(8.0), np.float32(2.5)
         got = kernels.levelled_bytes(image, grey, black, scale, sat, toe, noise, sigma)
         np.testing.assert_array_equal(got, want)
+
+
+def test_hits_ranges_and_street_pixels_are_numpys() -> None:
+    rng = np.random.default_rng(14)
+    n = 50_000
+    depth = rng.uniform(0.0, 300.0, n).astype(np.float32)
+    depth[rng.random(n) < 0.2] = 0.0
+    depth[:10] = np.nan
+    dirs = _unit_rows(rng, n)
+    dirs[:, 2] = np.abs(dirs[:, 2]) + np.float32(0.1)
+    want = np.where(depth > 0, depth / dirs[:, 2], np.float32(np.inf)).astype(np.float32)
+    np.testing.assert_array_equal(kernels.ray_range(depth, dirs).view(np.uint32), want.view(np.uint32))
+    cls = rng.integers(0, 30, n).astype(np.uint8)
+    street = np.flatnonzero(((cls == 7) | (cls == 9)) & (depth > 0))
+    np.testing.assert_array_equal(kernels.street_pixels(cls, depth, 7, 9), street)
+    range_m = want.copy()
+    range_m[:100] = np.float32(250.0)  # beyond the range below
+    instance, part = rng.integers(0, 50, n).astype(np.uint32), rng.integers(0, 20, n).astype(np.uint8)
+    at, miss, c, inst, pt = kernels.split_hits(range_m, np.float32(200.0), cls, instance, part)
+    hit = np.isfinite(range_m) & (range_m <= np.float32(200.0))
+    np.testing.assert_array_equal(at, np.flatnonzero(hit))
+    np.testing.assert_array_equal(miss, np.flatnonzero(~hit))
+    for got, whole in ((c, cls), (inst, instance), (pt, part)):
+        assert got.dtype == whole.dtype
+        np.testing.assert_array_equal(got, whole[at])
