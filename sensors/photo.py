@@ -655,10 +655,11 @@ def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32]
     if not agent.any():
         return out
     grid = out.reshape(h, w, 3)  # a view: agents' pixels are written back through it
-    on_agent = agent > 0
-    want_px = np.float32(focal_px * ROUNDING_M) / np.maximum(depth_m[on_agent], np.float32(0.1))
-    level = np.full((h, w), -1, np.int8)  # the nearest level in scale, on agents' pixels only
-    level[on_agent] = np.abs(np.log(want_px[:, None] / np.asarray(ROUNDING_LEVELS_PX, np.float32))).argmin(axis=-1)
+    ids, depth = np.ascontiguousarray(instance).ravel(), np.ascontiguousarray(depth_m, np.float32).ravel()
+    ratio = kernels.level_ratios(
+        ids, depth, np.float32(focal_px * ROUNDING_M), np.float32(0.1), np.asarray(ROUNDING_LEVELS_PX, np.float32)
+    )  # the pixels ROUNDING_M spans on each agent's pixel over each level's
+    level = kernels.nearest_levels(ids, np.log(ratio)).reshape(h, w)  # the nearest in scale; -1 off agents
     for k, sigma in enumerate(ROUNDING_LEVELS_PX):
         pick = level == k
         rows, cols = _span(pick, 3.0 * sigma)

@@ -523,6 +523,50 @@ def turned_to_camera(normal: F32, dirs: F32) -> F32:  # pragma: no cover - compi
 
 
 @njit(cache=True, nogil=True)
+def level_ratios(
+    instance: npt.NDArray[np.uint32], depth: F32, size_px_m: np.float32, nearest_m: np.float32, levels: F32
+) -> F32:  # pragma: no cover - compiled
+    """Per agent pixel (``instance`` above 0, row-major order) the pixels ``size_px_m`` spans at
+    its ``depth`` (no nearer than ``nearest_m``) over each of ``levels``: ``(K, L)``, as numpy's
+    ``size_px_m / np.maximum(depth[on_agent], nearest_m)`` over ``levels``."""
+    k = 0
+    for i in range(instance.shape[0]):
+        if instance[i] > 0:
+            k += 1
+    out = np.empty((k, levels.shape[0]), np.float32)
+    j = 0
+    for i in range(instance.shape[0]):
+        if instance[i] > 0:
+            d = depth[i]
+            want = size_px_m / (nearest_m if d < nearest_m else d)
+            for m in range(levels.shape[0]):
+                out[j, m] = want / levels[m]
+            j += 1
+    return out
+
+
+@njit(cache=True, nogil=True)
+def nearest_levels(
+    instance: npt.NDArray[np.uint32], log_ratio: F32
+) -> npt.NDArray[np.int8]:  # pragma: no cover - compiled
+    """``(N,)`` per pixel the level whose log ratio (:func:`level_ratios`, logged) is nearest 0,
+    the first of equals (numpy's ``np.abs(log_ratio).argmin(axis=-1)``, no NaNs) on agents'
+    pixels (``instance`` above 0, in row-major order), -1 elsewhere."""
+    out = np.full(instance.shape[0], -1, np.int8)
+    j = 0
+    for i in range(instance.shape[0]):
+        if instance[i] > 0:
+            best, at = abs(log_ratio[j, 0]), 0
+            for m in range(1, log_ratio.shape[1]):
+                v = abs(log_ratio[j, m])
+                if v < best:
+                    best, at = v, m
+            out[i] = at
+            j += 1
+    return out
+
+
+@njit(cache=True, nogil=True)
 def blurred_unit(
     grid: F32, row0: int, col0: int, pick: npt.NDArray[np.bool_], num: F32, den: F32
 ) -> None:  # pragma: no cover - compiled

@@ -213,3 +213,21 @@ def test_hits_ranges_and_street_pixels_are_numpys() -> None:
     for got, whole in ((c, cls), (inst, instance), (pt, part)):
         assert got.dtype == whole.dtype
         np.testing.assert_array_equal(got, whole[at])
+
+
+def test_rounding_levels_are_numpys() -> None:
+    rng = np.random.default_rng(15)
+    instance = (rng.random(60_000) < 0.3).astype(np.uint32) * 7
+    depth = rng.uniform(0.0, 120.0, 60_000).astype(np.float32)
+    depth[:50] = 0.05  # nearer than the nearest counted
+    levels = np.asarray((1.5, 4.0, 10.0), np.float32)
+    size = np.float32(1000.0 * 0.12)
+    on = instance > 0
+    want_ratio = (size / np.maximum(depth[on], np.float32(0.1)))[:, None] / levels
+    ratio = kernels.level_ratios(instance, depth, size, np.float32(0.1), levels)
+    np.testing.assert_array_equal(ratio.view(np.uint32), want_ratio.view(np.uint32))
+    want = np.full(60_000, -1, np.int8)
+    want[on] = np.abs(np.log(want_ratio)).argmin(axis=-1)
+    ties = np.log(np.array([[2.0, 0.5, 3.0], [1.0, 1.0, 1.0], [0.5, 2.0, 2.0]], np.float32))
+    np.testing.assert_array_equal(kernels.nearest_levels(np.ones(3, np.uint32), ties), [0, 0, 0])
+    np.testing.assert_array_equal(kernels.nearest_levels(instance, np.log(ratio)), want)
