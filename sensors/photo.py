@@ -44,7 +44,7 @@ from sensors.parts import (
     Part,
 )
 from sensors.pinhole import Pinhole
-from sensors.weather import Weather, haze_fraction
+from sensors.weather import Weather
 
 F32 = npt.NDArray[np.float32]
 GAMMA = np.float32(2.2)
@@ -467,9 +467,16 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     kernels.finish_colour(
         colour, shiny_at, highlight, grazing, env, mirror, at, part, rays.sun_lit, rays.lamp, glow, SPECULAR_BY_PART,
         LAMP_BGR, np.float32(weather.sun_gain + weather.lamp_key_gain), window,
-        haze_fraction(weather, range_m[at], max_range_m), to_linear(weather.haze_bgr), out,
+        _haze_at(weather, at, range_m, max_range_m), to_linear(weather.haze_bgr), out,
     )  # fmt: skip
     return out
+
+
+def _haze_at(weather: Weather, at: npt.NDArray[np.int64], range_m: F32, max_range_m: float) -> F32:
+    """:func:`sensors.weather.haze_fraction` of the rays ``at`` (the same float32 results; the exp
+    numpy's)."""
+    fade = np.exp(kernels.haze_exponent(at, range_m, np.float32(weather.haze_m)))
+    return kernels.haze_blend(at, range_m, fade, np.float32(0.8 * max_range_m), np.float32(0.2 * max_range_m))
 
 
 MAX_BLUR_SAMPLES = 12

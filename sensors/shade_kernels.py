@@ -103,6 +103,35 @@ def split_hits(
 
 
 @njit(cache=True, nogil=True)
+def haze_exponent(at: npt.NDArray[np.int64], range_m: F32, haze_m: np.float32) -> F32:  # pragma: no cover - compiled
+    """``(K,)`` ``-d / haze_m`` of the rays ``at``' ranges ``d`` (:func:`sensors.weather.haze_fraction`'s)."""
+    out = np.empty(at.shape[0], np.float32)
+    for j in range(at.shape[0]):
+        out[j] = -range_m[at[j]] / haze_m
+    return out
+
+
+@njit(cache=True, nogil=True)
+def haze_blend(
+    at: npt.NDArray[np.int64], range_m: F32, fade: F32, near_m: np.float32, span_m: np.float32
+) -> F32:  # pragma: no cover - compiled
+    """:func:`sensors.weather.haze_fraction` of the rays ``at`` from ``fade`` (numpy's ``exp`` of
+    :func:`haze_exponent`) in its float32 order: ``max(1 - fade, smoothstep of (d - near_m) /
+    span_m clipped to 0..1)``, NaN kept as numpy keeps it; in place in ``fade``."""
+    zero, one = np.float32(0.0), np.float32(1.0)
+    for j in range(at.shape[0]):
+        fog = one - fade[j]
+        e = (range_m[at[j]] - near_m) / span_m
+        if e < zero:
+            e = zero
+        elif e > one:
+            e = one
+        v = e * e * (np.float32(3.0) - np.float32(2.0) * e)
+        fade[j] = fog if (fog >= v or fog != fog) else v
+    return fade
+
+
+@njit(cache=True, nogil=True)
 def hit_geometry(
     at: npt.NDArray[np.int64], dirs: F32, range_m: F32, normal: F32, origin: F32
 ) -> tuple[F32, F32, F32]:  # pragma: no cover - compiled

@@ -231,3 +231,16 @@ def test_rounding_levels_are_numpys() -> None:
     ties = np.log(np.array([[2.0, 0.5, 3.0], [1.0, 1.0, 1.0], [0.5, 2.0, 2.0]], np.float32))
     np.testing.assert_array_equal(kernels.nearest_levels(np.ones(3, np.uint32), ties), [0, 0, 0])
     np.testing.assert_array_equal(kernels.nearest_levels(instance, np.log(ratio)), want)
+
+
+def test_haze_of_the_hits_is_haze_fraction() -> None:
+    from sensors.photo import _haze_at
+    from sensors.weather import PRESETS, haze_fraction
+
+    rng = np.random.default_rng(16)
+    range_m = rng.uniform(0.0, 260.0, 30_000).astype(np.float32)
+    range_m[:20] = 0.0
+    at = np.sort(rng.choice(30_000, 20_000, replace=False)).astype(np.int64)
+    for weather in PRESETS.values():
+        want = haze_fraction(weather, range_m[at], 250.0)
+        np.testing.assert_array_equal(_haze_at(weather, at, range_m, 250.0).view(np.uint32), want.view(np.uint32))
