@@ -194,7 +194,8 @@ class OccupancyFrame:
     @property
     def semantics(self) -> npt.NDArray[np.uint8]:
         """Occ3D-nuScenes classes (:data:`OCC3D_CLASSES`, 17 = free)."""
-        return np.asarray(OCC3D_LUT[self.semantics_native], np.uint8)
+        native = np.ascontiguousarray(self.semantics_native).reshape(-1)
+        return voxel_kernels.looked_up(OCC3D_LUT, native).reshape(self.semantics_native.shape)
 
 
 def occupancy_frame(
@@ -362,7 +363,7 @@ def _shared_surfaces(
     turn, each seeing the choices made before it, in up to ``passes`` sweeps (until none changes).
     The terrain (under the whole world) counts as hidden in voxels with paving (road, sidewalk,
     other flat ground). ``native``: every voxel's class so far."""
-    label = OCC3D_LUT[native]
+    label = voxel_kernels.looked_up(OCC3D_LUT, native)
     return np.asarray(
         voxel_kernels.shared_keep(
             flat.astype(np.int64), OCC3D_LUT[cls].astype(np.int64), tri_m, source.astype(np.int64),

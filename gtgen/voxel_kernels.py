@@ -590,6 +590,15 @@ def choose_shared(
 
 
 @njit(cache=True, nogil=True)
+def looked_up(lut: npt.NDArray[np.uint8], values: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:  # pragma: no cover
+    """``lut[values]`` of a flat ``uint8`` array (numpy's fancy index widens every value to an index first)."""
+    out = np.empty(values.shape[0], np.uint8)
+    for n in range(values.shape[0]):
+        out[n] = lut[values[n]]
+    return out
+
+
+@njit(cache=True, nogil=True)
 def class_bits(flat: I64, cls: I64, size: int) -> npt.NDArray[np.uint32]:  # pragma: no cover - compiled
     """``(size,)``: each voxel's classes among the entries ``(flat, cls)`` as bits ``1 << cls``."""
     bits = np.zeros(size, np.uint32)
@@ -656,41 +665,46 @@ def solid_runs(
         kind[floor[n]] = 2
     for n in range(surface.shape[0]):
         kind[surface[n]] = 1
-    count, runs = 0, 0
-    for j in range(ny):
-        for k in range(nz):
-            prev = 1
-            for i in range(nx):
-                c = kind[(i * ny + j) * nz + k]
-                if c == 2 or (c == 0 and prev != 0):
-                    count += 1
-                if c == 0 and prev != 0:
-                    runs += 1
-                prev = c
+    rows = ny * nz  # row (j, k) is r = j * nz + k; voxel (i, r) at i * rows + r: read in memory order
+    row_first = np.zeros(rows + 1, np.int64)  # the runs of row r: row_first[r]:row_first[r + 1]
+    cast_first = np.zeros(rows + 1, np.int64)  # its voxels to cast: cast_first[r]:cast_first[r + 1]
+    prev = np.ones(rows, np.int8)
+    for i in range(nx):
+        base = i * rows
+        for r in range(rows):
+            c = kind[base + r]
+            if c == 2 or (c == 0 and prev[r] != 0):
+                cast_first[r + 1] += 1
+            if c == 0 and prev[r] != 0:
+                row_first[r + 1] += 1
+            prev[r] = c
+    for r in range(rows):
+        cast_first[r + 1] += cast_first[r]
+        row_first[r + 1] += row_first[r]
+    count, runs = cast_first[rows], row_first[rows]
     ijk = np.empty((count, 3), np.int64)
     run_of = np.empty(count, np.int64)
     low = np.empty(runs, np.int64)  # each run's x extent and row
     high = np.empty(runs, np.int64)
-    row_first = np.zeros(ny * nz + 1, np.int64)  # the runs of row (j, k): row_first[r]:row_first[r + 1]
-    m, r = 0, 0
-    for j in range(ny):
-        for k in range(nz):
-            row_first[j * nz + k] = r
-            prev = 1
-            for i in range(nx):
-                c = kind[(i * ny + j) * nz + k]
-                if c == 2 or (c == 0 and prev != 0):
-                    ijk[m, 0], ijk[m, 1], ijk[m, 2] = i, j, k
-                    run_of[m] = -1
-                    if c == 0:
-                        run_of[m] = r
-                        low[r] = i
-                        r += 1
-                    m += 1
+    cast_at = cast_first[:rows].copy()
+    run_at = row_first[:rows].copy()
+    prev[:] = 1
+    for i in range(nx):
+        base = i * rows
+        for r in range(rows):
+            c = kind[base + r]
+            if c == 2 or (c == 0 and prev[r] != 0):
+                m = cast_at[r]
+                ijk[m, 0], ijk[m, 1], ijk[m, 2] = i, r // nz, r % nz
+                run_of[m] = -1
                 if c == 0:
-                    high[r - 1] = i
-                prev = c
-    row_first[ny * nz] = r
+                    run_of[m] = run_at[r]
+                    low[run_at[r]] = i
+                    run_at[r] += 1
+                cast_at[r] += 1
+            if c == 0:
+                high[run_at[r] - 1] = i
+            prev[r] = c
     parent = np.arange(runs)
     for j in range(ny):
         for k in range(nz):
