@@ -24,7 +24,7 @@ from sensors.errors import SensorConfigError, SensorError
 from sensors.hits import RayHits
 from sensors.photo import SUBPIXEL_OFFSETS, AgentBoxes, Supersamples
 from sensors.pinhole import EGO_AXES_R_OPTICAL, NO_DISTORTION, Pinhole
-from sensors.rays import sensor_rays
+from sensors.rays import map_directions, sensor_rays
 from sensors.shade_kernels import edges, ids_seen, shadow_rays, subpixel_directions
 from sensors.shading import CameraFrame, Shading
 from sensors.view import spheres_in_view
@@ -167,7 +167,7 @@ class Camera:
             hits.part[far] = 0
             hits.range_m[far] = np.inf
             origin = map_SE3_cam.translation
-            dirs_map = np.asarray(cv2.transform(self._dirs_cam.reshape(-1, 1, 3), map_R_cam), np.float32).reshape(-1, 3)
+            dirs_map = map_directions(map_SE3_cam.rotation, self._dirs_cam)  # those of the cast
             sun_lit = sun_visibility(scene, origin, dirs_map, hits.range_m, hits.normal, weather)
             extra = self._supersamples(scene, map_SE3_cam, hits, weather)
             shading = Shading(self.spec.pinhole, self.spec.range_m, map_R_cam, hits.normal, weather, seed,
@@ -200,9 +200,7 @@ class Camera:
         sub = scene.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, dirs_cam)
         far = sub.range_m > np.float32(self.spec.range_m)
         sub.range_m[far] = np.inf
-        dirs_map = np.asarray(
-            cv2.transform(dirs_cam.reshape(-1, 1, 3), map_SE3_cam.rotation.astype(np.float32)), np.float32
-        ).reshape(-1, 3)
+        dirs_map = map_directions(map_SE3_cam.rotation, dirs_cam)
         lit = sun_visibility(scene, map_SE3_cam.translation, dirs_map, sub.range_m, sub.normal, weather)
         return Supersamples(
             pixel, dirs_cam, sub.range_m, sub.semantic_class, sub.instance_id, sub.part, sub.normal, lit
@@ -212,8 +210,10 @@ class Camera:
 def edge_pixels(hits: RayHits, h: int, w: int) -> npt.NDArray[np.bool_]:
     """``(H * W,)`` pixels that differ from their right or lower neighbour in class, instance
     or part, or whose range jumps by more than 3 %."""
-    key = (hits.semantic_class.astype(np.int64) << 40) | (hits.part.astype(np.int64) << 32) | hits.instance_id
-    return edges(key, np.ascontiguousarray(hits.range_m, np.float32), h, w)
+    return edges(
+        np.ascontiguousarray(hits.semantic_class, np.uint8), np.ascontiguousarray(hits.part, np.uint8),
+        np.ascontiguousarray(hits.instance_id, np.uint32), np.ascontiguousarray(hits.range_m, np.float32), h, w,
+    )  # fmt: skip
 
 
 def sun_visibility(scene: Scene, origin_map_m: F64, dirs_map: npt.NDArray[np.float32], range_m: npt.NDArray[np.float32],
@@ -226,13 +226,13 @@ def sun_visibility(scene: Scene, origin_map_m: F64, dirs_map: npt.NDArray[np.flo
         return lit
     sun = np.asarray(weather.sun_dir_map, np.float32)
     sun /= np.linalg.norm(sun)
-    at, rays = shadow_rays(
+    at, columns = shadow_rays(
         np.asarray(origin_map_m, np.float64).astype(np.float32), np.ascontiguousarray(dirs_map, np.float32),
         np.ascontiguousarray(range_m, np.float32), np.ascontiguousarray(normal, np.float32), sun,
         np.float32(SHADOW_RANGE_M), np.float32(SHADOW_LIFT_M),
     )  # fmt: skip
     if len(at):
-        lit[at] = ~scene.occluded(rays)
+        lit[at] = ~scene.occluded(columns.T)  # (K, 6), each column contiguous
     return lit
 
 

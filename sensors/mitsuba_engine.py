@@ -14,7 +14,6 @@ from __future__ import annotations
 import os
 from typing import Any
 
-import cv2
 import numpy as np
 import numpy.typing as npt
 from numba import njit
@@ -34,9 +33,8 @@ mi.set_variant("llvm_ad_rgb")  # raises when Dr.Jit's LLVM backend finds no libL
 from networks.mesh import ClassedMesh  # noqa: E402
 from sensors.agents import AgentMeshes, Agents, agent_meshes  # noqa: E402
 from sensors.hits import PairHits, RayHits  # noqa: E402
+from sensors.rays import map_directions  # noqa: E402
 from sensors.scene import _hits_alone, cast_agents_moving  # noqa: E402
-
-_NORMAL = np.dtype((np.void, 12))  # one row of a float32 (N, 3) table, taken whole
 
 
 def _face_normals(
@@ -63,6 +61,54 @@ def _unit_cross(
             length = np.float32(1.0)
         out[t, 0], out[t, 1], out[t, 2] = n0 / length, n1 / length, n2 / length
     return out
+
+
+U8 = npt.NDArray[np.uint8]
+
+
+@njit(cache=True, nogil=True)
+def _rows_of(
+    rows: npt.NDArray[np.uint32], class_of: U8, instance_of: npt.NDArray[np.uint32], part_of: U8,
+    normal_bits_of: npt.NDArray[np.uint32],
+) -> tuple[U8, npt.NDArray[np.uint32], U8, npt.NDArray[np.uint32]]:  # fmt: skip  # pragma: no cover - compiled
+    """Per ray its row's class, instance, part and normal (the normal's float32 bits, copied as
+    they are), in one pass over the rays."""
+    n = rows.shape[0]
+    cls = np.empty(n, np.uint8)
+    instance = np.empty(n, np.uint32)
+    part = np.empty(n, np.uint8)
+    normal = np.empty((n, 3), np.uint32)
+    for i in range(n):
+        r = rows[i]
+        cls[i] = class_of[r]
+        instance[i] = instance_of[r]
+        part[i] = part_of[r]
+        normal[i, 0] = normal_bits_of[r, 0]
+        normal[i, 1] = normal_bits_of[r, 1]
+        normal[i, 2] = normal_bits_of[r, 2]
+    return cls, instance, part, normal
+
+
+@njit(cache=True, nogil=True)
+def _columns(rows: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:  # pragma: no cover - compiled
+    """``(K, N)``: the columns of ``rows`` ``(N, K)``, each contiguous."""
+    n, k = rows.shape
+    out = np.empty((k, n), np.float32)
+    for i in range(n):
+        for c in range(k):
+            out[c, i] = rows[i, c]
+    return out
+
+
+def _rays(rays: npt.NDArray[np.float32]) -> Any:
+    """Dr.Jit's rays of ``(N, 6) float32`` rays (origin, direction); columns that are already
+    contiguous (a transposed ``(6, N)`` array) are handed over as they are."""
+    if rays.dtype == np.float32 and rays.flags.f_contiguous:
+        columns = rays.T
+    else:
+        columns = _columns(np.ascontiguousarray(rays, np.float32))
+    floats = [mi.Float(columns[i]) for i in range(6)]
+    return mi.Ray3f(mi.Point3f(*floats[:3]), mi.Vector3f(*floats[3:]))
 
 
 class _Part:
@@ -157,11 +203,10 @@ class MitsubaScene:
         self._part_of_row = np.concatenate([np.zeros(n_static, np.uint8), meshes.triangle_part, [0]]).astype(np.uint8)
         agent_normals = _face_normals(meshes.vertices_m, meshes.triangles)
         self._normal_of_row = np.concatenate([engine._static_normals, agent_normals, np.zeros((1, 3), np.float32)])
-        self._normal_of_row = np.ascontiguousarray(self._normal_of_row).view(_NORMAL).ravel()
+        self._normal_of_row = np.ascontiguousarray(self._normal_of_row).view(np.uint32)  # bits, copied whole
 
     def cast(self, rays: npt.NDArray[np.float32]) -> RayHits:
-        columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]
-        ray = mi.Ray3f(mi.Point3f(*columns[:3]), mi.Vector3f(*columns[3:]))
+        ray = _rays(rays)
         return self._hits(ray)
 
     def cast_from(
@@ -171,23 +216,20 @@ class MitsubaScene:
         dirs_sensor: npt.NDArray[np.float32],
     ) -> RayHits:
         """The same ray directions as the reference engine's (turned by OpenCV in float32), one origin."""
-        dirs = np.asarray(cv2.transform(dirs_sensor.reshape(-1, 1, 3), np.asarray(map_R_sensor, np.float32)))
-        dirs = dirs.reshape(-1, 3)
+        dirs = map_directions(map_R_sensor, dirs_sensor)
         origin = mi.Point3f(*(dr.opaque(mi.Float, float(v)) for v in np.asarray(origin_map_m, np.float32)))
-        direction = mi.Vector3f(*(mi.Float(np.ascontiguousarray(dirs[:, i])) for i in range(3)))
+        direction = mi.Vector3f(*(mi.Float(column) for column in _columns(dirs)))
         return self._hits(mi.Ray3f(origin, direction))
 
     def occluded(self, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:
-        columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]
-        ray = mi.Ray3f(mi.Point3f(*columns[:3]), mi.Vector3f(*columns[3:]))
+        ray = _rays(rays)
         hit = self._static.test(ray) if self._static.triangles else dr.zeros(mi.Bool, rays.shape[0])
         if self._agents.triangles:
             hit = hit | self._agents.test(ray)
         return np.asarray(hit.numpy(), np.bool_)
 
     def cast_raw(self, rays: npt.NDArray[np.float32]) -> Any:
-        columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]
-        ray = mi.Ray3f(mi.Point3f(*columns[:3]), mi.Vector3f(*columns[3:]))
+        ray = _rays(rays)
         t, _ = self._static.cast(ray)
         if self._agents.triangles:
             t_agent = self._agents.cast(ray)[0]
@@ -206,21 +248,22 @@ class MitsubaScene:
         row = dr.select(dr.isinf(t), dr.opaque(mi.UInt32, self._nothing_row), row)
         dr.eval(t, row)
         range_m = t.numpy().astype(np.float32, copy=False)
-        rows = row.numpy()
-        normals = np.take(self._normal_of_row, rows).view(np.float32).reshape(-1, 3)  # 12-byte rows, taken whole
-        return RayHits(range_m, np.take(self._class_of_row, rows), np.take(self._instance_of_row, rows), normals,
-                       np.take(self._part_of_row, rows))  # fmt: skip
+        return self._with_rows(range_m, row.numpy())
+
+    def _with_rows(self, range_m: npt.NDArray[np.float32], rows: npt.NDArray[np.uint32]) -> RayHits:
+        cls, instance, part, normal = _rows_of(
+            np.ascontiguousarray(rows, np.uint32), self._class_of_row, self._instance_of_row, self._part_of_row,
+            self._normal_of_row,
+        )  # fmt: skip
+        return RayHits(range_m, cls, instance, normal.view(np.float32), part)
 
     def cast_static(self, rays: npt.NDArray[np.float32]) -> RayHits:
         """The rays cast into the static world alone (no agents)."""
-        columns = [mi.Float(np.ascontiguousarray(rays[:, i])) for i in range(6)]
-        t, prim = self._static.cast(mi.Ray3f(mi.Point3f(*columns[:3]), mi.Vector3f(*columns[3:])))
+        t, prim = self._static.cast(_rays(rays))
         row = dr.select(dr.isinf(t), dr.opaque(mi.UInt32, self._nothing_row), mi.UInt32(prim))
         dr.eval(t, row)
-        rows = row.numpy()
-        normals = np.take(self._normal_of_row, rows).view(np.float32).reshape(-1, 3)
-        return RayHits(t.numpy().astype(np.float32, copy=False), np.take(self._class_of_row, rows),
-                       np.zeros(rows.shape[0], np.uint32), normals, np.zeros(rows.shape[0], np.uint8))  # fmt: skip
+        # the static rows' instance and part are 0
+        return self._with_rows(t.numpy().astype(np.float32, copy=False), row.numpy())
 
     def cast_agents_moving(
         self, rays: npt.NDArray[np.float32], dt_s: npt.NDArray[np.float64], ray_index: npt.NDArray[np.intp],

@@ -18,3 +18,22 @@ def sensor_rays(map_SE3_sensor: SE3, dirs_sensor: npt.NDArray[np.float32]) -> np
     rotation = map_SE3_sensor.rotation.astype(np.float32)
     rays[:, 3:] = cv2.transform(dirs_sensor.reshape(-1, 1, 3), rotation).reshape(-1, 3)
     return rays
+
+
+_LAST_TURNED: list[tuple[npt.NDArray[np.float32], bytes, npt.NDArray[np.float32]]] = []
+
+
+def map_directions(
+    map_R_sensor: npt.NDArray[np.float64], dirs_sensor: npt.NDArray[np.float32]
+) -> npt.NDArray[np.float32]:
+    """``(N, 3) float32`` directions ``dirs_sensor`` turned into the map frame by cv2 with the
+    rotation in float32 (as :func:`sensor_rays`). The last answer is kept (read-only) for the
+    same directions array and the same rotation: a camera's cast and its shading both ask."""
+    rotation = np.asarray(map_R_sensor, np.float32)
+    key = rotation.tobytes()
+    if _LAST_TURNED and _LAST_TURNED[0][0] is dirs_sensor and _LAST_TURNED[0][1] == key:
+        return _LAST_TURNED[0][2]
+    turned = np.asarray(cv2.transform(dirs_sensor.reshape(-1, 1, 3), rotation), np.float32).reshape(-1, 3)
+    turned.flags.writeable = False
+    _LAST_TURNED[:] = [(dirs_sensor, key, turned)]
+    return turned

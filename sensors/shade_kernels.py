@@ -18,8 +18,9 @@ def shadow_rays(
     origin: F32, dirs: F32, range_m: F32, normal: F32, sun: F32, max_range_m: np.float32, lift_m: np.float32
 ) -> tuple[npt.NDArray[np.int64], F32]:  # pragma: no cover - compiled
     """The rows that need a shadow ray (a hit nearer than ``max_range_m`` whose side facing the
-    camera faces the ``sun``) and those rays ``(K, 6)``: from the hit, lifted ``lift_m`` off the
-    surface towards the camera's side, along ``sun`` (as :func:`sensors.camera.sun_visibility`)."""
+    camera faces the ``sun``) and those rays column by column ``(6, K)`` (its transpose is the
+    ``(K, 6)`` rays, each column contiguous): from the hit, lifted ``lift_m`` off the surface
+    towards the camera's side, along ``sun`` (as :func:`sensors.camera.sun_visibility`)."""
     n = range_m.shape[0]
     at = np.empty(n, np.int64)
     k = 0
@@ -33,19 +34,19 @@ def shadow_rays(
         if n0 * sun[0] + n1 * sun[1] + n2 * sun[2] > 0:
             at[k] = i
             k += 1
-    rays = np.empty((k, 6), np.float32)
+    rays = np.empty((6, k), np.float32)
     for j in range(k):
         i = at[j]
         r = range_m[i]
         n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
         if n0 * dirs[i, 0] + n1 * dirs[i, 1] + n2 * dirs[i, 2] > 0:
             n0, n1, n2 = -n0, -n1, -n2
-        rays[j, 0] = (origin[0] + dirs[i, 0] * r) + n0 * lift_m
-        rays[j, 1] = (origin[1] + dirs[i, 1] * r) + n1 * lift_m
-        rays[j, 2] = (origin[2] + dirs[i, 2] * r) + n2 * lift_m
-        rays[j, 3] = sun[0]
-        rays[j, 4] = sun[1]
-        rays[j, 5] = sun[2]
+        rays[0, j] = (origin[0] + dirs[i, 0] * r) + n0 * lift_m
+        rays[1, j] = (origin[1] + dirs[i, 1] * r) + n1 * lift_m
+        rays[2, j] = (origin[2] + dirs[i, 2] * r) + n2 * lift_m
+        rays[3, j] = sun[0]
+        rays[4, j] = sun[1]
+        rays[5, j] = sun[2]
     return at[:k], rays
 
 
@@ -365,10 +366,11 @@ def ids_seen(
 
 @njit(cache=True, nogil=True)
 def edges(
-    key: npt.NDArray[np.int64], range_m: F32, h: int, w: int
-) -> npt.NDArray[np.bool_]:  # pragma: no cover - compiled
-    """``(H * W,)`` :func:`sensors.camera.edge_pixels` of row-major ``key`` and ``range_m``
-    (ranges capped at 1e4 m)."""
+    cls: npt.NDArray[np.uint8], part: npt.NDArray[np.uint8], instance: npt.NDArray[np.uint32], range_m: F32,
+    h: int, w: int,
+) -> npt.NDArray[np.bool_]:  # fmt: skip  # pragma: no cover - compiled
+    """``(H * W,)`` :func:`sensors.camera.edge_pixels` of row-major ``cls``, ``part``,
+    ``instance`` and ``range_m`` (ranges capped at 1e4 m)."""
     edge = np.zeros(h * w, np.bool_)
     cap, jump = np.float32(1e4), np.float32(0.03)
     for v in range(h):
@@ -379,7 +381,10 @@ def edges(
                 if (j == i + 1 and u + 1 >= w) or (j == i + w and v + 1 >= h):
                     continue
                 rb = min(range_m[j], cap)
-                if key[i] != key[j] or abs(ra - rb) > jump * min(ra, rb):
+                if (
+                    cls[i] != cls[j] or part[i] != part[j] or instance[i] != instance[j]
+                    or abs(ra - rb) > jump * min(ra, rb)
+                ):  # fmt: skip
                     edge[i] = True
                     edge[j] = True
     return edge
