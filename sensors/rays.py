@@ -31,8 +31,9 @@ def map_directions(
     same directions array and the same rotation: a camera's cast and its shading both ask."""
     rotation = np.asarray(map_R_sensor, np.float32)
     key = rotation.tobytes()
-    if _LAST_TURNED and _LAST_TURNED[0][0] is dirs_sensor and _LAST_TURNED[0][1] == key:
-        return _LAST_TURNED[0][2]
+    last = _LAST_TURNED[0] if _LAST_TURNED else None  # one read: another thread may replace it
+    if last is not None and last[0] is dirs_sensor and last[1] == key:
+        return last[2]
     turned = np.asarray(cv2.transform(dirs_sensor.reshape(-1, 1, 3), rotation), np.float32).reshape(-1, 3)
     turned.flags.writeable = False
     _LAST_TURNED[:] = [(dirs_sensor, key, turned)]
