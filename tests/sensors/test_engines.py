@@ -116,3 +116,44 @@ def test_face_normals_are_numpys_bit_for_bit(town):
         got = _face_normals(vertices, tris)
         np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
     assert not _face_normals(meshes.vertices_m, triangles)[-1].any()
+
+
+def test_rays_given_as_rows_or_as_columns_give_the_same_hits(town):
+    static, agents, ego = town
+    scene = MitsubaEngine().scene(static, agents)
+    rays = Camera(CameraSpec(width_px=96, height_px=64)).rays(ego.map_SE3_ego())
+    rows, columns = scene.cast(rays), scene.cast(np.asfortranarray(rays))
+    assert rows.hit.any() and (rows.instance_id > 0).any()
+    for a, b in zip(rows.__dataclass_fields__, columns.__dataclass_fields__, strict=True):
+        np.testing.assert_array_equal(getattr(rows, a), getattr(columns, b))
+    np.testing.assert_array_equal(scene.occluded(rays), scene.occluded(np.asfortranarray(rays)))
+
+
+def test_a_hits_class_instance_part_and_normal_are_its_rows_in_the_tables(town):
+    from sensors.mitsuba_engine import _rows_of
+
+    static, agents, _ = town
+    scene = MitsubaEngine().scene(static, agents)
+    rng = np.random.default_rng(2)
+    rows = rng.integers(0, scene._nothing_row + 1, 20_000).astype(np.uint32)
+    cls, instance, part, normal_bits = _rows_of(rows, scene._class_of_row, scene._instance_of_row,
+                                                scene._part_of_row, scene._normal_of_row)  # fmt: skip
+    np.testing.assert_array_equal(cls, scene._class_of_row[rows])
+    np.testing.assert_array_equal(instance, scene._instance_of_row[rows])
+    np.testing.assert_array_equal(part, scene._part_of_row[rows])
+    np.testing.assert_array_equal(normal_bits, scene._normal_of_row[rows])
+
+
+def test_map_directions_are_cv2s_and_follow_the_rotation():
+    import cv2
+
+    from sensors.rays import map_directions
+
+    dirs = Camera(CameraSpec(width_px=40, height_px=30)).spec.pinhole.image_directions()
+    for yaw in (0.3, 0.3, 1.1):
+        rotation = SE3.from_xyz_rpy([0.0, 0.0, 0.0], 0.1, 0.2, yaw).rotation
+        want = cv2.transform(dirs.reshape(-1, 1, 3), rotation.astype(np.float32)).reshape(-1, 3)
+        got = map_directions(rotation, dirs)
+        np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
+        assert not got.flags.writeable
+    assert map_directions(rotation, dirs) is got and map_directions(rotation, dirs.copy()) is not got

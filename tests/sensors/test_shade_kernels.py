@@ -244,3 +244,48 @@ def test_haze_of_the_hits_is_haze_fraction() -> None:
     for weather in PRESETS.values():
         want = haze_fraction(weather, range_m[at], 250.0)
         np.testing.assert_array_equal(_haze_at(weather, at, range_m, 250.0).view(np.uint32), want.view(np.uint32))
+
+
+def test_edges_are_those_of_the_class_part_and_instance_key() -> None:
+    rng = np.random.default_rng(9)
+    h, w = 37, 53
+    cls = rng.integers(0, 3, h * w).astype(np.uint8)
+    part = rng.integers(0, 2, h * w).astype(np.uint8)
+    instance = rng.choice(np.array([0, 1, 2**32 - 1], np.uint32), h * w)
+    range_m = rng.choice(np.array([1.0, 1.02, 1.05, 2e4, np.inf], np.float32), h * w)
+    cls[: w * 10], part[: w * 10], instance[: w * 10] = 1, 0, 7  # flat rows: edges by range alone
+    key = (cls.astype(np.int64) << 40) | (part.astype(np.int64) << 32) | instance
+    capped = np.minimum(range_m, np.float32(1e4)).reshape(h, w)
+    k = key.reshape(h, w)
+    want = np.zeros((h, w), np.bool_)
+    for a, b, ka, kb in (
+        (capped[:, :-1], capped[:, 1:], k[:, :-1], k[:, 1:]),
+        (capped[:-1], capped[1:], k[:-1], k[1:]),
+    ):
+        differ = (ka != kb) | (np.abs(a - b) > np.float32(0.03) * np.minimum(a, b))
+        if a.shape[1] < w:
+            want[:, :-1] |= differ
+            want[:, 1:] |= differ
+        else:
+            want[:-1] |= differ
+            want[1:] |= differ
+    np.testing.assert_array_equal(kernels.edges(cls, part, instance, range_m, h, w), want.ravel())
+
+
+def test_shadow_rays_come_in_columns_of_the_rows() -> None:
+    rng = np.random.default_rng(10)
+    n = 5000
+    dirs, normal = _unit_rows(rng, n), _unit_rows(rng, n)
+    range_m = rng.uniform(0.0, 200.0, n).astype(np.float32)
+    range_m[:50] = np.inf
+    sun = np.array([0.3, 0.2, 0.93], np.float32)
+    origin = np.array([1.0, 2.0, 3.0], np.float32)
+    at, columns = kernels.shadow_rays(origin, dirs, range_m, normal, sun, np.float32(120.0), np.float32(0.02))
+    facing = np.where((np.einsum("ij,ij->i", normal, dirs) > 0)[:, None], -normal, normal)
+    want_at = np.flatnonzero((range_m < 120.0) & (facing @ sun > 0))
+    np.testing.assert_array_equal(at, want_at)
+    rays = columns.T
+    assert rays.shape == (len(at), 6) and all(rays[:, i].flags.c_contiguous for i in range(6))
+    point = (origin + dirs[at] * range_m[at, None]) + facing[at] * np.float32(0.02)
+    np.testing.assert_array_equal(rays[:, :3].view(np.uint32), point.astype(np.float32).view(np.uint32))
+    np.testing.assert_array_equal(rays[:, 3:], np.broadcast_to(sun, (len(at), 3)))
