@@ -34,7 +34,7 @@ from networks.mesh import ClassedMesh  # noqa: E402
 from sensors.agents import AgentMeshes, Agents, agent_meshes  # noqa: E402
 from sensors.hits import PairHits, RayHits  # noqa: E402
 from sensors.rays import map_directions  # noqa: E402
-from sensors.scene import _hits_alone, cast_agents_moving  # noqa: E402
+from sensors.scene import _hits_alone, _triangle_runs, cast_agents_moving  # noqa: E402
 
 
 def _face_normals(
@@ -141,22 +141,23 @@ class _Part:
 
 
 class _AgentPart:
-    """The agents' scene: one mesh whose positions and faces are replaced every frame, at
-    this frame's size. The scene object stays the same, so Dr.Jit compiles the kernels that
-    trace it once, and Embree builds the agents' BVH over their own triangles only."""
+    """An agents' scene: one mesh whose positions and faces are replaced when asked, at the new
+    size. The scene object stays the same, so Dr.Jit compiles the kernels that trace it once,
+    and Embree builds the BVH over these triangles only."""
 
-    def __init__(self) -> None:
+    def __init__(self, name: str = "agents") -> None:
         self.triangles = 0
-        mesh = mi.Mesh("agents", 3, 1, has_vertex_normals=False, has_vertex_texcoords=False)
-        self.scene: Any = mi.load_dict({"type": "scene", "agents": mesh})
+        self._name = name
+        mesh = mi.Mesh(name, 3, 1, has_vertex_normals=False, has_vertex_texcoords=False)
+        self.scene: Any = mi.load_dict({"type": "scene", name: mesh})
         self._params: Any = mi.traverse(self.scene)
 
     def update(self, vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32]) -> None:
         self.triangles = int(triangles.shape[0])
         if self.triangles == 0:
-            return  # the last frame's agents stay in the scene, never cast (see MitsubaScene)
-        self._params["agents.vertex_positions"] = mi.Float(np.ascontiguousarray(vertices, np.float32).ravel())
-        self._params["agents.faces"] = mi.UInt32(np.ascontiguousarray(triangles, np.uint32).ravel())
+            return  # the last agents stay in the scene, never cast (see MitsubaScene)
+        self._params[f"{self._name}.vertex_positions"] = mi.Float(np.ascontiguousarray(vertices, np.float32).ravel())
+        self._params[f"{self._name}.faces"] = mi.UInt32(np.ascontiguousarray(triangles, np.uint32).ravel())
         self._params.update()
 
     def cast(self, ray: Any) -> tuple[Any, Any]:
@@ -167,7 +168,45 @@ class _AgentPart:
         return self.scene.ray_test(ray, coherent=True)
 
 
+STILL_GROWTH = 0.25
+"""The kept scene of standing agents is made again when agents that stood since the last frame
+outside it hold this share of its triangles (or when one of its agents moved or left)."""
+
+
+def _agent_keys(meshes: AgentMeshes) -> tuple[dict[int, bytes], dict[int, tuple[int, int]]]:
+    """Per agent of ``meshes``: the bytes of its posed triangles (its vertices, its faces from its
+    first vertex, each face's class and part) and its run of triangles."""
+    runs = _triangle_runs(meshes.triangle_instance)
+    keys = {}
+    for instance, (a, b) in runs.items():
+        faces = meshes.triangles[a:b]
+        first, last = int(faces.min()), int(faces.max())
+        parts = (
+            meshes.vertices_m[first : last + 1],
+            faces - first,
+            meshes.triangle_class[a:b],
+            meshes.triangle_part[a:b],
+        )
+        keys[instance] = b"".join(p.tobytes() for p in parts)
+    return keys, runs
+
+
+class _Tables:
+    """Per triangle of an agents' scene: class, instance, part and face normal."""
+
+    def __init__(self, meshes: AgentMeshes, triangles: npt.NDArray[np.int32], rows: npt.NDArray[np.intp]) -> None:
+        self.triangles = triangles
+        self.cls = meshes.triangle_class[rows]
+        self.instance = meshes.triangle_instance[rows]
+        self.part = meshes.triangle_part[rows]
+        self.normal = _face_normals(meshes.vertices_m, triangles)
+
+
 class MitsubaEngine:
+    """Keeps the static scene (made again when the static mesh changes) and two agents' scenes:
+    one of the agents standing exactly as they stood (the same posed triangles, bit for bit),
+    kept from frame to frame, and one of the others, made every frame."""
+
     name = "mitsuba"
 
     def __init__(self) -> None:
@@ -175,6 +214,10 @@ class MitsubaEngine:
         self._static: _Part | None = None
         self._static_normals = np.zeros((0, 3), np.float32)
         self.agent_part = _AgentPart()
+        self.still_part = _AgentPart("still")
+        self._last_keys: dict[int, bytes] = {}
+        self._kept: dict[int, bytes] = {}  # the still part's agents and their triangles' bytes
+        self._kept_tables: _Tables | None = None
 
     def scene(self, static: ClassedMesh, agents: Agents) -> MitsubaScene:
         if static is not self._static_mesh:
@@ -182,28 +225,60 @@ class MitsubaEngine:
             self._static_normals = _face_normals(static.vertices_m, static.triangles)
         if self._static is None:
             raise RuntimeError("MitsubaEngine: no static scene")
-        return MitsubaScene(self, static, self._static, agents)
+        meshes = agent_meshes(agents)
+        moving, kept = self._split(meshes)
+        return MitsubaScene(self, static, self._static, agents, meshes, moving, kept)
+
+    def _split(self, meshes: AgentMeshes) -> tuple[_Tables, _Tables]:
+        """This frame's moving agents' tables (their part made here) and the kept still ones'
+        (their part made again when an agent in it changed or left, or many more stand)."""
+        keys, runs = _agent_keys(meshes)
+        kept_tables = self._kept_tables
+        intact = all(keys.get(i) == k for i, k in self._kept.items())
+        standing = [i for i, k in keys.items() if self._last_keys.get(i) == k]
+        kept_triangles = 0 if kept_tables is None else kept_tables.triangles.shape[0]
+        joining = sum(runs[i][1] - runs[i][0] for i in standing if i not in self._kept)
+        self._last_keys = keys
+        if kept_tables is None or not intact or joining > STILL_GROWTH * kept_triangles:
+            self._kept = {i: keys[i] for i in standing}
+            rows = _rows_of_agents(runs, sorted(self._kept))
+            kept_tables = self._kept_tables = _Tables(meshes, meshes.triangles[rows], rows)
+            self.still_part.update(meshes.vertices_m, kept_tables.triangles)
+        rows = _rows_of_agents(runs, sorted(i for i in runs if i not in self._kept))
+        moving = _Tables(meshes, meshes.triangles[rows], rows)
+        self.agent_part.update(meshes.vertices_m, moving.triangles)
+        return moving, kept_tables
+
+
+def _rows_of_agents(runs: dict[int, tuple[int, int]], instances: list[int]) -> npt.NDArray[np.intp]:
+    """The triangles (rows of the merged mesh) of ``instances``, in the mesh's order."""
+    spans = [np.arange(*runs[i]) for i in instances]
+    return np.concatenate(spans) if spans else np.zeros(0, np.intp)
 
 
 class MitsubaScene:
-    """One frame: the static part (kept by the engine) and this frame's agents."""
+    """One frame: the static part and the still agents' (kept by the engine) and this frame's
+    moving agents. Rows of the tables: static triangles, moving agents', still agents', and
+    one for rays that hit nothing."""
 
-    def __init__(self, engine: MitsubaEngine, static: ClassedMesh, part: _Part, agents: Agents) -> None:
+    def __init__(
+        self, engine: MitsubaEngine, static: ClassedMesh, part: _Part, agents: Agents, meshes: AgentMeshes,
+        moving: _Tables, still: _Tables,
+    ) -> None:  # fmt: skip
         self._engine, self._static = engine, part
         self.agents = agents
-        self.agent_meshes: AgentMeshes = agent_meshes(agents)
-        meshes = self.agent_meshes
-        self._agents = engine.agent_part
-        self._agents.update(meshes.vertices_m, meshes.triangles)
-        n_static, n_agent = static.triangle_class.shape[0], meshes.triangle_class.shape[0]
-        self._agent_row0, self._nothing_row = n_static, n_static + n_agent
-        self._class_of_row = np.concatenate([static.triangle_class, meshes.triangle_class, [0]]).astype(np.uint8)
-        self._instance_of_row = np.concatenate([np.zeros(n_static, np.uint32), meshes.triangle_instance, [0]])
+        self.agent_meshes: AgentMeshes = meshes
+        self._agents, self._still = engine.agent_part, engine.still_part
+        n_static, n_moving, n_still = static.triangle_class.shape[0], moving.cls.shape[0], still.cls.shape[0]
+        self._agent_row0, self._still_row0 = n_static, n_static + n_moving
+        self._nothing_row = n_static + n_moving + n_still
+        self._class_of_row = np.concatenate([static.triangle_class, moving.cls, still.cls, [0]]).astype(np.uint8)
+        self._instance_of_row = np.concatenate([np.zeros(n_static, np.uint32), moving.instance, still.instance, [0]])
         self._instance_of_row = self._instance_of_row.astype(np.uint32)
-        self._part_of_row = np.concatenate([np.zeros(n_static, np.uint8), meshes.triangle_part, [0]]).astype(np.uint8)
-        agent_normals = _face_normals(meshes.vertices_m, meshes.triangles)
-        self._normal_of_row = np.concatenate([engine._static_normals, agent_normals, np.zeros((1, 3), np.float32)])
-        self._normal_of_row = np.ascontiguousarray(self._normal_of_row).view(np.uint32)  # bits, copied whole
+        self._part_of_row = np.concatenate([np.zeros(n_static, np.uint8), moving.part, still.part, [0]])
+        self._part_of_row = self._part_of_row.astype(np.uint8)
+        normals = [engine._static_normals, moving.normal, still.normal, np.zeros((1, 3), np.float32)]
+        self._normal_of_row = np.ascontiguousarray(np.concatenate(normals)).view(np.uint32)  # bits, copied whole
 
     def cast(self, rays: npt.NDArray[np.float32]) -> RayHits:
         ray = _rays(rays)
@@ -224,27 +299,30 @@ class MitsubaScene:
     def occluded(self, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:
         ray = _rays(rays)
         hit = self._static.test(ray) if self._static.triangles else dr.zeros(mi.Bool, rays.shape[0])
-        if self._agents.triangles:
-            hit = hit | self._agents.test(ray)
+        for agents in (self._agents, self._still):
+            if agents.triangles:
+                hit = hit | agents.test(ray)
         return np.asarray(hit.numpy(), np.bool_)
 
     def cast_raw(self, rays: npt.NDArray[np.float32]) -> Any:
         ray = _rays(rays)
         t, _ = self._static.cast(ray)
-        if self._agents.triangles:
-            t_agent = self._agents.cast(ray)[0]
-            t = dr.select(t_agent < t, t_agent, t)
+        for agents in (self._agents, self._still):
+            if agents.triangles:
+                t_agent = agents.cast(ray)[0]
+                t = dr.select(t_agent < t, t_agent, t)
         return t.numpy()  # waits for the kernel: Dr.Jit launches it in the background
 
     def _hits(self, ray: Any) -> RayHits:
         t, prim = self._static.cast(ray)
         row = mi.UInt32(prim)
-        if self._agents.triangles:
-            t_agent, prim_agent = self._agents.cast(ray)
-            nearer = t_agent < t
-            t = dr.select(nearer, t_agent, t)
-            # opaque: the numbers change from frame to frame, the compiled kernel must not
-            row = dr.select(nearer, prim_agent + dr.opaque(mi.UInt32, self._agent_row0), row)
+        for agents, row0 in ((self._agents, self._agent_row0), (self._still, self._still_row0)):
+            if agents.triangles:
+                t_agent, prim_agent = agents.cast(ray)
+                nearer = t_agent < t
+                t = dr.select(nearer, t_agent, t)
+                # opaque: the numbers change from frame to frame, the compiled kernel must not
+                row = dr.select(nearer, prim_agent + dr.opaque(mi.UInt32, row0), row)
         row = dr.select(dr.isinf(t), dr.opaque(mi.UInt32, self._nothing_row), row)
         dr.eval(t, row)
         range_m = t.numpy().astype(np.float32, copy=False)

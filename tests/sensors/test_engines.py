@@ -157,3 +157,37 @@ def test_map_directions_are_cv2s_and_follow_the_rotation():
         np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
         assert not got.flags.writeable
     assert map_directions(rotation, dirs) is got and map_directions(rotation, dirs.copy()) is not got
+
+
+def _same_hits(a, b):
+    for name in ("range_m", "semantic_class", "instance_id", "normal", "part"):
+        np.testing.assert_array_equal(getattr(a, name).view(np.uint8), getattr(b, name).view(np.uint8))
+
+
+def test_agents_standing_kept_apart_give_the_hits_of_one_scene_of_all(town):
+    import dataclasses
+
+    static, agents, ego = town
+    rays = Lidar(LidarSpec()).rays(ego.map_SE3_ego())
+    sun = rays.copy()
+    sun[:, 3:] = np.array([0.3, 0.2, 0.93], np.float32) / np.linalg.norm([0.3, 0.2, 0.93])
+    engine = MitsubaEngine()
+    frames = [agents]
+    for step in range(1, 5):  # a third moves, then another third, then all stand, then one of them moves
+        centre = frames[-1].center_map_m.copy()
+        if step < 3:
+            centre[step::3, 0] += 0.25
+        elif step == 4:
+            centre[0, 1] += 0.5
+        frames.append(dataclasses.replace(agents, center_map_m=centre))
+    kept = []
+    for frame in frames:
+        scene = engine.scene(static, frame)
+        kept.append(scene._still.triangles)
+        fresh = MitsubaEngine().scene(static, frame)
+        assert fresh._still.triangles == 0
+        _same_hits(scene.cast(rays), fresh.cast(rays))
+        np.testing.assert_array_equal(scene.occluded(sun), fresh.occluded(sun))
+        np.testing.assert_array_equal(scene.cast_raw(rays), fresh.cast_raw(rays))
+    total = scene.agent_meshes.triangles.shape[0]
+    assert kept[0] == 0 and 0 < kept[1] < total and kept[3] == total and 0 < kept[4] < total
