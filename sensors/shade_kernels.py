@@ -285,6 +285,23 @@ def grey_of(image: F32) -> F32:  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def _levelled(g: np.float32, black: np.float32, scale: np.float32, toe: np.float32) -> np.float32:  # pragma: no cover
+    """A grey after :func:`levels`' stretch (unchanged when ``black <= 0``)."""
+    if black <= 0:
+        return g
+    if g >= black:
+        return toe + (g - black) * scale
+    return g * (toe / black)
+
+
+@njit(cache=True, nogil=True)
+def _byte(value: np.float32, noise: np.float32) -> np.uint8:  # pragma: no cover - compiled
+    """``value`` plus ``noise``, rounded and clipped to 0..255."""
+    v = (value + noise) + np.float32(0.5)
+    return np.uint8(min(max(v, np.float32(0.0)), np.float32(255.0)))
+
+
+@njit(cache=True, nogil=True)
 def levels(
     image: F32, grey: F32, black: np.float32, scale: np.float32, saturation: np.float32, toe: np.float32
 ) -> None:  # pragma: no cover - compiled
@@ -294,12 +311,7 @@ def levels(
     colour."""
     for i in range(image.shape[0]):
         g = grey[i]
-        if black <= 0:
-            levelled = g
-        elif g >= black:
-            levelled = toe + (g - black) * scale
-        else:
-            levelled = g * (toe / black)
+        levelled = _levelled(g, black, scale, toe)
         for c in range(3):
             image[i, c] = (image[i, c] - g) * saturation + levelled
 
@@ -313,16 +325,10 @@ def levelled_bytes(
     out = np.empty(image.shape, np.uint8)
     for i in range(image.shape[0]):
         g = grey[i]
-        if black <= 0:
-            levelled = g
-        elif g >= black:
-            levelled = toe + (g - black) * scale
-        else:
-            levelled = g * (toe / black)
+        levelled = _levelled(g, black, scale, toe)
         nz = noise[i, 0] * sigma
         for c in range(3):
-            v = ((image[i, c] - g) * saturation + levelled + nz) + np.float32(0.5)
-            out[i, c] = np.uint8(min(max(v, np.float32(0.0)), np.float32(255.0)))
+            out[i, c] = _byte((image[i, c] - g) * saturation + levelled, nz)
     return out
 
 
@@ -334,8 +340,7 @@ def to_bytes(image: F32, noise: F32, sigma: np.float32) -> npt.NDArray[np.uint8]
     for i in range(image.shape[0]):
         nz = noise[i, 0] * sigma
         for c in range(3):
-            v = (image[i, c] + nz) + np.float32(0.5)
-            out[i, c] = np.uint8(min(max(v, np.float32(0.0)), np.float32(255.0)))
+            out[i, c] = _byte(image[i, c], nz)
     return out
 
 
