@@ -3,11 +3,10 @@
 MCAP, KITTI and YOLO all write the first camera's image; one :class:`FrameImages` per
 frame is handed to every sink, so an image is shaded (:func:`sensors.shading.shade_frame`)
 once and an encoding asked for twice is encoded once.
-PNGs use zlib level 1 with the UP filter (lossless: the same pixels as any other level,
-a third of level 3's time); the colour image's with Huffman coding only (zlib's
-``Z_HUFFMAN_ONLY``): its sensor noise leaves little for string matching to find, so it
-takes 18 ms of CPU instead of 30 (1280x720) and is 4 % (by day) to 20 % (at night) larger,
-the same pixels.
+PNGs are written by :func:`gtgen.png.png_bytes` (the UP filter on every row, DEFLATE through
+zlib-ng); the colour image's with Huffman coding only: its sensor noise leaves little for
+string matching to find (about 12 ms of CPU for 1280x720, 4 % (by day) to 20 % (at night)
+larger than with matching), the same pixels.
 """
 
 from __future__ import annotations
@@ -20,12 +19,11 @@ import numpy as np
 import numpy.typing as npt
 
 from gtgen.errors import SinkError
+from gtgen.png import png_bytes
 from sensors.camera import CameraOutput, depth_to_uint16
 from sensors.shading import shade_frame
 
 JPEG_QUALITY = 90  # every sink that writes the camera image as JPEG writes this one encoding
-PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 1, cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_UP]
-IMAGE_PNG_PARAMS = [*PNG_PARAMS, cv2.IMWRITE_PNG_STRATEGY, cv2.IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY]
 
 
 def encode(ext: str, image: npt.NDArray[Any], params: list[int]) -> bytes:
@@ -63,26 +61,24 @@ class FrameImages:
         return self._once(("jpeg", camera, quality), lambda: encode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality]))
 
     def png(self, camera: int) -> bytes:
-        """The shaded image as a lossless 8-bit BGR PNG."""
+        """The shaded image as a lossless 8-bit colour PNG."""
         image = self.image(camera)
-        return self._once(("png", camera), lambda: encode(".png", image, IMAGE_PNG_PARAMS))
+        return self._once(("png", camera), lambda: png_bytes(image, huffman_only=True))
 
     def depth_png(self, camera: int, units_per_m: float) -> bytes:
         """z-depth as a 16-bit PNG in ``1 / units_per_m`` metres (0: nothing, or out of range)."""
         depth = self._cameras[camera].frame.depth_m
-        return self._once(
-            ("depth", camera, units_per_m), lambda: encode(".png", depth_to_uint16(depth, units_per_m), PNG_PARAMS)
-        )
+        return self._once(("depth", camera, units_per_m), lambda: png_bytes(depth_to_uint16(depth, units_per_m)))
 
     def instance_png(self, camera: int) -> bytes:
         """Instance ids as a 16-bit PNG (0: static world or nothing)."""
         ids = self._cameras[camera].frame.instance_id
-        return self._once(("instance", camera), lambda: encode(".png", _uint16_ids(ids), PNG_PARAMS))
+        return self._once(("instance", camera), lambda: png_bytes(_uint16_ids(ids)))
 
     def class_png(self, camera: int) -> bytes:
         """Semantic classes as an 8-bit PNG (0: nothing)."""
         classes = self._cameras[camera].frame.semantic_class
-        return self._once(("class", camera), lambda: encode(".png", classes, PNG_PARAMS))
+        return self._once(("class", camera), lambda: png_bytes(classes))
 
 
 def _uint16_ids(ids: npt.NDArray[np.uint32]) -> npt.NDArray[np.uint16]:
