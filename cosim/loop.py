@@ -222,6 +222,7 @@ def run(
     if point is not None:
         rng.bit_generator.state = point.checkpoint["rng"]
         crop.restore(point.checkpoint["crop_center_xy_m"])
+        rig.engine.restore(point.checkpoint.get("engine", {}))
         counts, start = RunSummary.from_dict(point.checkpoint["summary"]), point.frames
     hdmap, map_json = prepare_map(prepared) if scenario.outputs.map else (None, None)
     choice = sink_choice(scenario, out_dir, prepared.world.path, point, map_json)
@@ -376,5 +377,6 @@ class FrameLoop:
         return {
             "rng": self.rng.bit_generator.state,
             "crop_center_xy_m": self.crop.center_xy_m,
+            "engine": self.rig.engine.checkpoint(),
             "summary": self.summary.to_dict(),
         }

@@ -84,6 +84,15 @@ class Engine(Protocol):
         """The frame's scene; ``static`` is usually the same mesh as the last frame's."""
         ...
 
+    def checkpoint(self) -> dict[str, Any]:
+        """What the engine keeps from the frames made so far and its next frames depend on (plain
+        JSON data; empty when nothing)."""
+        ...
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Continue as the engine whose :meth:`checkpoint` gave ``state`` would."""
+        ...
+
 
 def open_engine(name: str) -> tuple[Engine, str]:
     """The engine called ``name`` (one of :data:`ENGINES`) and a notice for the user ('' if none).

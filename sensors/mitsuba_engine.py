@@ -11,6 +11,7 @@ RuntimeError/OSError from Dr.Jit, when the engine cannot start (no libLLVM 15 or
 
 from __future__ import annotations
 
+import hashlib
 import os
 from typing import Any
 
@@ -174,20 +175,22 @@ outside it hold this share of its triangles (or when one of its agents moved or 
 
 
 def _agent_keys(meshes: AgentMeshes) -> tuple[dict[int, bytes], dict[int, tuple[int, int]]]:
-    """Per agent of ``meshes``: the bytes of its posed triangles (its vertices, its faces from its
-    first vertex, each face's class and part) and its run of triangles."""
+    """Per agent of ``meshes``: a digest of its posed triangles (SHA-256 of its vertices, its faces
+    from its first vertex, each face's class and part; 16 bytes) and its run of triangles."""
     runs = _triangle_runs(meshes.triangle_instance)
     keys = {}
     for instance, (a, b) in runs.items():
         faces = meshes.triangles[a:b]
         first, last = int(faces.min()), int(faces.max())
-        parts = (
+        digest = hashlib.sha256()
+        for part in (
             meshes.vertices_m[first : last + 1],
             faces - first,
             meshes.triangle_class[a:b],
             meshes.triangle_part[a:b],
-        )
-        keys[instance] = b"".join(p.tobytes() for p in parts)
+        ):
+            digest.update(np.ascontiguousarray(part).data)
+        keys[instance] = digest.digest()[:16]
     return keys, runs
 
 
@@ -205,7 +208,11 @@ class _Tables:
 class MitsubaEngine:
     """Keeps the static scene (made again when the static mesh changes) and two agents' scenes:
     one of the agents standing exactly as they stood (the same posed triangles, bit for bit),
-    kept from frame to frame, and one of the others, made every frame."""
+    kept from frame to frame, and one of the others, made every frame.
+
+    Which agents share a scene changes what Embree answers for a few rays (a ray through an edge,
+    between surfaces microns apart), so the split is part of what a frame's outputs depend on:
+    :meth:`checkpoint` and :meth:`restore` carry it to a run that continues."""
 
     name = "mitsuba"
 
@@ -233,14 +240,15 @@ class MitsubaEngine:
         """This frame's moving agents' tables (their part made here) and the kept still ones'
         (their part made again when an agent in it changed or left, or many more stand)."""
         keys, runs = _agent_keys(meshes)
-        kept_tables = self._kept_tables
         intact = all(keys.get(i) == k for i, k in self._kept.items())
         standing = [i for i, k in keys.items() if self._last_keys.get(i) == k]
-        kept_triangles = 0 if kept_tables is None else kept_tables.triangles.shape[0]
+        kept_triangles = sum(runs[i][1] - runs[i][0] for i in self._kept) if intact else 0
         joining = sum(runs[i][1] - runs[i][0] for i in standing if i not in self._kept)
         self._last_keys = keys
-        if kept_tables is None or not intact or joining > STILL_GROWTH * kept_triangles:
-            self._kept = {i: keys[i] for i in standing}
+        if not intact or joining > STILL_GROWTH * kept_triangles:
+            self._kept, self._kept_tables = {i: keys[i] for i in standing}, None
+        kept_tables = self._kept_tables
+        if kept_tables is None:  # made again, or first made (a fresh or restored engine)
             rows = _rows_of_agents(runs, sorted(self._kept))
             kept_tables = self._kept_tables = _Tables(meshes, meshes.triangles[rows], rows)
             self.still_part.update(meshes.vertices_m, kept_tables.triangles)
@@ -248,6 +256,19 @@ class MitsubaEngine:
         moving = _Tables(meshes, meshes.triangles[rows], rows)
         self.agent_part.update(meshes.vertices_m, moving.triangles)
         return moving, kept_tables
+
+    def checkpoint(self) -> dict[str, Any]:
+        """What a run that continues after this frame needs to split the agents as this engine
+        will: the digests of this frame's agents and which of them the kept scene holds (their
+        triangles are this frame's: an agent that changed has left it)."""
+        return {"agents": {str(i): k.hex() for i, k in self._last_keys.items()}, "kept": sorted(self._kept)}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`checkpoint`'s ``state`` (an empty one: as a fresh engine); the kept
+        scene is made at the next frame, of the same triangles as the engine that ran on had."""
+        self._last_keys = {int(i): bytes.fromhex(k) for i, k in state.get("agents", {}).items()}
+        self._kept = {int(i): self._last_keys[int(i)] for i in state.get("kept", [])}
+        self._kept_tables = None
 
 
 def _rows_of_agents(runs: dict[int, tuple[int, int]], instances: list[int]) -> npt.NDArray[np.intp]:

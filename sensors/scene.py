@@ -44,6 +44,12 @@ class Open3DEngine:
     def scene(self, static: ClassedMesh, agents: Agents) -> FrameScene:
         return FrameScene(static, agents, static_scene=self._static)
 
+    def checkpoint(self) -> dict[str, Any]:
+        return {}  # every frame's scene is made afresh
+
+    def restore(self, state: dict[str, Any]) -> None:
+        pass
+
 
 class StaticCrop:
     """Keeps the part of the static mesh within ``radius_m`` of a moving centre;

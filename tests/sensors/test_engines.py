@@ -191,3 +191,40 @@ def test_agents_standing_kept_apart_give_the_hits_of_one_scene_of_all(town):
         np.testing.assert_array_equal(scene.cast_raw(rays), fresh.cast_raw(rays))
     total = scene.agent_meshes.triangles.shape[0]
     assert kept[0] == 0 and 0 < kept[1] < total and kept[3] == total and 0 < kept[4] < total
+
+
+def test_an_engine_restored_from_a_checkpoint_splits_the_agents_as_the_engine_that_ran_on(town):
+    import dataclasses
+    import json
+
+    static, agents, ego = town
+    rays = Lidar(LidarSpec()).rays(ego.map_SE3_ego())
+    frames = [agents]
+    for step in range(1, 6):  # a third moves, then another third, then all stand, then one moves, then all stand
+        centre = frames[-1].center_map_m.copy()
+        if step < 3:
+            centre[step::3, 0] += 0.25
+        elif step == 4:
+            centre[0, 1] += 0.5
+        frames.append(dataclasses.replace(agents, center_map_m=centre))
+
+    def split(scene):
+        return scene._still.triangles, scene._instance_of_row[scene._still_row0 : scene._nothing_row].tobytes()
+
+    engine = MitsubaEngine()
+    ran_on, states = [], []
+    for frame in frames:
+        scene = engine.scene(static, frame)
+        ran_on.append((split(scene), scene.cast(rays)))
+        states.append(json.loads(json.dumps(engine.checkpoint())))
+    differs = 0
+    for k in range(len(frames) - 1):
+        restored, fresh = MitsubaEngine(), MitsubaEngine()
+        restored.restore(states[k])
+        for frame, (want_split, want_hits) in zip(frames[k + 1 :], ran_on[k + 1 :], strict=True):
+            scene = restored.scene(static, frame)
+            assert split(scene) == want_split
+            _same_hits(scene.cast(rays), want_hits)
+            differs += split(fresh.scene(static, frame)) != want_split
+    assert differs > 0  # without the checkpoint the split is another
+    assert MitsubaEngine().checkpoint() == {"agents": {}, "kept": []}
