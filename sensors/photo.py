@@ -218,9 +218,13 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
     mirror = np.zeros(len(cls), np.float32)
     glow = np.zeros(len(cls), np.float32)
     order, end = kernels.class_order(cls)  # each class's rows in order, as np.flatnonzero(cls == c)
+    ordered = kernels.rows_taken(np.ascontiguousarray(points, np.float32), order)  # points[order]
+
+    def span(c: int) -> slice:
+        return slice(end[c - 1] if c > 0 else 0, end[c])
 
     def rows_of(c: int) -> npt.NDArray[np.int64]:
-        return np.asarray(order[(end[c - 1] if c > 0 else 0) : end[c]], np.int64)
+        return np.asarray(order[span(c)], np.int64)
 
     for c, fn in (
         (SemanticClass.ROAD, textures.asphalt),
@@ -230,19 +234,22 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
     ):
         at = rows_of(c)
         if len(at):
-            kernels.scale_rows(albedo, at, np.ascontiguousarray(fn(points[at]), np.float32))
+            kernels.scale_rows(albedo, at, np.ascontiguousarray(fn(ordered[span(c)]), np.float32))
     for c, seed in ((SemanticClass.VEGETATION, 71), (SemanticClass.TERRAIN, 73)):
         at = rows_of(c)
         if len(at):
-            kernels.scale_rows(albedo, at, np.ascontiguousarray(textures.greenery(points[at], seed), np.float32))
+            factor = textures.greenery(ordered[span(c)], seed)
+            kernels.scale_rows(albedo, at, np.ascontiguousarray(factor, np.float32))
     for c in (SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW):
         at = rows_of(c)
         if len(at):
-            wear = textures.fbm(points[at, 0] * 2, points[at, 1] * 2, 81, 2)
+            p = ordered[span(c)]
+            wear = textures.fbm(p[:, 0] * 2, p[:, 1] * 2, 81, 2)
             kernels.scale_rows(albedo, at, np.asarray(np.float32(0.6) + np.float32(0.45) * wear, np.float32))
     at = rows_of(SemanticClass.BUILDING)
     if len(at):
-        wall, glass, lit = textures.facade(points[at], normal[at])
+        facing = kernels.rows_taken(np.ascontiguousarray(normal, np.float32), at)
+        wall, glass, lit = textures.facade(ordered[span(SemanticClass.BUILDING)], facing)
         kernels.facade_rows(albedo, mirror, glow, at, wall, glass, lit, np.float32(0.35))
     np.clip(albedo, 0.0, 1.0, out=albedo)
     return np.power(albedo, GAMMA, out=albedo), mirror, glow

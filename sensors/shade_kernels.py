@@ -767,6 +767,17 @@ def class_order(
 
 
 @njit(cache=True, nogil=True)
+def rows_taken(table: F32, rows: npt.NDArray[np.int64]) -> F32:  # pragma: no cover - compiled
+    """``(K, C)`` the ``rows`` of ``(N, C)`` ``table`` (``table[rows]``), contiguous."""
+    out = np.empty((rows.shape[0], table.shape[1]), table.dtype)
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        for c in range(table.shape[1]):
+            out[j, c] = table[i, c]
+    return out
+
+
+@njit(cache=True, nogil=True)
 def facade_rows(
     albedo: F32, mirror: F32, glow: F32, rows: npt.NDArray[np.int64], wall: F32, glass: npt.NDArray[np.bool_],
     lit: npt.NDArray[np.bool_], glass_mirror: np.float32,

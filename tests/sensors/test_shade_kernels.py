@@ -126,6 +126,14 @@ def test_class_order_is_numpys_stable_argsort() -> None:
     np.testing.assert_array_equal(end, np.cumsum(np.bincount(cls, minlength=256)))
 
 
+def test_rows_taken_are_numpys_fancy_index() -> None:
+    rng = np.random.default_rng(12)
+    table = rng.standard_normal((5000, 3)).astype(np.float32)
+    rows = np.concatenate([rng.integers(0, 5000, 3000), np.argsort(rng.random(5000))]).astype(np.int64)
+    np.testing.assert_array_equal(kernels.rows_taken(table, rows).view(np.uint32), table[rows].view(np.uint32))
+    assert kernels.rows_taken(table, np.zeros(0, np.int64)).shape == (0, 3)
+
+
 def test_bright_span_is_numpys() -> None:
     rng = np.random.default_rng(11)
     image = rng.uniform(0.0, 1.0, (60, 80, 3)).astype(np.float32)
