@@ -174,6 +174,13 @@ def sky_linear(weather: Weather, dirs: F32) -> F32:
     return kernels.sky(np.ascontiguousarray(dirs, np.float32), horizon, zenith, _CLOUD_SEEDS, np.float32(1.875))
 
 
+def sky_linear_at(weather: Weather, dirs: F32, rows: npt.NDArray[np.int64], out: F32) -> None:
+    """``out[rows] = sky_linear(weather, dirs[rows])`` in place (``dirs`` and ``out`` ``(N, 3)``
+    float32, contiguous)."""
+    horizon, zenith = to_linear(weather.sky_horizon_bgr), to_linear(weather.sky_zenith_bgr)
+    kernels.sky_rows(dirs, rows, horizon, zenith, _CLOUD_SEEDS, np.float32(1.875), out)
+
+
 _CLOUD_SEEDS = np.array([textures._seed32(61 + o) for o in range(4)], np.uint64)
 """The clouds' four octaves of :func:`sensors.textures.fbm` (seed 61, as :func:`sensors.textures.clouds`)."""
 
@@ -408,7 +415,7 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     out = np.empty((n, 3), np.float32)
     at, miss, c, inst, pt = kernels.split_hits(range_m, np.float32(max_range_m), cls, instance, part)
     if len(miss):
-        out[miss] = sky_linear(weather, dirs_map[miss])
+        sky_linear_at(weather, np.ascontiguousarray(dirs_map, np.float32), miss, out)
     if len(at) == 0:
         return out
     origin = origin_map_m.astype(np.float32)
@@ -455,16 +462,16 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
     none = np.zeros(0, np.float32)
     head = rays.forward[at] ** 6 if weather.headlight_gain > 0 else none  # the headlights' cone
     pool = lamp_pools(p) if weather.lamp_key_gain > 0 else none
-    colour, refl, half_cos, shiny = kernels.lit_colour(
+    colour, shiny_at, refl, half_cos, shininess, away = kernels.lit_colour(
         at, dirs_map, range_m, part, instance, rays.sun_lit, rays.sky_open, p, nrm, cos_v,
         np.ascontiguousarray(albedo, np.float32), mirror, head, pool, sun, light_k, STREET_LIGHT_BGR, SPECULAR_BY_PART,
+        SHININESS_BY_PART,
     )  # fmt: skip
     # highlights, and the sky and the ground reflected by paint and glass (Schlick's Fresnel term)
-    shiny_at = np.flatnonzero(shiny)
-    highlight = half_cos[shiny_at] ** SHININESS_BY_PART[pt[shiny_at]]
-    grazing = (np.float32(1.0) - cos_v[shiny_at]) ** 5
-    env = sky_linear(weather, refl[shiny_at])
-    env[refl[shiny_at, 2] < 0] = np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain))
+    highlight = half_cos**shininess
+    grazing = away**5
+    env = sky_linear(weather, refl)
+    kernels.below_horizon(env, refl, np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain)))
     if len(wet):  # a wet road mirrors the sky only as far as it sees it: less under and beside vehicles
         film = np.flatnonzero(_IS_PAVED[c[shiny_at]] & (pt[shiny_at] == 0) & (nrm[shiny_at, 2] >= WET_MIN_UP))
         env[film] *= rays.sky_open[at[shiny_at[film]]][:, None]

@@ -161,24 +161,26 @@ def lit_colour(
     at: npt.NDArray[np.int64], dirs: F32, range_m: F32, part: npt.NDArray[np.uint8],
     instance: npt.NDArray[np.uint32], sun_lit: npt.NDArray[np.bool_], sky_open: F32,
     p: F32, nrm: F32, cos_v: F32, albedo: F32, mirror: F32, head: F32, pool: F32,
-    sun: F32, light_k: F32, street_bgr: F32, specular: F32,
-) -> tuple[F32, F32, F32, npt.NDArray[np.bool_]]:  # fmt: skip  # pragma: no cover - compiled
+    sun: F32, light_k: F32, street_bgr: F32, specular: F32, shininess: F32,
+) -> tuple[F32, npt.NDArray[np.int64], F32, F32, F32, F32]:  # fmt: skip  # pragma: no cover - compiled
     """The light each hit ``at`` sends to the camera before highlights, reflections, lamps and
-    haze (``(K, 3)``: sky, sun, headlights, street light, the street lamps' key light), and for
-    the shiny ones the reflected direction ``(K, 3)``, the cosine to the sun's half vector
-    ``(K,)`` and which they are ``(K,)``: the arithmetic of :func:`sensors.photo._radiance`
-    in its order. ``head``: the headlights' cone (``forward ** 6``, by hit; used when they are
-    on), ``pool``: the street lamps' pools at the hits (used when their key light is on).
-    ``light_k``: ambient * 1.6, sun_gain * 2.2, headlight_gain * 1.6, headlight_range_m, the
-    camera's height, night * street light, lamp_key_gain * 2.2, whether headlights (1) and the
-    lamps' key light (1) are on, the street light's fading distance, the dipped beams' cutoff
-    height and share above it, the height the street lamps light up to and their fade over it
-    (the constants of :mod:`sensors.photo`)."""
+    haze (``(K, 3)``: sky, sun, headlights, street light, the street lamps' key light), and
+    the shiny ones (a ``specular`` part or a ``mirror``): which they are ``(S,)`` (rows of the
+    hits, in order), their reflected directions ``(S, 3)``, cosines to the sun's half vector
+    ``(S,)``, their parts' ``shininess`` ``(S,)`` and ``1 - cos_v`` ``(S,)``: the arithmetic of
+    :func:`sensors.photo._radiance` in its order. ``head``: the headlights' cone (``forward **
+    6``, by hit; used when they are on), ``pool``: the street lamps' pools at the hits (used
+    when their key light is on). ``light_k``: ambient * 1.6, sun_gain * 2.2, headlight_gain *
+    1.6, headlight_range_m, the camera's height, night * street light, lamp_key_gain * 2.2,
+    whether headlights (1) and the lamps' key light (1) are on, the street light's fading
+    distance, the dipped beams' cutoff height and share above it, the height the street lamps
+    light up to and their fade over it (the constants of :mod:`sensors.photo`)."""
     k = at.shape[0]
     colour = np.empty((k, 3), np.float32)
-    refl = np.zeros((k, 3), np.float32)
-    half_cos = np.zeros(k, np.float32)
-    shiny = np.zeros(k, np.bool_)
+    shiny_at = np.empty(k, np.int64)
+    refl = np.empty((k, 3), np.float32)
+    half_cos, shine, away = np.empty(k, np.float32), np.empty(k, np.float32), np.empty(k, np.float32)
+    s = 0
     amb, sung, hg, hr, oz, nsl, lkg = light_k[0], light_k[1], light_k[2], light_k[3], light_k[4], light_k[5], light_k[6]
     headlights, key_on = light_k[7] > 0, light_k[8] > 0
     fade, cutoff, dipped, lit_up_to, lamp_fade = light_k[9], light_k[10], light_k[11], light_k[12], light_k[13]
@@ -218,14 +220,17 @@ def lit_colour(
             c2 += a2 * key * street_bgr[2]
         colour[j, 0], colour[j, 1], colour[j, 2] = c0, c1, c2
         if specular[part[i]] > 0 or mirror[j] > 0:
-            shiny[j] = True
+            shiny_at[s] = j
             d0, d1, d2 = dirs[i, 0], dirs[i, 1], dirs[i, 2]
             h0, h1, h2 = sun[0] - d0, sun[1] - d1, sun[2] - d2
             hn = np.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
-            half_cos[j] = max(n0 * (h0 / hn) + n1 * (h1 / hn) + n2 * (h2 / hn), zero)
+            half_cos[s] = max(n0 * (h0 / hn) + n1 * (h1 / hn) + n2 * (h2 / hn), zero)
             dd = np.float32(2.0) * (d0 * n0 + d1 * n1 + d2 * n2)
-            refl[j, 0], refl[j, 1], refl[j, 2] = d0 - dd * n0, d1 - dd * n1, d2 - dd * n2
-    return colour, refl, half_cos, shiny
+            refl[s, 0], refl[s, 1], refl[s, 2] = d0 - dd * n0, d1 - dd * n1, d2 - dd * n2
+            shine[s] = shininess[part[i]]
+            away[s] = one - cos_v[j]
+            s += 1
+    return colour, shiny_at[:s], refl[:s], half_cos[:s], shine[:s], away[:s]
 
 
 @njit(cache=True, nogil=True)
@@ -510,14 +515,25 @@ def sky(
     ``horizon`` to ``zenith`` and the clouds (:func:`sensors.textures.clouds`: fractal noise of
     ``seeds32``' octaves, summed weights ``norm``) above the horizon, in their float32 order
     (the noise drawn for the rays above the horizon only)."""
-    n = dirs.shape[0]
-    out = np.empty((n, 3), np.float32)
+    out = np.empty((dirs.shape[0], 3), np.float32)
+    sky_rows(dirs, np.arange(dirs.shape[0]), horizon, zenith, seeds32, norm, out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def sky_rows(
+    dirs: F32, rows: npt.NDArray[np.int64], horizon: F32, zenith: F32, seeds32: npt.NDArray[np.uint64],
+    norm: np.float32, out: F32,
+) -> None:  # fmt: skip  # pragma: no cover - compiled
+    """:func:`sky` of the ``rows`` of ``dirs`` written into those rows of ``out`` (``out[rows] =
+    sky(dirs[rows], ...)``, no gathered copies)."""
+    n = rows.shape[0]
     zero, one = np.float32(0.0), np.float32(1.0)
     up_at = np.empty(n, np.int64)  # the rays above the horizon: the only ones with clouds
     m = 0
-    for i in range(n):
-        if dirs[i, 2] > 0:
-            up_at[m] = i
+    for r in range(n):
+        if dirs[rows[r], 2] > 0:
+            up_at[m] = rows[r]
             m += 1
     x, y, total = np.empty(m, np.float32), np.empty(m, np.float32), np.zeros(m, np.float32)
     for j in range(m):
@@ -532,7 +548,8 @@ def sky(
         amp *= 0.5
         f *= np.float32(2.0)
     j = 0
-    for i in range(n):
+    for r in range(n):
+        i = rows[r]
         dz = dirs[i, 2]
         t = np.sqrt(min(max(dz, zero), one))
         cover = zero
@@ -544,7 +561,15 @@ def sky(
             s = horizon[k] + t * (zenith[k] - horizon[k])
             cloud = horizon[k] * np.float32(1.05) + np.float32(0.02)
             out[i, k] = s + cover * (cloud - s)
-    return out
+
+
+@njit(cache=True, nogil=True)
+def below_horizon(env: F32, dirs: F32, value: np.float32) -> None:  # pragma: no cover - compiled
+    """``env[dirs[:, 2] < 0] = value`` in place."""
+    for i in range(dirs.shape[0]):
+        if dirs[i, 2] < 0:
+            for c in range(env.shape[1]):
+                env[i, c] = value
 
 
 @njit(cache=True, nogil=True)

@@ -183,6 +183,64 @@ def test_sky_is_its_numpy_form_with_clouds_above_the_horizon_only() -> None:
     np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
 
 
+def test_sky_of_rows_is_the_sky_of_those_rows_written_in_place() -> None:
+    from sensors import photo
+
+    rng = np.random.default_rng(14)
+    dirs = _unit_rows(rng, 30_000)
+    dirs[:100, 2] = 0.0
+    rows = np.sort(rng.choice(30_000, 12_000, replace=False)).astype(np.int64)
+    horizon, zenith = photo.to_linear((200.0, 180.0, 160.0)), photo.to_linear((190.0, 120.0, 60.0))
+    out = np.full((30_000, 3), 7.0, np.float32)
+    want = out.copy()
+    want[rows] = kernels.sky(dirs[rows], horizon, zenith, photo._CLOUD_SEEDS, np.float32(1.875))
+    kernels.sky_rows(dirs, rows, horizon, zenith, photo._CLOUD_SEEDS, np.float32(1.875), out)
+    np.testing.assert_array_equal(out.view(np.uint32), want.view(np.uint32))
+    env = rng.random((30_000, 3)).astype(np.float32)
+    want = env.copy()
+    want[dirs[:, 2] < 0] = np.float32(0.3)
+    kernels.below_horizon(env, dirs, np.float32(0.3))
+    np.testing.assert_array_equal(env, want)
+
+
+def test_shiny_hits_reflections_and_half_vectors_are_numpys() -> None:
+    from sensors.parts import SHININESS_BY_PART, SPECULAR_BY_PART
+
+    rng = np.random.default_rng(15)
+    n, k = 20_000, 15_000
+    at = np.sort(rng.choice(n, k, replace=False)).astype(np.int64)
+    dirs, nrm = _unit_rows(rng, n), _unit_rows(rng, k)
+    range_m = rng.uniform(1.0, 80.0, n).astype(np.float32)
+    part = rng.integers(0, 12, n).astype(np.uint8)
+    instance = rng.integers(0, 3, n).astype(np.uint32)
+    sun_lit, sky_open = rng.random(n) < 0.5, rng.random(n).astype(np.float32)
+    p = rng.uniform(-5, 5, (k, 3)).astype(np.float32)
+    cos_v = rng.random(k).astype(np.float32)
+    albedo = rng.random((k, 3)).astype(np.float32)
+    mirror = np.where(rng.random(k) < 0.2, np.float32(0.3), np.float32(0.0)).astype(np.float32)
+    sun = _unit_rows(rng, 1)[0]
+    light_k = np.array([0.5, 2.0, 1.0, 30.0, 1.5, 0.1, 0.5, 1.0, 1.0, 60.0, 0.5, 0.2, 3.0, 6.0], np.float32)
+    head, pool = rng.random(k).astype(np.float32), rng.random(k).astype(np.float32)
+    street = np.array([0.55, 0.8, 1.0], np.float32)
+    colour, shiny_at, refl, half_cos, shininess, away = kernels.lit_colour(
+        at, dirs, range_m, part, instance, sun_lit, sky_open, p, nrm, cos_v, albedo, mirror, head, pool, sun,
+        light_k, street, SPECULAR_BY_PART, SHININESS_BY_PART,
+    )  # fmt: skip
+    want_at = np.flatnonzero((SPECULAR_BY_PART[part[at]] > 0) | (mirror > 0))
+    assert 0 < len(want_at) < k
+    np.testing.assert_array_equal(shiny_at, want_at)
+    d, m = dirs[at[want_at]], nrm[want_at]
+    h = sun - d
+    hn = np.sqrt(h[:, 0] * h[:, 0] + h[:, 1] * h[:, 1] + h[:, 2] * h[:, 2])
+    want_cos = np.maximum(m[:, 0] * (h[:, 0] / hn) + m[:, 1] * (h[:, 1] / hn) + m[:, 2] * (h[:, 2] / hn), 0)
+    dd = np.float32(2.0) * (d[:, 0] * m[:, 0] + d[:, 1] * m[:, 1] + d[:, 2] * m[:, 2])
+    np.testing.assert_array_equal(half_cos.view(np.uint32), want_cos.astype(np.float32).view(np.uint32))
+    np.testing.assert_array_equal(refl.view(np.uint32), (d - dd[:, None] * m).view(np.uint32))
+    np.testing.assert_array_equal(shininess, SHININESS_BY_PART[part[at[want_at]]])
+    np.testing.assert_array_equal(away.view(np.uint32), (np.float32(1.0) - cos_v[want_at]).view(np.uint32))
+    assert colour.shape == (k, 3)
+
+
 def test_levelled_bytes_are_levels_then_to_bytes() -> None:
     rng = np.random.default_rng(13)
     image = rng.uniform(-5.0, 260.0, (20_000, 3)).astype(np.float32)
