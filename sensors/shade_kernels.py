@@ -774,20 +774,33 @@ def class_order(
     cls: npt.NDArray[np.uint8],
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:  # pragma: no cover - compiled
     """Each class's rows in order (``np.argsort(cls, kind="stable")``) and where each class's
-    run ends in it (``np.cumsum(np.bincount(cls, minlength=256))``): a counting sort."""
+    run ends in it (``np.cumsum(np.bincount(cls, minlength=256))``): a counting sort. A run of
+    one class (as along an image's rows) is counted and placed with its position held in a
+    register, not read back from the table at every row."""
+    n = cls.shape[0]
     end = np.zeros(256, np.int64)
-    for i in range(cls.shape[0]):
-        end[cls[i]] += 1
+    start = 0
+    for i in range(1, n + 1):
+        if i == n or cls[i] != cls[start]:
+            end[cls[start]] += i - start
+            start = i
     for c in range(1, 256):
         end[c] += end[c - 1]
     fill = np.empty(256, np.int64)
     fill[0] = 0
     fill[1:] = end[:-1]
-    order = np.empty(cls.shape[0], np.int64)
-    for i in range(cls.shape[0]):
-        c = cls[i]
-        order[fill[c]] = i
-        fill[c] += 1
+    order = np.empty(n, np.int64)
+    if n == 0:
+        return order, end
+    c = cls[0]
+    pos = fill[c]
+    for i in range(n):
+        if cls[i] != c:
+            fill[c] = pos
+            c = cls[i]
+            pos = fill[c]
+        order[pos] = i
+        pos += 1
     return order, end
 
 

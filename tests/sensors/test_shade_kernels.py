@@ -120,10 +120,13 @@ def test_agents_part_colours_are_part_albedo_to_the_gamma_bit_for_bit() -> None:
 
 
 def test_class_order_is_numpys_stable_argsort() -> None:
-    cls = np.random.default_rng(10).choice(np.array([0, 1, 4, 7, 200, 255], np.uint8), 100_000)
-    order, end = kernels.class_order(cls)
-    np.testing.assert_array_equal(order, np.argsort(cls, kind="stable"))
-    np.testing.assert_array_equal(end, np.cumsum(np.bincount(cls, minlength=256)))
+    rng = np.random.default_rng(10)
+    scattered = rng.choice(np.array([0, 1, 4, 7, 200, 255], np.uint8), 100_000)
+    runs = np.repeat(scattered[:3000], rng.integers(1, 60, 3000))  # runs of one class, as along rows
+    for cls in (scattered, runs, scattered[:1], scattered[:0], np.full(500, 9, np.uint8)):
+        order, end = kernels.class_order(cls)
+        np.testing.assert_array_equal(order, np.argsort(cls, kind="stable"))
+        np.testing.assert_array_equal(end, np.cumsum(np.bincount(cls, minlength=256)))
 
 
 def test_rows_taken_are_numpys_fancy_index() -> None:
