@@ -11,6 +11,7 @@ import threading
 from pathlib import Path
 
 from cosim.errors import CosimError, RunStoppedError, Terminated
+from cosim.interrupts import interrupt_behind
 from cosim.sweep import SweepResult
 from gtgen.crash import internal_error_line
 from gtgen.errors import GtgenError
@@ -158,12 +159,13 @@ def main(argv: list[str] | None = None) -> int:
     except USER_ERRORS as err:
         print(clipped(f"error: {err}"), file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("interrupted; no dataset was completed", file=sys.stderr)
-        return 130
-    except Terminated:
-        print("stopped (SIGTERM); no dataset was completed", file=sys.stderr)
-        return 143
+    except (KeyboardInterrupt, Terminated, SystemError) as err:
+        cause = interrupt_behind(err)
+        if cause is None:
+            return _internal_error(err, args.command)
+        word, code = ("interrupted", 130) if isinstance(cause, KeyboardInterrupt) else ("stopped (SIGTERM)", 143)
+        print(f"{word}; no dataset was completed", file=sys.stderr)
+        return code
     except OSError as err:
         if err.filename is None or not err.strerror:
             return _internal_error(err, args.command)

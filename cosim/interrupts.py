@@ -9,7 +9,26 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
+from cosim.errors import Terminated
+
 Handlers = dict[int, Any]
+
+
+def interrupt_behind(err: BaseException) -> BaseException | None:
+    """The Ctrl-C (``KeyboardInterrupt``) or SIGTERM (:class:`cosim.errors.Terminated`) that
+    ``err`` is or stands for; None for any other error. A signal that arrives while compiled code
+    (a Numba kernel, a ray caster) calls back into Python can reach the caller as a ``SystemError``
+    ("returned a result with an exception set") caused by the interrupt: that is the interrupt."""
+    seen: set[int] = set()
+    at: BaseException | None = err
+    while at is not None and id(at) not in seen:
+        if isinstance(at, (KeyboardInterrupt, Terminated)):
+            return at
+        if not isinstance(at, SystemError):
+            return None
+        seen.add(id(at))
+        at = at.__cause__ or at.__context__
+    return None
 
 
 def hold_interrupts() -> Handlers:

@@ -14,7 +14,7 @@ import numpy as np
 from tqdm import tqdm
 
 from cosim.errors import CosimError, Terminated, TrafficError
-from cosim.interrupts import Handlers, hold_interrupts, interrupts_after, release_interrupts
+from cosim.interrupts import Handlers, hold_interrupts, interrupt_behind, interrupts_after, release_interrupts
 from cosim.net_index import check_hazards
 from cosim.occupancy_step import OccupancyStep
 from cosim.outputs import FrameSink, open_sinks, prepare_map, sink_choice
@@ -264,11 +264,16 @@ def run(
         with partials_removed_on_error(out_dir), open_sinks(choice, one_process, probe) as sinks:
             try:
                 loop.frames(start, sinks, started)
-            except (KeyboardInterrupt, Terminated, TrafficError) as err:
+            except (KeyboardInterrupt, Terminated, TrafficError, SystemError) as err:
+                cause = err if isinstance(err, TrafficError) else interrupt_behind(err)
+                if cause is None:
+                    raise
                 held = hold_interrupts()  # a second Ctrl-C must not cut the closing (or removing) short
                 if counts.frames == 0:
-                    raise
-                stopped = err  # every output is closed with the frames written so far
+                    if cause is err:
+                        raise
+                    raise cause from None  # the interrupt, not the compiled call it cut short
+                stopped = cause  # every output is closed with the frames written so far
     except OutputKeptError as kept:
         raise outputs_kept(kept, out_dir, scenario, continuing=point is not None) from kept
     finally:

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import CosimError, RunStoppedError, Terminated
+from cosim.interrupts import interrupt_behind
 from cosim.resume import kept_frames
 from cosim.scenario import Scenario
 from gtgen.content import STOPPED_MPS
@@ -87,9 +88,12 @@ def summarize(out_dir: Path, scenario: Scenario) -> BaseException | None:
 
     try:
         write_summary(out_dir, asked=asked_rates([asdict(h) for h in scenario.hazards]))
-    except (KeyboardInterrupt, Terminated) as err:
+    except (KeyboardInterrupt, Terminated, SystemError) as err:
+        cause = interrupt_behind(err)
+        if cause is None:
+            raise
         shutil.rmtree(out_dir / "summary.partial", ignore_errors=True)
-        return err
+        return cause
     return None
 
 

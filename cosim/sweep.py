@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import CosimError, RunStoppedError, ScenarioError, Terminated
+from cosim.interrupts import interrupt_behind
 from cosim.scenario import load_scenario
 from gtgen.errors import GtgenError
 from networks.errors import NetworkError
@@ -146,7 +147,7 @@ def _done_before(job: SweepJob, seconds: float) -> SweepResult:
 def _error_line(err: BaseException) -> str:
     from gtgen.crash import internal_error_line
 
-    if isinstance(err, KeyboardInterrupt | Terminated):
+    if interrupt_behind(err) is not None:
         return "interrupted before its first frame; it kept nothing"
     if isinstance(err, CosimError | NetworkError | SensorError | GtgenError):
         return str(err).splitlines()[0]

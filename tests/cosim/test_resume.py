@@ -140,3 +140,53 @@ def test_an_interrupt_during_a_frames_handoff_takes_effect_after_it():
         done.append("counted and handed over")
     assert done == ["counted and handed over"]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_an_interrupt_behind_an_error_of_compiled_code_is_the_interrupt():
+    from cosim.errors import Terminated
+    from cosim.interrupts import interrupt_behind
+
+    def wrapped(inner: BaseException, how: str) -> SystemError:
+        err = SystemError("<numba function> returned a result with an exception set")
+        setattr(err, how, inner)
+        return err
+
+    ctrl_c, term = KeyboardInterrupt(), Terminated()
+    assert interrupt_behind(ctrl_c) is ctrl_c and interrupt_behind(term) is term
+    assert interrupt_behind(wrapped(ctrl_c, "__cause__")) is ctrl_c
+    assert interrupt_behind(wrapped(wrapped(term, "__context__"), "__cause__")) is term
+    assert interrupt_behind(SystemError("a real fault")) is None
+    assert interrupt_behind(wrapped(ValueError("x"), "__cause__")) is None
+    value = ValueError("not a compiled call's error")
+    value.__context__ = ctrl_c
+    assert interrupt_behind(value) is None
+
+
+def test_ctrl_c_inside_compiled_code_keeps_the_frames_written_and_resume_finishes(tmp_path, monkeypatch):
+    """Ctrl-C while a Numba kernel or a ray caster runs can come out of it as a SystemError
+    caused by the KeyboardInterrupt: the run still stops keeping its frames, not as a crash
+    that removes them."""
+    import cosim.loop
+    from cosim.errors import RunStoppedError
+
+    light = "sensors.cameras=[{name: camera, shading: flat, width_px: 320, height_px: 180}]"
+    scenario = load_scenario(TINY, ["frames=8", light])
+    real = cosim.loop.sense_and_label
+
+    def cut_at_frame_5(frame_index, *args, **kwargs):
+        if frame_index == 5:
+            raise SystemError("<numba function> returned a result with an exception set") from KeyboardInterrupt()
+        return real(frame_index, *args, **kwargs)
+
+    out = tmp_path / "out"
+    monkeypatch.setattr(cosim.loop, "sense_and_label", cut_at_frame_5)
+    with pytest.raises(RunStoppedError) as stopped:
+        cosim.loop.run(scenario, out, progress=False, one_process=True)
+    assert stopped.value.exit_code == 130 and stopped.value.kept == 5
+    assert str(stopped.value).startswith("interrupted at frame 5")
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["complete"] is False and manifest["frames"] == 5
+    monkeypatch.setattr(cosim.loop, "sense_and_label", real)
+    cosim.loop.run(scenario, out, progress=False, one_process=True, resume=True)
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["complete"] is True and manifest["frames"] == 8
