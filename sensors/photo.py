@@ -395,7 +395,37 @@ def night_of(weather: Weather) -> float:
     return float(1.0 - np.clip(weather.sun_gain / 0.3, 0.0, 1.0))
 
 
-def radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float) -> F32:
+PLATE_CHAR_M = 0.062
+"""A number plate's character pitch (eight characters on a 520 mm European plate)."""
+
+
+def plate_ink(points: F32, instance: npt.NDArray[np.uint32], boxes: AgentBoxes) -> npt.NDArray[np.bool_]:
+    """``(N,)`` whether each hit on a number plate (map frame, on the agents ``instance``) falls on
+    a character's dark ink: marks inside character cells across the plate, spaces between them,
+    fixed to the vehicle (placed in its own frame, across and up) and different from one vehicle
+    to the next, so a plate reads the same in every frame of its track."""
+    rows = boxes.rows_of(instance)
+    known = rows >= 0
+    out = np.zeros(len(points), np.bool_)
+    if not known.any():
+        return out
+    r = rows[known]
+    rel = points[known].astype(np.float64) - boxes.centre_m[r]
+    across = -rel[:, 0] * np.sin(boxes.yaw_rad[r]) + rel[:, 1] * np.cos(boxes.yaw_rad[r])
+    up = rel[:, 2] + boxes.lwh_m[r, 2] / 2
+    cell = (across / PLATE_CHAR_M) % 1.0
+    shift = (instance[known] % 251).astype(np.float64) * 3.7  # each vehicle's own characters
+    marks = textures.value_noise(
+        (across * 40.0 + shift).astype(np.float32), (up * 30.0).astype(np.float32), 91
+    )  # fmt: skip
+    out[known] = (cell > 0.14) & (cell < 0.86) & (marks > np.float32(0.5))
+    return out
+
+
+def radiance(
+    rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float,
+    boxes: AgentBoxes | None = None,
+) -> F32:  # fmt: skip
     """``(N, 3)`` linear BGR radiance reaching the camera along each ray. Each ray's on its own:
     many rays are taken :data:`STRIPE_PX` at a time, whose arrays stay in the CPU's cache
     through every step."""
@@ -403,11 +433,14 @@ def radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: W
     out = np.empty((n, 3), np.float32)
     for start in range(0, n, STRIPE_PX):
         s = slice(start, start + STRIPE_PX)
-        out[s] = _radiance(rays.rows(s), origin_map_m, weather, max_range_m)
+        out[s] = _radiance(rays.rows(s), origin_map_m, weather, max_range_m, boxes)
     return out
 
 
-def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float) -> F32:
+def _radiance(
+    rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float,
+    boxes: AgentBoxes | None,
+) -> F32:  # fmt: skip
     """The light of one stripe of rays: misses see the sky; hits' albedo, mirror and glow by
     numpy (textures, parts), their lighting by compiled loops (:mod:`sensors.shade_kernels`)."""
     dirs_map, range_m, cls, instance, part = rays.dirs_map, rays.range_m, rays.cls, rays.instance, rays.part
@@ -433,10 +466,8 @@ def _radiance(rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: 
         mirror[ai] = MIRROR_BY_PART[pt[ai]]
         glow[ai] = 0.0
         plate = ai[pt[ai] == Part.PLATE]
-        if len(plate):  # dark characters on the plate
-            q = p[plate]
-            ink = textures.value_noise((q[:, 0] + q[:, 1]) * np.float32(28.0), q[:, 2] * np.float32(22.0), 91)
-            albedo[plate[ink > np.float32(0.55)]] = np.float32(0.003)
+        if len(plate) and boxes is not None:
+            albedo[plate[plate_ink(p[plate], inst[plate], boxes)]] = np.float32(0.003)
     sun = np.asarray(weather.sun_dir_map, np.float32)
     sun /= np.linalg.norm(sun)
     night = np.float32(night_of(weather))

@@ -241,6 +241,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         sh.origin_map_m,
         sh.weather,
         sh.range_m,
+        sh.boxes,
     )
     extra = sh.extra
     if extra is not None and len(extra.pixel):
@@ -255,7 +256,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         )  # fmt: skip
         sub_rays = ShadedRays(sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, extra.part,
                               extra.normal, extra.sun_lit, extra.dirs_cam[:, 2], sub_open, sub_lamp)  # fmt: skip
-        sub_lin = radiance(sub_rays, sh.origin_map_m, sh.weather, sh.range_m)
+        sub_lin = radiance(sub_rays, sh.origin_map_m, sh.weather, sh.range_m, sh.boxes)
         shade_kernels.add_subsamples(linear, np.asarray(extra.pixel, np.int64), sub_lin, sub)
     if sh.shutter_s > 0 and sh.ego_velocity_map_mps is not None:
         motion = image_motion_px(

@@ -203,3 +203,34 @@ def test_contact_shadow_pairs_are_the_points_within_each_boxs_reach() -> None:
     dx, dy = gx[pt] - cx[box].astype(np.float32), gy[pt] - cy[box].astype(np.float32)
     np.testing.assert_array_equal(ax, np.abs(cs[box] * dx + sn[box] * dy))
     np.testing.assert_array_equal(ay, np.abs(-sn[box] * dx + cs[box] * dy))
+
+
+def _plate_points(centre: np.ndarray, yaw: float) -> np.ndarray:
+    """Points over a rear number plate (520 x 110 mm, 0.5 m up) of a 4.5 x 1.8 x 1.5 m car
+    standing at ``centre`` (box centre, map frame) heading ``yaw``."""
+    across, up = np.meshgrid(np.linspace(-0.26, 0.26, 105), np.linspace(0.45, 0.56, 23))
+    local = np.stack([np.full(across.size, -2.25), across.ravel(), up.ravel() - 0.75], axis=1)
+    c, s = math.cos(yaw), math.sin(yaw)
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return (local @ turn.T + centre).astype(np.float32)
+
+
+def test_number_plates_keep_their_characters_as_their_vehicle_moves_and_differ_between_vehicles():
+    from sensors.photo import AgentBoxes, plate_ink
+
+    def ink(instance: int, centre: tuple[float, float, float], yaw: float) -> np.ndarray:
+        boxes = AgentBoxes(
+            np.array([instance], np.uint32), np.array([centre]), np.array([[4.5, 1.8, 1.5]]),
+            np.array([yaw]), np.zeros(1, np.uint8), np.zeros((1, 3)),
+        )  # fmt: skip
+        points = _plate_points(np.array(centre), yaw)
+        return plate_ink(points, np.full(len(points), instance, np.uint32), boxes)
+
+    here = ink(7, (10.0, 5.0, 0.75), 0.3)
+    assert 0.15 < here.mean() < 0.6  # characters, not a blank or a black plate
+    for centre, yaw in [((25.0, 9.5, 0.75), 0.3), ((-40.0, 12.0, 0.9), 2.1), ((310.0, -77.0, 0.75), -1.2)]:
+        moved = ink(7, centre, yaw)
+        assert (moved != here).mean() < 0.01, (centre, yaw)  # the same characters wherever it drives
+    assert (ink(8, (10.0, 5.0, 0.75), 0.3) != here).mean() > 0.2  # another vehicle, other characters
+    columns = here.reshape(23, 105).any(axis=0)
+    assert not columns.all()  # spaces between the characters
