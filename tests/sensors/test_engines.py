@@ -164,22 +164,30 @@ def _same_hits(a, b):
         np.testing.assert_array_equal(getattr(a, name).view(np.uint8), getattr(b, name).view(np.uint8))
 
 
-def test_agents_standing_kept_apart_give_the_hits_of_one_scene_of_all(town):
+def _moves(agents):
+    """Six frames of ``agents``: as given, a third moved, another third moved, all standing, one
+    moved, all standing."""
     import dataclasses
 
-    static, agents, ego = town
-    rays = Lidar(LidarSpec()).rays(ego.map_SE3_ego())
-    sun = rays.copy()
-    sun[:, 3:] = np.array([0.3, 0.2, 0.93], np.float32) / np.linalg.norm([0.3, 0.2, 0.93])
-    engine = MitsubaEngine()
     frames = [agents]
-    for step in range(1, 5):  # a third moves, then another third, then all stand, then one of them moves
+    for step in range(1, 6):
         centre = frames[-1].center_map_m.copy()
         if step < 3:
             centre[step::3, 0] += 0.25
         elif step == 4:
             centre[0, 1] += 0.5
         frames.append(dataclasses.replace(agents, center_map_m=centre))
+    return frames
+
+
+def test_agents_standing_kept_apart_give_the_hits_of_one_scene_of_all(town):
+
+    static, agents, ego = town
+    rays = Lidar(LidarSpec()).rays(ego.map_SE3_ego())
+    sun = rays.copy()
+    sun[:, 3:] = np.array([0.3, 0.2, 0.93], np.float32) / np.linalg.norm([0.3, 0.2, 0.93])
+    engine = MitsubaEngine()
+    frames = _moves(agents)[:5]
     kept = []
     for frame in frames:
         scene = engine.scene(static, frame)
@@ -194,19 +202,11 @@ def test_agents_standing_kept_apart_give_the_hits_of_one_scene_of_all(town):
 
 
 def test_an_engine_restored_from_a_checkpoint_splits_the_agents_as_the_engine_that_ran_on(town):
-    import dataclasses
     import json
 
     static, agents, ego = town
     rays = Lidar(LidarSpec()).rays(ego.map_SE3_ego())
-    frames = [agents]
-    for step in range(1, 6):  # a third moves, then another third, then all stand, then one moves, then all stand
-        centre = frames[-1].center_map_m.copy()
-        if step < 3:
-            centre[step::3, 0] += 0.25
-        elif step == 4:
-            centre[0, 1] += 0.5
-        frames.append(dataclasses.replace(agents, center_map_m=centre))
+    frames = _moves(agents)
 
     def split(scene):
         return scene._still.triangles, scene._instance_of_row[scene._still_row0 : scene._nothing_row].tobytes()
