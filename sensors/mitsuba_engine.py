@@ -30,6 +30,12 @@ except ImportError as err:  # pragma: no cover - depends on the machine
     raise ImportError(f"mitsuba and drjit are not installed ({err})") from err
 
 mi.set_variant("llvm_ad_rgb")  # raises when Dr.Jit's LLVM backend finds no libLLVM
+# One worker thread for Dr.Jit's kernels and Embree's builds: the loop's process shares two cores
+# with the writer and the traffic, and a second worker costs more CPU than it saves (the camera's
+# casts took 100 ms of CPU a frame on two threads, 74 on one, the same hits; wall time under load
+# fell too, as the kernels no longer wait for a thread that another process holds off its core).
+CAST_THREADS = 1
+dr.set_thread_count(CAST_THREADS)
 
 from networks.mesh import ClassedMesh  # noqa: E402
 from sensors.agents import AgentMeshes, Agents, agent_meshes  # noqa: E402
