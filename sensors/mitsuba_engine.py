@@ -41,7 +41,7 @@ from networks.mesh import ClassedMesh  # noqa: E402
 from sensors.agents import AgentMeshes, Agents, agent_meshes  # noqa: E402
 from sensors.hits import PairHits, RayHits  # noqa: E402
 from sensors.rays import map_directions  # noqa: E402
-from sensors.scene import _hits_alone, _triangle_runs, cast_agents_moving  # noqa: E402
+from sensors.scene import AloneScenes, _hits_alone, _triangle_runs, cast_agents_moving  # noqa: E402
 
 
 def _face_normals(
@@ -214,7 +214,9 @@ class _Tables:
 class MitsubaEngine:
     """Keeps the static scene (made again when the static mesh changes) and two agents' scenes:
     one of the agents standing exactly as they stood (the same posed triangles, bit for bit),
-    kept from frame to frame, and one of the others, made every frame.
+    kept from frame to frame, and one of the others, made every frame; and each agent's own Open3D
+    scene for the labels' silhouettes, kept while its triangles stay the same (which answers as a
+    fresh one: not part of the checkpoint).
 
     Which agents share a scene changes what Embree answers for a few rays (a ray through an edge,
     between surfaces microns apart), so the split is part of what a frame's outputs depend on:
@@ -231,6 +233,7 @@ class MitsubaEngine:
         self._last_keys: dict[int, bytes] = {}
         self._kept: dict[int, bytes] = {}  # the still part's agents and their triangles' bytes
         self._kept_tables: _Tables | None = None
+        self._alone = AloneScenes()  # each agent's own scene, for the labels' silhouettes
 
     def scene(self, static: ClassedMesh, agents: Agents) -> MitsubaScene:
         if static is not self._static_mesh:
@@ -240,6 +243,7 @@ class MitsubaEngine:
             raise RuntimeError("MitsubaEngine: no static scene")
         meshes = agent_meshes(agents)
         moving, kept = self._split(meshes)
+        self._alone.keep_only(agents.instance_id)
         return MitsubaScene(self, static, self._static, agents, meshes, moving, kept)
 
     def _split(self, meshes: AgentMeshes) -> tuple[_Tables, _Tables]:
@@ -377,4 +381,4 @@ class MitsubaScene:
         return cast_agents_moving(self.agents, rays, dt_s, ray_index, agent_index)
 
     def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
-        return _hits_alone(self.agent_meshes, rays, instance_id)
+        return _hits_alone(self.agent_meshes, rays, instance_id, self._engine._alone)

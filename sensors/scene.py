@@ -40,9 +40,11 @@ class Open3DEngine:
 
     def __init__(self) -> None:
         self._static = StaticScene()
+        self._alone = AloneScenes()
 
     def scene(self, static: ClassedMesh, agents: Agents) -> FrameScene:
-        return FrameScene(static, agents, static_scene=self._static)
+        self._alone.keep_only(agents.instance_id)
+        return FrameScene(static, agents, static_scene=self._static, alone=self._alone)
 
     def checkpoint(self) -> dict[str, Any]:
         return {}  # every frame's scene is made afresh
@@ -141,9 +143,11 @@ class FrameScene:
     built here, not by the first cast."""
 
     def __init__(
-        self, static: ClassedMesh, agents: Agents, nthreads: int = 0, static_scene: StaticScene | None = None
-    ) -> None:
+        self, static: ClassedMesh, agents: Agents, nthreads: int = 0, static_scene: StaticScene | None = None,
+        alone: AloneScenes | None = None,
+    ) -> None:  # fmt: skip
         self.agents = agents
+        self._alone = AloneScenes() if alone is None else alone
         self._static = static
         self._static_scene = StaticScene() if static_scene is None else static_scene
         self.agent_meshes = meshes = agent_meshes(agents)
@@ -213,24 +217,56 @@ class FrameScene:
         """Whether ray ``i`` hits agent ``instance_id[i]`` with every other agent (and the
         static world) taken away: the object's silhouette as if it were alone. One small scene
         per agent, of its own triangles in this scene; ``False`` for agents not in the scene."""
-        return _hits_alone(self.agent_meshes, rays, instance_id)
+        return _hits_alone(self.agent_meshes, rays, instance_id, self._alone)
+
+
+class AloneScenes:
+    """Each agent's own Open3D scene (its triangles alone, for :func:`_hits_alone`), kept from
+    frame to frame while the agent's posed triangles stay the same bit for bit (a parked or a
+    stopped agent's): the same triangles give the same hits. An engine keeps one and, per frame,
+    drops the agents that left (:meth:`keep_only`)."""
+
+    def __init__(self) -> None:
+        self._scenes: dict[int, tuple[bytes, Any]] = {}
+
+    def keep_only(self, instance_id: npt.NDArray[np.uint32]) -> None:
+        present = set(instance_id.tolist())
+        self._scenes = {i: kept for i, kept in self._scenes.items() if i in present}
+
+    def scene(self, instance: int, vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32]) -> Any:
+        """The scene of one agent's ``triangles`` (rows of ``vertices``)."""
+        first, last = int(triangles.min()), int(triangles.max())
+        own_vertices = np.ascontiguousarray(vertices[first : last + 1], np.float32)
+        own_triangles = (triangles - first).astype(np.uint32)
+        key = own_vertices.tobytes() + own_triangles.tobytes()
+        kept = self._scenes.get(instance)
+        if kept is not None and kept[0] == key:
+            return kept[1]
+        scene = RaycastingScene()
+        scene.add_triangles(o3c.Tensor.from_numpy(own_vertices), o3c.Tensor.from_numpy(own_triangles))
+        self._scenes[instance] = (key, scene)
+        return scene
 
 
 def _hits_alone(
-    agents: AgentMeshes, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]
-) -> npt.NDArray[np.bool_]:
+    agents: AgentMeshes, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32],
+    scenes: AloneScenes | None = None,
+) -> npt.NDArray[np.bool_]:  # fmt: skip
     hit = np.zeros(rays.shape[0], np.bool_)
     if rays.shape[0] == 0 or agents.triangles.shape[0] == 0:
         return hit
+    scenes = AloneScenes() if scenes is None else scenes
     triangles_of = _triangle_runs(agents.triangle_instance)
     order = np.argsort(instance_id, kind="stable")
     ids = instance_id[order]
     bounds = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1], True])
     for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
-        run = triangles_of.get(int(ids[a]))
+        instance = int(ids[a])
+        run = triangles_of.get(instance)
         if run is not None:
             mine = order[a:b]
-            hit[mine] = _cast_one(agents.vertices_m, agents.triangles[run[0] : run[1]], rays[mine])
+            scene = scenes.scene(instance, agents.vertices_m, agents.triangles[run[0] : run[1]])
+            hit[mine] = _cast_one(scene, rays[mine])
     return hit
 
 
@@ -241,17 +277,11 @@ def _triangle_runs(triangle_instance: npt.NDArray[np.uint32]) -> dict[int, tuple
     return {int(i): (int(a), int(b)) for i, a, b in zip(triangle_instance[starts], starts, ends, strict=True)}
 
 
-def _cast_one(
-    vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32], rays: npt.NDArray[np.float32]
-) -> npt.NDArray[np.bool_]:
-    first, last = int(triangles.min()), int(triangles.max())
-    scene = RaycastingScene()
-    scene.add_triangles(
-        o3c.Tensor.from_numpy(np.ascontiguousarray(vertices[first : last + 1])),
-        o3c.Tensor.from_numpy((triangles - first).astype(np.uint32)),
-    )
-    result = scene.cast_rays(o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32)), nthreads=1)
-    return np.asarray(result["geometry_ids"].numpy() != np.uint32(INVALID_ID))
+def _cast_one(scene: Any, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:
+    """Whether each ray meets the scene (Embree's occlusion query: the same answer as whether a
+    cast finds a nearest hit, without seeking it)."""
+    tensor = o3c.Tensor.from_numpy(np.ascontiguousarray(rays, dtype=np.float32))
+    return np.asarray(scene.test_occlusions(tensor, nthreads=1).numpy(), np.bool_)
 
 
 _UNIT_SCENES: dict[tuple[int, int, int], tuple[Any, npt.NDArray[np.uint8]]] = {}

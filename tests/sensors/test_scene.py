@@ -60,3 +60,46 @@ def test_cast_tells_class_and_instance_of_static_agent_and_missed_rays():
     assert hits.instance_id.tolist() == [0, 10, 0]
     assert hits.range_m[0] == 5.0 and 3.0 < hits.range_m[1] < 4.0 and np.isinf(hits.range_m[2])
     assert scene.cast_raw(rays)["geometry_ids"].numpy()[2] == INVALID_ID
+
+
+def test_kept_silhouette_scenes_answer_as_fresh_ones_while_agents_stand_and_move():
+    from sensors.scene import AloneScenes, Open3DEngine
+
+    camera = Camera(CameraSpec(width_px=96, height_px=54, mount_xyz_m=(0.0, 0.0, 1.2)))
+    pixels = camera.rays(SE3.identity())
+    engine = Open3DEngine()
+    agents = cars_in_a_row(4)
+    kept: dict[int, object] = {}
+    for frame in range(3):
+        if frame == 2:  # the second car moves, the others stand; the last leaves
+            center = agents.center_map_m.copy()
+            center[1, 0] += 0.5
+            agents = Agents.standing(agents.instance_id[:3], agents.semantic_class[:3], center[:3],
+                                     agents.lwh_m[:3], agents.yaw_map_rad[:3])  # fmt: skip
+        scene = engine.scene(ClassedMesh.empty(), agents)
+        rays = np.tile(pixels, (len(agents), 1))
+        owner = np.repeat(agents.instance_id, pixels.shape[0])
+        alone = scene.hits_alone(rays, owner)
+        meshes = scene.agent_meshes
+        fresh = FrameScene(ClassedMesh.empty(), agents).hits_alone(rays, owner)
+        cast = np.zeros(rays.shape[0], np.bool_)  # each agent's own scene, cast for its nearest hit
+        for instance in agents.instance_id.tolist():
+            tri = meshes.triangles[meshes.triangle_instance == instance]
+            own = RaycastingScene()
+            own.add_triangles(o3c.Tensor.from_numpy(meshes.vertices_m),
+                              o3c.Tensor.from_numpy(tri.astype(np.uint32)))  # fmt: skip
+            mine = owner == instance
+            found = own.cast_rays(o3c.Tensor.from_numpy(rays[mine]))["geometry_ids"].numpy()
+            cast[mine] = found != INVALID_ID
+        np.testing.assert_array_equal(alone, fresh)
+        np.testing.assert_array_equal(alone, cast)
+        assert alone.sum() > 100
+        scenes = engine._alone._scenes
+        now = {i: s for i, (_, s) in scenes.items()}
+        if frame == 1:
+            assert all(now[i] is kept[i] for i in now)  # all stood: every scene kept
+        if frame == 2:
+            assert set(now) == {10, 11, 12}  # the one that left is dropped
+            assert now[10] is kept[10] and now[12] is kept[12] and now[11] is not kept[11]
+        kept = now
+    assert isinstance(engine._alone, AloneScenes)
