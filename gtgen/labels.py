@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from gtgen.counting import count_hits
+from gtgen.counting import count_hits, mask_counts_and_boxes
 from gtgen.criticality import path_distance, time_to_collision
 from gtgen.objects import ObjectBoxes
 from gtgen.projection import CameraBoxes, camera_boxes
@@ -105,15 +105,15 @@ def label_frame(
     lidar = _hits(outputs, LidarOutput, objects.track_id)
     radar = _hits(outputs, RadarOutput, objects.track_id)
     cameras = [o for o in outputs if isinstance(o, CameraOutput)]
-    pixels_per_camera = [count_hits(c.frame.instance_id.ravel(), objects.track_id) for c in cameras]
-    pixels = sum(pixels_per_camera, np.zeros(len(objects), np.int32))
+    per_camera = [mask_counts_and_boxes(c.frame.instance_id, objects.track_id) for c in cameras]
+    pixels = sum((px for px, _ in per_camera), np.zeros(len(objects), np.int32))
     seen = (lidar > 0) | (radar > 0) | (pixels > 0)
     keep = (distance <= range_m) | seen
     kept = objects.select(keep)
     map_SE3_ego = ego.map_SE3_ego()
     camera_labels = tuple(
-        _camera_labels(camera, kept, map_SE3_ego, scene, px[keep])
-        for camera, px in zip(cameras, pixels_per_camera, strict=True)
+        _camera_labels(camera, kept, map_SE3_ego, scene, px[keep], modal[keep])
+        for camera, (px, modal) in zip(cameras, per_camera, strict=True)
     )
     p_xy, v_xy = kept.center_ego_m[:, :2], kept.velocity_ego_mps[:, :2]
     ego_lw = (float(ego.lwh_m[0]), float(ego.lwh_m[1]))
@@ -126,12 +126,13 @@ def label_frame(
 
 def _camera_labels(
     camera: CameraOutput, objects: ObjectBoxes, map_SE3_ego: SE3, scene: SilhouetteCaster,
-    visible_px: npt.NDArray[np.int32],
+    visible_px: npt.NDArray[np.int32], modal_px: npt.NDArray[np.float64],
 ) -> CameraLabels:  # fmt: skip
     spec, pinhole = camera.spec, camera.spec.pinhole
     boxes = camera_boxes(pinhole, spec.ego_SE3_sensor, objects)
     map_SE3_cam = map_SE3_ego.compose(spec.ego_SE3_sensor)
     visibility = camera_visibility(
-        pinhole, map_SE3_cam, objects.track_id, boxes.clipped_px, camera.frame.instance_id, scene, visible_px
-    )
+        pinhole, map_SE3_cam, objects.track_id, boxes.clipped_px, camera.frame.instance_id, scene, visible_px,
+        modal_px,
+    )  # fmt: skip
     return CameraLabels(spec.name, boxes, visibility)

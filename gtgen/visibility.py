@@ -99,9 +99,11 @@ def camera_visibility(
     instance_mask: npt.NDArray[np.uint32],
     scene: SilhouetteCaster,
     visible_px: npt.NDArray[np.integer] | None = None,
+    modal_px: F64 | None = None,
 ) -> CameraVisibility:
     """``track_ids`` and ``clipped_px`` are row-aligned (one row per labelled object);
-    ``visible_px``: each object's pixels in ``instance_mask``, if the caller counted them already."""
+    ``visible_px`` and ``modal_px``: each object's pixels in ``instance_mask`` and their box
+    (:func:`modal_boxes`), if the caller has them already."""
     n = track_ids.shape[0]
     grids = []
     for i in range(n):
@@ -123,9 +125,8 @@ def camera_visibility(
     counted = count_hits(instance_mask.ravel(), track_ids) if visible_px is None else visible_px
     mask_px = counted.astype(np.int64)
     fraction = np.where(mask_px > 0, fraction, 0.0)
-    return CameraVisibility(
-        mask_px, fraction, modal_boxes(instance_mask, track_ids), occlusion_level(fraction), visibility_bin(fraction)
-    )
+    modal = modal_boxes(instance_mask, track_ids) if modal_px is None else modal_px
+    return CameraVisibility(mask_px, fraction, modal, occlusion_level(fraction), visibility_bin(fraction))
 
 
 def _silhouette_hits(

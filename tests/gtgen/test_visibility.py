@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from shapely.geometry import box as rect
 
+from gtgen.counting import count_hits, mask_counts_and_boxes
 from gtgen.labels import label_frame
 from gtgen.visibility import modal_boxes, occlusion_level, visibility_bin
 from networks.classes import SemanticClass
@@ -90,6 +91,21 @@ def test_modal_box_is_tight_around_the_mask():
     boxes = modal_boxes(mask, np.array([4, 9, 11], np.uint32))
     assert boxes[0].tolist() == [3, 2, 8, 4] and boxes[1].tolist() == [15, 7, 15, 7]
     assert np.all(np.isnan(boxes[2]))
+
+
+def test_mask_counts_and_boxes_in_one_pass_equal_count_hits_and_modal_boxes():
+    rng = np.random.default_rng(7)
+    ids_pool = np.array([0, 1, 3, 7, 9, 11, 2**32 - 1], np.uint32)
+    for trial in range(300):
+        h, w = (int(n) for n in rng.integers(0, 24, 2))
+        mask = rng.choice(ids_pool[[0, 2, 3, 4, 6]], size=(h, w))
+        if trial % 3 == 0:
+            mask = np.repeat(mask, 3, axis=1)  # runs along rows
+        track_ids = rng.choice(ids_pool, size=int(rng.integers(0, 7)))  # 0, repeats, absent ids
+        counts, boxes = mask_counts_and_boxes(mask, track_ids)
+        assert counts.dtype == np.int32 and boxes.dtype == np.float64
+        np.testing.assert_array_equal(counts, count_hits(mask.ravel(), track_ids))
+        np.testing.assert_array_equal(boxes, modal_boxes(mask, track_ids))
 
 
 def test_occlusion_levels_and_visibility_bins_follow_their_thresholds():
