@@ -96,25 +96,17 @@ def _rows_of(
     return cls, instance, part, normal
 
 
-@njit(cache=True, nogil=True)
-def _columns(rows: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:  # pragma: no cover - compiled
-    """``(K, N)``: the columns of ``rows`` ``(N, K)``, each contiguous."""
-    n, k = rows.shape
-    out = np.empty((k, n), np.float32)
-    for i in range(n):
-        for c in range(k):
-            out[c, i] = rows[i, c]
-    return out
-
-
 def _rays(rays: npt.NDArray[np.float32]) -> Any:
     """Dr.Jit's rays of ``(N, 6) float32`` rays (origin, direction); columns that are already
-    contiguous (a transposed ``(6, N)`` array) are handed over as they are."""
+    contiguous (a transposed ``(6, N)`` array) are handed over as they are, rows are handed
+    over whole and gathered column by column in the kernel that casts them."""
     if rays.dtype == np.float32 and rays.flags.f_contiguous:
         columns = rays.T
+        floats = [mi.Float(columns[i]) for i in range(6)]
     else:
-        columns = _columns(np.ascontiguousarray(rays, np.float32))
-    floats = [mi.Float(columns[i]) for i in range(6)]
+        flat = mi.Float(np.ascontiguousarray(rays, np.float32).ravel())
+        row = dr.arange(mi.UInt32, rays.shape[0]) * 6
+        floats = [dr.gather(mi.Float, flat, row + k) for k in range(6)]
     return mi.Ray3f(mi.Point3f(*floats[:3]), mi.Vector3f(*floats[3:]))
 
 
@@ -324,7 +316,7 @@ class MitsubaScene:
         """The same ray directions as the reference engine's (turned by OpenCV in float32), one origin."""
         dirs = map_directions(map_R_sensor, dirs_sensor)
         origin = mi.Point3f(*(dr.opaque(mi.Float, float(v)) for v in np.asarray(origin_map_m, np.float32)))
-        direction = mi.Vector3f(*(mi.Float(column) for column in _columns(dirs)))
+        direction = dr.unravel(mi.Vector3f, mi.Float(np.ravel(dirs)))  # gathered in the kernel itself
         return self._hits(mi.Ray3f(origin, direction))
 
     def occluded(self, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:
