@@ -125,6 +125,7 @@ class Camera:
     def __init__(self, spec: CameraSpec) -> None:
         self.spec = spec
         self._dirs_cam = spec.pinhole.image_directions()
+        self._forward = np.ascontiguousarray(self._dirs_cam[:, 2])  # each ray's cosine to the optical axis
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -153,7 +154,7 @@ class Camera:
         map_SE3_cam = map_SE3_ego.compose(self.spec.ego_SE3_sensor)
         hits = scene.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, self._dirs_cam)
         far = hits.range_m > np.float32(self.spec.range_m)  # nothing hit within range
-        depth = hits.range_m * self._dirs_cam[:, 2]
+        depth = hits.range_m * self._forward
         depth[far] = 0.0
         hits.instance_id[far] = 0  # the frame's own arrays; shading paints sky over these pixels
         hits.semantic_class[far] = 0
