@@ -41,7 +41,7 @@ from networks.mesh import ClassedMesh  # noqa: E402
 from sensors.agents import AgentMeshes, Agents, agent_meshes  # noqa: E402
 from sensors.hits import PairHits, RayHits  # noqa: E402
 from sensors.rays import map_directions  # noqa: E402
-from sensors.scene import AloneScenes, _hits_alone, _triangle_runs, cast_agents_moving  # noqa: E402
+from sensors.scene import AloneScenes, _hits_alone, _triangle_runs, cast_agents_moving, own_mesh  # noqa: E402
 
 
 def _face_normals(
@@ -178,15 +178,9 @@ def _agent_keys(meshes: AgentMeshes) -> tuple[dict[int, bytes], dict[int, tuple[
     runs = _triangle_runs(meshes.triangle_instance)
     keys = {}
     for instance, (a, b) in runs.items():
-        faces = meshes.triangles[a:b]
-        first, last = int(faces.min()), int(faces.max())
+        vertices, faces = own_mesh(meshes.vertices_m, meshes.triangles[a:b])
         digest = hashlib.sha256()
-        for part in (
-            meshes.vertices_m[first : last + 1],
-            faces - first,
-            meshes.triangle_class[a:b],
-            meshes.triangle_part[a:b],
-        ):
+        for part in (vertices, faces, meshes.triangle_class[a:b], meshes.triangle_part[a:b]):
             digest.update(np.ascontiguousarray(part).data)
         keys[instance] = digest.digest()[:16]
     return keys, runs

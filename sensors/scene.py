@@ -235,9 +235,7 @@ class AloneScenes:
 
     def scene(self, instance: int, vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32]) -> Any:
         """The scene of one agent's ``triangles`` (rows of ``vertices``)."""
-        first, last = int(triangles.min()), int(triangles.max())
-        own_vertices = np.ascontiguousarray(vertices[first : last + 1], np.float32)
-        own_triangles = (triangles - first).astype(np.uint32)
+        own_vertices, own_triangles = own_mesh(vertices, triangles)
         key = (own_vertices.shape[0], own_vertices.tobytes() + own_triangles.tobytes())  # one way to split them
         kept = self._scenes.get(instance)
         if kept is not None and kept[0] == key:
@@ -268,6 +266,15 @@ def _hits_alone(
             scene = scenes.scene(instance, agents.vertices_m, agents.triangles[run[0] : run[1]])
             hit[mine] = _cast_one(scene, rays[mine])
     return hit
+
+
+def own_mesh(
+    vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32]
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
+    """One agent's ``triangles`` (rows of the merged ``vertices``) as a mesh of its own: the
+    vertices they use (one agent's are consecutive) and the faces counted from the first."""
+    first, last = int(triangles.min()), int(triangles.max())
+    return np.ascontiguousarray(vertices[first : last + 1], np.float32), (triangles - first).astype(np.uint32)
 
 
 def _triangle_runs(triangle_instance: npt.NDArray[np.uint32]) -> dict[int, tuple[int, int]]:
