@@ -43,6 +43,7 @@ _CATEGORY_OF = {
     SemanticClass.CURB: "flat.sidewalk",
     SemanticClass.TERRAIN: "flat.terrain",
     SemanticClass.VEGETATION: "static.vegetation",
+    SemanticClass.TRUNK: "static.vegetation",  # nuScenes-lidarseg counts trunks as vegetation
     SemanticClass.BUILDING: "static.manmade",
     SemanticClass.POLE: "static.manmade",
     SemanticClass.TRAFFIC_LIGHT: "static.manmade",

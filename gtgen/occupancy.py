@@ -109,8 +109,8 @@ for _cls, _name in OCC3D_OF_CLASS.items():
 OCC3D_LUT[FREE_NATIVE] = OCC3D_FREE
 
 PRIORITY = (
-    SemanticClass.OTHER_OBJECT, SemanticClass.FENCE, SemanticClass.VEGETATION, SemanticClass.BUILDING,
-    SemanticClass.POLE, SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN,
+    SemanticClass.OTHER_OBJECT, SemanticClass.FENCE, SemanticClass.TRUNK, SemanticClass.VEGETATION,
+    SemanticClass.BUILDING, SemanticClass.POLE, SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN,
     SemanticClass.CURB, SemanticClass.SIDEWALK, SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW,
     SemanticClass.CROSSING, SemanticClass.ROAD, SemanticClass.TERRAIN,
     SemanticClass.PEDESTRIAN, SemanticClass.BICYCLE, SemanticClass.MOTORCYCLE, SemanticClass.CAR, SemanticClass.TRUCK,

@@ -31,6 +31,7 @@ MAP_RGBA: dict[SemanticClass, tuple[float, float, float, float]] = {
     SemanticClass.TRAFFIC_SIGN: (0.85, 0.85, 0.85, 1.0),
     SemanticClass.FENCE: (0.7, 0.7, 0.72, 1.0),
     SemanticClass.OTHER_OBJECT: (0.5, 0.35, 0.25, 1.0),
+    SemanticClass.TRUNK: (0.45, 0.33, 0.22, 1.0),
 }
 
 

@@ -34,6 +34,7 @@ class SemanticClass(IntEnum):
     TRAFFIC_SIGN = 23
     FENCE = 24  # guardrails and median barriers (SemanticKITTI's fence: fences, crash barriers)
     OTHER_OBJECT = 25  # street furniture: benches, bins, bus shelters (SemanticKITTI's other-object)
+    TRUNK = 26  # tree trunks under their crowns (SemanticKITTI's trunk)
 
     @property
     def is_agent(self) -> bool:

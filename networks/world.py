@@ -43,7 +43,7 @@ from networks.mesh import (
 from networks.roadside import motorway_barriers, street_furniture
 from networks.street import STREET_VERSION, pole_mesh, read_signs, street_objects
 
-WORLD_VERSION = "14"  # 14: buildings by district, motorway barriers, street furniture
+WORLD_VERSION = "15"  # 15: tree trunks their own class (TRUNK)
 CURB_HEIGHT_M = 0.15
 CURB_WALL_M = CURB_HEIGHT_M + 0.15  # curbs reach below the road and the terrain: no ray slips under a sidewalk
 ROAD_SKIRT_M = 0.15  # below a road's outer edges, deeper than the terrain lies under it
@@ -323,7 +323,7 @@ def _junction_surfaces(net: sumolib.net.Net, footprints: list[Polygon]) -> list[
 def _street_props(
     net: sumolib.net.Net, paved: shapely.Geometry, buildings: list[Polygon], rng: np.random.Generator, z0_m: float
 ) -> list[ClassedMesh]:
-    """Street lights (POLE) and trees (VEGETATION) just outside the sidewalks."""
+    """Street lights (POLE) and trees (TRUNK under a VEGETATION crown) just outside the sidewalks."""
     keep_out = prep(paved.buffer(PROP_GAP_M))
     tree = shapely.STRtree(buildings) if buildings else None
     parts: list[ClassedMesh] = []
@@ -357,7 +357,7 @@ def _tree(spot: Point, z0_m: float, rng: np.random.Generator) -> ClassedMesh:
     trunk_m = float(rng.uniform(1.8, 3.0))
     crown_m = float(rng.uniform(2.5, 5.0))
     tall_m = crown_m * float(rng.uniform(0.9, 1.3))
-    trunk = prism(spot.buffer(0.18, quad_segs=1), z0_m, trunk_m, SemanticClass.VEGETATION)
+    trunk = prism(spot.buffer(0.18, quad_segs=1), z0_m, trunk_m, SemanticClass.TRUNK)
     bumps = rng.uniform(0.82, 1.12, (TREE_RINGS - 1, TREE_SEGMENTS))
     centre = (spot.x, spot.y, z0_m + trunk_m + tall_m / 2.0)
     crown = ellipsoid_mesh(

@@ -29,6 +29,7 @@ _REFLECTIVITY = {
     SemanticClass.TRAFFIC_SIGN: 0.9,  # retro-reflective sheeting
     SemanticClass.FENCE: 0.55,  # galvanised steel rails, concrete
     SemanticClass.OTHER_OBJECT: 0.4,
+    SemanticClass.TRUNK: 0.3,  # bark
     SemanticClass.CAR: 0.6,
     SemanticClass.TRUCK: 0.6,
     SemanticClass.BUS: 0.6,
@@ -57,6 +58,7 @@ _RADAR_REFLECTIVITY = {
     SemanticClass.TRAFFIC_SIGN: 0.9,
     SemanticClass.FENCE: 0.8,  # steel guardrails
     SemanticClass.OTHER_OBJECT: 0.5,
+    SemanticClass.TRUNK: 0.15,  # wood holds water: a little more than leaves
     SemanticClass.CAR: 1.0,
     SemanticClass.TRUCK: 1.0,
     SemanticClass.BUS: 1.0,
@@ -76,7 +78,7 @@ _ALBEDO_BGR = {
     SemanticClass.SIDEWALK: (0.55, 0.57, 0.6),
     SemanticClass.CURB: (0.65, 0.66, 0.68),
     SemanticClass.BUILDING: (0.45, 0.55, 0.7),
-    SemanticClass.VEGETATION: (0.09, 0.3, 0.14),  # foliage: darker than grass
+    SemanticClass.VEGETATION: (0.1, 0.22, 0.15),  # foliage: darker than grass, olive
     SemanticClass.POLE: (0.35, 0.35, 0.38),
     SemanticClass.TERRAIN: (0.25, 0.5, 0.45),
     SemanticClass.CROSSING: (0.27, 0.26, 0.25),  # asphalt under the stripes
@@ -86,6 +88,7 @@ _ALBEDO_BGR = {
     SemanticClass.TRAFFIC_SIGN: (0.8, 0.8, 0.8),
     SemanticClass.FENCE: (0.62, 0.63, 0.64),  # galvanised steel, grey concrete
     SemanticClass.OTHER_OBJECT: (0.25, 0.32, 0.4),  # dark wood and painted steel
+    SemanticClass.TRUNK: (0.13, 0.17, 0.21),  # grey-brown bark
     SemanticClass.CAR: (0.6, 0.3, 0.2),
     SemanticClass.TRUCK: (0.3, 0.55, 0.8),
     SemanticClass.BUS: (0.15, 0.7, 0.85),

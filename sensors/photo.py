@@ -242,11 +242,16 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
         at = rows_of(c)
         if len(at):
             kernels.scale_rows(albedo, at, np.ascontiguousarray(fn(ordered[span(c)]), np.float32))
-    for c, seed in ((SemanticClass.VEGETATION, 71), (SemanticClass.TERRAIN, 73)):
+    normal = np.ascontiguousarray(normal, np.float32)
+    at = rows_of(SemanticClass.VEGETATION)
+    if len(at):
+        leaves = textures.foliage(ordered[span(SemanticClass.VEGETATION)], kernels.rows_taken(normal, at), 71)
+        kernels.scale_rows(albedo, at, np.ascontiguousarray(leaves, np.float32))
+    grass = functools.partial(textures.greenery, seed=73)
+    for c, texture in ((SemanticClass.TERRAIN, grass), (SemanticClass.TRUNK, textures.bark)):
         at = rows_of(c)
         if len(at):
-            factor = textures.greenery(ordered[span(c)], seed)
-            kernels.scale_rows(albedo, at, np.ascontiguousarray(factor, np.float32))
+            kernels.scale_rows(albedo, at, np.ascontiguousarray(texture(ordered[span(c)]), np.float32))
     for c in (SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW):
         at = rows_of(c)
         if len(at):
@@ -255,7 +260,7 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
             kernels.scale_rows(albedo, at, np.asarray(np.float32(0.6) + np.float32(0.45) * wear, np.float32))
     at = rows_of(SemanticClass.BUILDING)
     if len(at):
-        facing = kernels.rows_taken(np.ascontiguousarray(normal, np.float32), at)
+        facing = kernels.rows_taken(normal, at)
         wall, glass, lit = textures.facade(ordered[span(SemanticClass.BUILDING)], facing)
         kernels.facade_rows(albedo, mirror, glow, at, wall, glass, lit, np.float32(0.35))
     np.clip(albedo, 0.0, 1.0, out=albedo)

@@ -34,7 +34,7 @@ from networks.classes import SemanticClass
 from networks.mesh import ClassedMesh
 from sensors.o3d import RaycastingScene, o3c
 
-SOLID_CLASSES = (SemanticClass.BUILDING, SemanticClass.VEGETATION, SemanticClass.POLE)
+SOLID_CLASSES = (SemanticClass.BUILDING, SemanticClass.VEGETATION, SemanticClass.TRUNK, SemanticClass.POLE)
 ROOFED = np.asarray([SemanticClass.BUILDING, SemanticClass.VEGETATION], np.uint8)  # sloped tops: roofs, crowns
 RASTER_M = 0.2  # the tops' raster (points within two of its cells of a top are cast)
 TILE = 256  # raster cells along a tile's side (51.2 m)

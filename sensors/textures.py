@@ -153,6 +153,31 @@ def greenery(p: F32, seed: int) -> F32:
     return np.asarray(np.float32(0.6) + np.float32(0.9) * fbm(p[:, 0], p[:, 1] + p[:, 2], seed, 3, 1.5), np.float32)
 
 
+def foliage(p: F32, normal: F32, seed: int) -> F32:
+    """A crown's leaves: clumps of lit leaves a few decimetres across with dark gaps between
+    them (where light falls into the crown) and leaf-sized grain, laid on the plane the surface
+    faces most (so they do not stretch), over the crown's big mottling (:func:`greenery`)."""
+    n = np.abs(normal)
+    across_x = (n[:, 0] >= n[:, 1]) & (n[:, 0] >= n[:, 2])
+    across_y = ~across_x & (n[:, 1] >= n[:, 2])
+    u = np.where(across_x, p[:, 1], p[:, 0]).astype(np.float32)
+    v = np.where(across_x | across_y, p[:, 2], p[:, 1]).astype(np.float32)
+    clumps = fbm(u, v, seed + 11, 3, 0.35)
+    t = np.clip((clumps - np.float32(0.3)) / np.float32(0.4), 0.0, 1.0)
+    lit = t * t * (np.float32(3.0) - np.float32(2.0) * t)  # smoothstep: gaps dark, clumps lit
+    grain = value_noise(u * np.float32(12.0), v * np.float32(12.0), seed + 17) - np.float32(0.5)
+    out = (np.float32(0.45) + np.float32(1.0) * lit + np.float32(0.35) * grain) * greenery(p, seed)
+    return np.asarray(np.maximum(out, np.float32(0.1)), np.float32)
+
+
+def bark(p: F32) -> F32:
+    """Brightness factor of a trunk's bark: vertical furrows and patches."""
+    around = (p[:, 0] + p[:, 1]) * np.float32(14.0)
+    furrows = value_noise(around, p[:, 2] * np.float32(1.5), 91) - np.float32(0.5)
+    patches = value_noise(around * np.float32(0.2), p[:, 2] * np.float32(2.0), 93) - np.float32(0.5)
+    return np.asarray(np.float32(1.0) + np.float32(0.7) * furrows + np.float32(0.35) * patches, np.float32)
+
+
 FACADE_BGR = np.array(
     [[0.72, 0.8, 0.86], [0.85, 0.86, 0.86], [0.25, 0.32, 0.55], [0.55, 0.6, 0.65], [0.45, 0.5, 0.52],
      [0.6, 0.72, 0.82], [0.35, 0.42, 0.6], [0.78, 0.78, 0.74], [0.5, 0.55, 0.62], [0.3, 0.3, 0.32]],

@@ -59,3 +59,30 @@ def test_compiled_noise_equals_the_array_form_bit_for_bit_in_float32_and_float64
             total += np.float32(amp) * _value_noise_numpy(x * f, y * f, 5 + o)
             amp, f = amp * 0.5, f * np.float32(2.0)
         assert np.array_equal(textures.fbm(x, y, 5, 3, 7.0), total / np.float32(1.75))
+
+
+def test_leaves_lie_on_the_plane_a_surface_faces_and_have_dark_gaps_and_lit_clumps() -> None:
+    from sensors.textures import foliage
+
+    rng = np.random.default_rng(3)
+    y, z = rng.uniform(0.0, 20.0, 4000), rng.uniform(0.0, 20.0, 4000)
+    wall = np.stack([np.zeros_like(y), y, z], axis=1).astype(np.float32)
+    facing_x = np.tile(np.array([[1.0, 0.0, 0.0]], np.float32), (len(y), 1))
+    deeper = wall + np.array([0.7, 0.0, 0.0], np.float32)
+    a, b = foliage(wall, facing_x, 71), foliage(deeper, facing_x, 71)
+    # A surface facing x: the leaves depend on where on it (y, z), not how deep it lies (no streaks)
+    # beyond the crown's big mottling, which varies over metres.
+    assert np.corrcoef(a, b)[0, 1] > 0.8
+    assert np.quantile(a, 0.1) < 0.5 < 1.0 < np.quantile(a, 0.9)
+    assert 0.7 < a.mean() < 1.3
+
+
+def test_bark_furrows_run_up_the_trunk() -> None:
+    from sensors.textures import bark
+
+    rng = np.random.default_rng(4)
+    p = np.stack([rng.uniform(0, 50, 5000), np.zeros(5000), rng.uniform(0, 3, 5000)], axis=1).astype(np.float32)
+    step = np.float32(0.04)
+    around = np.abs(bark(p + np.array([step, 0, 0], np.float32)) - bark(p)).mean()
+    up = np.abs(bark(p + np.array([0, 0, step], np.float32)) - bark(p)).mean()
+    assert around > 3 * up
