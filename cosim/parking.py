@@ -8,9 +8,7 @@ lane's centre line, so parked vehicles stand on the parking lane, beside the tra
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
-from pathlib import Path
 
 import sumolib
 from shapely.geometry import LineString
@@ -26,17 +24,6 @@ class ParkingArea:
     start_m: float
     end_m: float
     spaces: tuple[tuple[float, float, float, float], ...]  # x, y, z (map), SUMO angle (deg)
-
-
-def lane_types(net_path: Path) -> dict[str, str]:
-    """Lane id -> OpenDRIVE lane type as recorded by netconvert (sumolib does not keep it)."""
-    out: dict[str, str] = {}
-    for _event, elem in ET.iterparse(net_path, events=("end",)):
-        if elem.tag == "lane" and elem.get("type"):
-            out[elem.get("id", "")] = elem.get("type", "")
-        if elem.tag in ("edge", "junction", "connection"):
-            elem.clear()
-    return out
 
 
 def _space_points(shape: list[tuple[float, ...]]) -> list[tuple[float, float, float, float]]:

@@ -31,6 +31,7 @@ CLASS_RGB: dict[int, tuple[float, float, float]] = {
     SemanticClass.FENCE: (0.55, 0.45, 0.3),
     SemanticClass.OTHER_OBJECT: (0.6, 0.3, 0.9),
     SemanticClass.TRUNK: (0.55, 0.35, 0.15),
+    SemanticClass.PARKING: (0.45, 0.4, 0.5),
 }
 
 

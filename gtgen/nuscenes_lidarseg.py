@@ -37,6 +37,7 @@ _CATEGORY_OF = {
     SemanticClass.NONE: "noise",
     SemanticClass.ROAD: "flat.driveable_surface",
     SemanticClass.CROSSING: "flat.driveable_surface",
+    SemanticClass.PARKING: "flat.driveable_surface",  # nuScenes-lidarseg counts parking lanes and lots as driveable
     SemanticClass.LANE_MARKING: "flat.driveable_surface",
     SemanticClass.LANE_MARKING_YELLOW: "flat.driveable_surface",
     SemanticClass.SIDEWALK: "flat.sidewalk",

@@ -112,7 +112,7 @@ PRIORITY = (
     SemanticClass.OTHER_OBJECT, SemanticClass.FENCE, SemanticClass.TRUNK, SemanticClass.VEGETATION,
     SemanticClass.BUILDING, SemanticClass.POLE, SemanticClass.TRAFFIC_LIGHT, SemanticClass.TRAFFIC_SIGN,
     SemanticClass.CURB, SemanticClass.SIDEWALK, SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW,
-    SemanticClass.CROSSING, SemanticClass.ROAD, SemanticClass.TERRAIN,
+    SemanticClass.CROSSING, SemanticClass.ROAD, SemanticClass.PARKING, SemanticClass.TERRAIN,
     SemanticClass.PEDESTRIAN, SemanticClass.BICYCLE, SemanticClass.MOTORCYCLE, SemanticClass.CAR, SemanticClass.TRUCK,
     SemanticClass.BUS, SemanticClass.TRAILER, SemanticClass.CONSTRUCTION_VEHICLE, SemanticClass.TRAFFIC_CONE,
     SemanticClass.BARRIER, SemanticClass.NONE,

@@ -32,6 +32,7 @@ MAP_RGBA: dict[SemanticClass, tuple[float, float, float, float]] = {
     SemanticClass.FENCE: (0.7, 0.7, 0.72, 1.0),
     SemanticClass.OTHER_OBJECT: (0.5, 0.35, 0.25, 1.0),
     SemanticClass.TRUNK: (0.45, 0.33, 0.22, 1.0),
+    SemanticClass.PARKING: (0.4, 0.38, 0.43, 1.0),
 }
 
 

@@ -35,6 +35,7 @@ class SemanticClass(IntEnum):
     FENCE = 24  # guardrails and median barriers (SemanticKITTI's fence: fences, crash barriers)
     OTHER_OBJECT = 25  # street furniture: benches, bins, bus shelters (SemanticKITTI's other-object)
     TRUNK = 26  # tree trunks under their crowns (SemanticKITTI's trunk)
+    PARKING = 27  # street-parking lanes (OpenDRIVE lane type parking; SemanticKITTI's parking)
 
     @property
     def is_agent(self) -> bool:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import xml.etree.ElementTree as ET
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,11 +44,12 @@ from networks.mesh import (
 from networks.roadside import motorway_barriers, street_furniture
 from networks.street import STREET_VERSION, pole_mesh, read_signs, street_objects
 
-WORLD_VERSION = "15"  # 15: tree trunks their own class (TRUNK)
+WORLD_VERSION = "16"  # 15: tree trunks their own class (TRUNK); 16: parking lanes (PARKING)
 CURB_HEIGHT_M = 0.15
 CURB_WALL_M = CURB_HEIGHT_M + 0.15  # curbs reach below the road and the terrain: no ray slips under a sidewalk
 ROAD_SKIRT_M = 0.15  # below a road's outer edges, deeper than the terrain lies under it
 SEAM_OVERLAP_M = 0.1  # driving-lane strips are this much wider and longer than the lane (no cracks at seams)
+PARKING_LIFT_M = 0.002  # a parking lane's strip lies on its neighbours' overlap: its class holds up to its seam
 ELEVATED_M = 2.0  # a lane this far above the ground is a bridge deck (with sides and piers)
 DECK_DEPTH_M = 0.8
 PIER_SPACING_M = 30.0
@@ -84,6 +86,20 @@ def read_world(path: Path) -> StaticWorld:
         raise NetworkError(f"{path}: not a readable world file ({err})") from err
 
 
+def lane_types(net_path: Path) -> dict[str, str]:
+    """Lane id -> OpenDRIVE lane type as recorded by netconvert (sumolib does not keep it)."""
+    out: dict[str, str] = {}
+    try:
+        for _event, elem in ET.iterparse(net_path, events=("end",)):
+            if elem.tag == "lane" and elem.get("type"):
+                out[elem.get("id", "")] = elem.get("type", "")
+            if elem.tag in ("edge", "junction", "connection"):
+                elem.clear()
+    except (OSError, ET.ParseError) as err:
+        raise NetworkError(f"{net_path}: cannot read SUMO network: {err}") from err
+    return out
+
+
 def load_net(net_path: Path) -> sumolib.net.Net:
     try:
         return sumolib.net.readNet(str(net_path), withInternal=True, withPedestrianConnections=True)
@@ -109,7 +125,7 @@ def build_world(
         notice = folder / "notice.txt"
         return dataclasses.replace(read_world(cached), notice=notice.read_text() if notice.exists() else "")
     net = load_net(net_path)
-    world = _build(net, seed, props)
+    world = _build(net, seed, props, lane_types(net_path))
     problems = []
     if traffic_lights or signs:
         poles = pole_mesh(street_objects(net, is_left_hand(net_path), traffic_lights, signs, xodr_path))
@@ -137,16 +153,18 @@ def build_world(
     return dataclasses.replace(world, path=cached)
 
 
-def _lane_class(lane: sumolib.net.lane.Lane, function: str) -> SemanticClass:
+def _lane_class(lane: sumolib.net.lane.Lane, function: str, types: dict[str, str]) -> SemanticClass:
     if function == "crossing":
         return SemanticClass.CROSSING
     if function == "walkingarea" or lane.getPermissions() == {"pedestrian"}:
         return SemanticClass.SIDEWALK
+    if types.get(lane.getID()) == "parking":
+        return SemanticClass.PARKING
     return SemanticClass.ROAD
 
 
-def _build(net: sumolib.net.Net, seed: int, props: bool) -> StaticWorld:
-    parts, footprints, z_values = _lane_surfaces(net)
+def _build(net: sumolib.net.Net, seed: int, props: bool, types: dict[str, str]) -> StaticWorld:
+    parts, footprints, z_values = _lane_surfaces(net, types)
     parts += _junction_surfaces(net, footprints)
     if not footprints:
         raise NetworkError("the network has no lanes to build a world from")
@@ -170,7 +188,7 @@ def _build(net: sumolib.net.Net, seed: int, props: bool) -> StaticWorld:
     return StaticWorld(merge(parts), bounds, len(buildings))
 
 
-def _lane_surfaces(net: sumolib.net.Net) -> tuple[list[ClassedMesh], list[Polygon], list[float]]:
+def _lane_surfaces(net: sumolib.net.Net, types: dict[str, str]) -> tuple[list[ClassedMesh], list[Polygon], list[float]]:
     """Lane, sidewalk and crossing strips (with curbs, and bridge decks where a lane passes
     over another), raised walking areas, their 2D footprints and all their heights."""
     parts: list[ClassedMesh] = []
@@ -191,7 +209,7 @@ def _lane_surfaces(net: sumolib.net.Net) -> tuple[list[ClassedMesh], list[Polygo
                 if lane.getPermissions() - {"pedestrian"}:
                     inside.append(_road_strip(shape, lane.getWidth(), SemanticClass.ROAD))
                 continue
-            cls = _lane_class(lane, function)
+            cls = _lane_class(lane, function, types)
             footprints.append(lane_footprint(lane))
             shapes.append((shape, lane.getWidth()))
             if cls == SemanticClass.SIDEWALK:
@@ -199,7 +217,8 @@ def _lane_surfaces(net: sumolib.net.Net) -> tuple[list[ClassedMesh], list[Polygo
             elif cls == SemanticClass.CROSSING:
                 parts.append(ribbon(shape, lane.getWidth(), cls, 0.01))
             else:  # a little wider and longer: neighbours overlap instead of leaving cracks
-                parts.append(_road_strip(shape, lane.getWidth(), cls))
+                lift = PARKING_LIFT_M if cls == SemanticClass.PARKING else 0.0
+                parts.append(_road_strip(shape, lane.getWidth(), cls, lift))
                 outer = lane.getIndex() == 0, lane.getIndex() == len(edge.getLanes()) - 1
                 if any(outer):  # the road's own edge: a skirt, so grazing rays do not slip under it
                     width = lane.getWidth() + SEAM_OVERLAP_M
@@ -221,8 +240,8 @@ def _lane_surfaces(net: sumolib.net.Net) -> tuple[list[ClassedMesh], list[Polygo
     return parts, footprints, z_values
 
 
-def _road_strip(shape_m: np.ndarray, width_m: float, cls: SemanticClass) -> ClassedMesh:
-    return ribbon(_extended(shape_m, SEAM_OVERLAP_M), width_m + SEAM_OVERLAP_M, cls)
+def _road_strip(shape_m: np.ndarray, width_m: float, cls: SemanticClass, lift_m: float = 0.0) -> ClassedMesh:
+    return ribbon(_extended(shape_m, SEAM_OVERLAP_M), width_m + SEAM_OVERLAP_M, cls, lift_m)
 
 
 def _extended(shape_m: np.ndarray, length_m: float) -> np.ndarray:

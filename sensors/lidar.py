@@ -351,7 +351,7 @@ class Lidar:
         r = INTENSITY_RESPONSES[self.spec.intensity]
         cos64 = cos_inc.astype(np.float64)
         if r.asphalt_stone > 0 and semantic_class is not None:  # each footprint's share of stone and binder
-            asphalt = np.flatnonzero((semantic_class == SemanticClass.ROAD) & (part == Part.SURFACE))
+            asphalt = np.flatnonzero(np.isin(semantic_class, ASPHALT) & (part == Part.SURFACE))
             stone = rng.beta(r.stone_share_beta[0], r.stone_share_beta[1], asphalt.shape[0])
             reflectance = reflectance.copy()
             reflectance[asphalt] = r.asphalt_binder + (r.asphalt_stone - r.asphalt_binder) * stone
@@ -534,6 +534,7 @@ INTENSITY_RESPONSES: dict[str, IntensityResponse] = {
 }  # fmt: skip
 GLOSSY_PARTS = np.array([Part.PAINT, Part.LIVERY, Part.SAFETY_YELLOW], np.uint8)
 SHEETING_PARTS = np.array([Part.PLATE, Part.RETRO_WHITE], np.uint8)
+ASPHALT = np.array([SemanticClass.ROAD, SemanticClass.PARKING], np.uint8)  # the classes whose surface is asphalt
 LASER_GAIN_SEED = 64
 GLASS_LAYERS = 4  # panes a ray passes through at most (a car's windscreen and rear window, and back)
 PAST_GLASS_M = 1e-4

@@ -30,6 +30,7 @@ _REFLECTIVITY = {
     SemanticClass.FENCE: 0.55,  # galvanised steel rails, concrete
     SemanticClass.OTHER_OBJECT: 0.4,
     SemanticClass.TRUNK: 0.3,  # bark
+    SemanticClass.PARKING: 0.12,  # asphalt, as the road
     SemanticClass.CAR: 0.6,
     SemanticClass.TRUCK: 0.6,
     SemanticClass.BUS: 0.6,
@@ -59,6 +60,7 @@ _RADAR_REFLECTIVITY = {
     SemanticClass.FENCE: 0.8,  # steel guardrails
     SemanticClass.OTHER_OBJECT: 0.5,
     SemanticClass.TRUNK: 0.15,  # wood holds water: a little more than leaves
+    SemanticClass.PARKING: 0.02,
     SemanticClass.CAR: 1.0,
     SemanticClass.TRUCK: 1.0,
     SemanticClass.BUS: 1.0,
@@ -89,6 +91,7 @@ _ALBEDO_BGR = {
     SemanticClass.FENCE: (0.62, 0.63, 0.64),  # galvanised steel, grey concrete
     SemanticClass.OTHER_OBJECT: (0.25, 0.32, 0.4),  # dark wood and painted steel
     SemanticClass.TRUNK: (0.13, 0.17, 0.21),  # grey-brown bark
+    SemanticClass.PARKING: (0.27, 0.26, 0.25),  # asphalt
     SemanticClass.CAR: (0.6, 0.3, 0.2),
     SemanticClass.TRUCK: (0.3, 0.55, 0.8),
     SemanticClass.BUS: (0.15, 0.7, 0.85),

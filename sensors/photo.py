@@ -205,6 +205,7 @@ _PART_LINEAR = _part_linear()
 
 _GROUND = {
     int(SemanticClass.ROAD),
+    int(SemanticClass.PARKING),
     int(SemanticClass.CROSSING),
     int(SemanticClass.SIDEWALK),
     int(SemanticClass.CURB),
@@ -235,6 +236,7 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
 
     for c, fn in (
         (SemanticClass.ROAD, textures.asphalt),
+        (SemanticClass.PARKING, textures.asphalt),
         (SemanticClass.CROSSING, textures.asphalt),
         (SemanticClass.SIDEWALK, textures.paving),
         (SemanticClass.CURB, textures.kerb),

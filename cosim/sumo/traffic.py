@@ -38,7 +38,7 @@ from cosim.kinematics import (
     sumo_angle_to_yaw,
 )
 from cosim.net_index import index_net
-from cosim.parking import SPACE_LENGTH_M, ParkingArea, additional_xml, find_parking_areas, lane_types
+from cosim.parking import SPACE_LENGTH_M, ParkingArea, additional_xml, find_parking_areas
 from cosim.scenario import Scenario
 from cosim.state import WorldState
 from cosim.sumo.people import WALKER, StreetPeople
@@ -49,6 +49,7 @@ from networks.classes import SemanticClass
 from networks.errors import clipped, quoted
 from networks.sumo_tools import sumo_binary, sumo_home, sumo_refusal
 from networks.vocabulary import SignalState
+from networks.world import lane_types
 from sensors.agents import Agents, EgoState
 from sensors.bodies import stride_m, walker_length_m
 

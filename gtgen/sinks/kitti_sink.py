@@ -106,6 +106,7 @@ SEMANTIC_KITTI_IDS = {
     SemanticClass.FENCE: 51,
     SemanticClass.OTHER_OBJECT: 99,
     SemanticClass.TRUNK: 71,
+    SemanticClass.PARKING: 44,
 }
 INSTANCE_MASK = np.uint32(0x7FFF)  # SemanticKITTI instance ids: the track id modulo 32,768
 SEMANTIC_KITTI_LUT = np.zeros(256, np.uint32)  # 0 "unlabeled" for any class not listed

@@ -12,14 +12,14 @@ from shapely.geometry import Point
 
 from cosim.demand import KINDS, busiest
 from cosim.net_index import index_net
-from cosim.parking import SPACE_LENGTH_M, lane_types
+from cosim.parking import SPACE_LENGTH_M
 from cosim.scenario import load_scenario
 from cosim.soak import soak
 from cosim.sumo.traffic import PARKED_CLEARANCE_M, Traffic
 from cosim.trailers import DRAWBAR_M, HITCH_BEHIND_M
 from cosim.world_setup import PreparedNetwork, prepare_network
 from networks.classes import SemanticClass
-from networks.world import lane_footprint
+from networks.world import lane_footprint, lane_types
 
 pytestmark = pytest.mark.slow
 

@@ -111,3 +111,39 @@ def test_motorways_are_closed_to_bicycles_and_pedestrians(tmp_path):
     lanes = _driving_lanes(load_net(import_opendrive(motorway)))
     assert len(lanes) >= 2
     assert not any(lane.allows(c) for lane in lanes for c in ("bicycle", "moped", "pedestrian"))
+
+
+def test_a_parking_lane_is_its_own_class_on_top_of_its_neighbours_seam():
+    import numpy as np
+    import shapely
+
+    from networks.classes import SemanticClass
+    from networks.world import lane_footprint, lane_types
+
+    net_path = import_opendrive(XODR / "lane_types.xodr")
+    net, types = load_net(net_path), lane_types(net_path)
+    parking = [lane for e in _edges(net) for lane in e.getLanes() if types.get(lane.getID()) == "parking"]
+    assert parking
+    mesh = build_world(net_path, props=False, markings=False, traffic_lights=False, signs=False).mesh
+    tri = mesh.vertices_m[mesh.triangles].astype(np.float64)
+    centroid = tri.mean(axis=1)
+    footprint = shapely.union_all([lane_footprint(lane) for lane in parking])
+    park = mesh.triangle_class == SemanticClass.PARKING
+    assert park.any()
+    inside = shapely.contains_xy(footprint.buffer(0.11), centroid[:, 0], centroid[:, 1])
+    assert inside[park].all()  # on the parking lanes (and the strips' 5 cm overlap)
+    # Seen from above, the whole lane and the seam's band where its strip and the driving lane's
+    # overlap are parking (no coplanar tie between the two classes).
+    from sensors.o3d import RaycastingScene, o3c
+
+    scene = RaycastingScene()
+    scene.add_triangles(o3c.Tensor(mesh.vertices_m), o3c.Tensor(mesh.triangles.astype(np.uint32)))
+    band = footprint.buffer(0.04)
+    xmin, ymin, xmax, ymax = band.bounds
+    gx, gy = np.meshgrid(np.arange(xmin, xmax, 0.02), np.arange(ymin, ymax, 0.02))
+    keep = shapely.contains_xy(band, gx, gy)
+    rays = np.zeros((int(keep.sum()), 6), np.float32)
+    rays[:, 0], rays[:, 1], rays[:, 2], rays[:, 5] = gx[keep], gy[keep], 50.0, -1.0
+    hit = scene.cast_rays(o3c.Tensor(rays))["primitive_ids"].numpy()
+    seen = mesh.triangle_class[hit[hit != RaycastingScene.INVALID_ID]]
+    assert SemanticClass.ROAD not in set(seen.tolist()) and np.mean(seen == SemanticClass.PARKING) > 0.9
