@@ -417,24 +417,19 @@ def _agent_voxels(
     bounds = np.flatnonzero(np.r_[True, row[1:] != row[:-1], True])
     group_id = agents.instance_id[row[bounds[:-1]]].astype(np.uint32)
     if np.all(triangle_id[1:] >= triangle_id[:-1]):  # the agents' triangles one after another, ids rising
-        first = np.searchsorted(triangle_id, group_id, side="left")
-        last = np.searchsorted(triangle_id, group_id, side="right")
-        meshed = last > first
-        in_grid = np.zeros(triangle_id.shape[0], np.bool_)
-        for a, b in zip(first[meshed].tolist(), last[meshed].tolist(), strict=True):
-            in_grid[a:b] = True
+        tri_rows = np.arange(triangle_id.shape[0], dtype=np.int64)
+        by_id = triangle_id
     else:
-        in_grid = np.isin(triangle_id, group_id)
-        meshed = np.isin(group_id, triangle_id)
-    surface, tri = triangle_voxels(
-        grid, meshes.vertices_m, meshes.triangles[in_grid], ego_SE3_map.rotation, ego_SE3_map.translation
-    )
-    surface_id = triangle_id[in_grid][tri]
-    by_id = np.argsort(surface_id, kind="stable")
-    _, ny, nz = grid.shape
-    keep = voxel_kernels.boxes_filled(
-        flat, bounds, group_id, meshed, surface[by_id], surface_id[by_id].astype(np.uint32), ny, nz
-    )
+        tri_rows = np.argsort(triangle_id, kind="stable").astype(np.int64)
+        by_id = triangle_id[tri_rows]
+    first = np.searchsorted(by_id, group_id, side="left").astype(np.int64)
+    last = np.searchsorted(by_id, group_id, side="right").astype(np.int64)
+    rotation = np.ascontiguousarray(ego_SE3_map.rotation, np.float64)
+    translation = np.ascontiguousarray(ego_SE3_map.translation, np.float64)
+    keep = voxel_kernels.agents_filled(
+        flat, bounds.astype(np.int64), first, last, tri_rows, meshes.vertices_m, meshes.triangles,
+        np.asarray(grid.lower_m, np.float64), grid.voxel_m, *grid.shape, rotation, translation,
+    )  # fmt: skip
     return flat[keep], row[keep]
 
 
@@ -470,7 +465,7 @@ def _solid_insides(
     alone = (part < 0) & (join < 0)
     cls[alone] = solids.inside(centers[alone])
     cls[~alone] = solids.inside_parts(centers[~alone], np.maximum(part, join)[~alone], part[~alone] >= 0)
-    return voxel_kernels.solid_fill(kind, cls, *grid.shape)
+    return voxel_kernels.solid_fill(kind, ijk, cls, *grid.shape)
 
 
 def point_flow_m(

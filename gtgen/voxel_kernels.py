@@ -319,7 +319,9 @@ def mark_walked(
     """Set ``out`` (flat) at the voxels of :func:`walk_steps`' segments as far as each reaches,
     ``reach: (N,)`` in the units of ``entry`` (its ``t`` scaled): a segment's first voxel where it
     starts in it (entry 0) or enters it before ``reach``, each further voxel it enters within
-    ``reach`` (``reach >= 0``; 0: a point, in no voxel but the first, as :func:`walk` has it)."""
+    ``reach`` (``reach >= 0``; 0: a point, in no voxel but the first, as :func:`walk` has it). A
+    walk's entries after its first never fall (each is the nearest of three faces that only move
+    on), so the last voxel within reach is found by bisection, not by reading every entry."""
     for q in range(first.shape[0] - 1):
         a, b = first[q], first[q + 1]
         if a == b or not (entry[a] == 0.0 or entry[a] < reach[q]):
@@ -327,9 +329,14 @@ def mark_walked(
         out[flat[a]] = True
         if reach[q] == 0.0:
             continue
-        for n in range(a + 1, b):
-            if entry[n] > reach[q]:
-                break
+        lo, hi = a + 1, b  # the first further voxel entered beyond the reach (entries never fall)
+        while lo < hi:
+            mid = (lo + hi) >> 1
+            if entry[mid] > reach[q]:
+                hi = mid
+            else:
+                lo = mid + 1
+        for n in range(a + 1, lo):
             out[flat[n]] = True
 
 
@@ -437,25 +444,7 @@ def enclosed(box: npt.NDArray[np.int64], wall: npt.NDArray[np.int64]) -> npt.NDA
         i, j, k = wall[n, 0] - low[0], wall[n, 1] - low[1], wall[n, 2] - low[2]
         if 0 <= i < size[0] and 0 <= j < size[1] and 0 <= k < size[2] and inside[i, j, k]:
             blocked[i, j, k] = True
-    reached = ~inside  # the box's outside (the margin included)
-    queue = np.empty((size[0] * size[1] * size[2], 3), np.int64)
-    head, tail = 0, 0
-    for i in range(size[0]):
-        for j in range(size[1]):
-            for k in range(size[2]):
-                if reached[i, j, k]:
-                    queue[tail, 0], queue[tail, 1], queue[tail, 2] = i, j, k
-                    tail += 1
-    while head < tail:
-        i, j, k = queue[head, 0], queue[head, 1], queue[head, 2]
-        head += 1
-        for di, dj, dk in ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)):
-            a, b, c = i + di, j + dj, k + dk
-            inside = 0 <= a < size[0] and 0 <= b < size[1] and 0 <= c < size[2]
-            if inside and not reached[a, b, c] and not blocked[a, b, c]:
-                reached[a, b, c] = True
-                queue[tail, 0], queue[tail, 1], queue[tail, 2] = a, b, c
-                tail += 1
+    reached = _flood_out(inside, blocked)
     for n in range(box.shape[0]):
         out[n] = not reached[box[n, 0] - low[0], box[n, 1] - low[1], box[n, 2] - low[2]]
     return out
@@ -608,40 +597,6 @@ def class_bits(flat: I64, cls: I64, size: int) -> npt.NDArray[np.uint32]:  # pra
 
 
 @njit(cache=True, nogil=True)
-def boxes_filled(
-    flat: I64,
-    bounds: I64,
-    agent_id: npt.NDArray[np.uint32],
-    meshed: npt.NDArray[np.bool_],
-    surface_flat: I64,
-    surface_id: npt.NDArray[np.uint32],
-    ny: int,
-    nz: int,
-) -> npt.NDArray[np.bool_]:  # pragma: no cover - compiled
-    """Which box voxels ``flat`` (flat, grouped by agent: group ``g`` is ``bounds[g]:bounds[g + 1]``,
-    its agent ``agent_id[g]``) the agent fills: all of its box where ``meshed[g]`` is false, else
-    those its surface meets or encloses (:func:`enclosed`, its surface the voxels ``surface_flat``
-    whose ``surface_id`` is the agent's; ``surface_id`` sorted)."""
-    keep = np.ones(flat.shape[0], np.bool_)
-    for g in range(bounds.shape[0] - 1):
-        if not meshed[g]:
-            continue
-        a, b = bounds[g], bounds[g + 1]
-        box = np.empty((b - a, 3), np.int64)
-        for n in range(a, b):
-            v = flat[n]
-            box[n - a, 0], box[n - a, 1], box[n - a, 2] = v // (ny * nz), (v // nz) % ny, v % nz
-        lo = np.searchsorted(surface_id, agent_id[g], side="left")
-        hi = np.searchsorted(surface_id, agent_id[g], side="right")
-        wall = np.empty((hi - lo, 3), np.int64)
-        for n in range(lo, hi):
-            v = surface_flat[n]
-            wall[n - lo, 0], wall[n - lo, 1], wall[n - lo, 2] = v // (ny * nz), (v // nz) % ny, v % nz
-        keep[a:b] = enclosed(box, wall)
-    return keep
-
-
-@njit(cache=True, nogil=True)
 def _root(parent: I64, a: int) -> int:  # pragma: no cover - compiled
     while parent[a] != a:
         parent[a] = parent[parent[a]]
@@ -659,52 +614,80 @@ def solid_runs(
     free of both, 1: surface, 2: floor only), the cast voxels ``(T, 3)`` (``i, j, k``, rows in
     order) and each one's part (``-1`` for a floor-only voxel): runs in one part are joined by
     face-neighbouring voxels of kind 0 (runs of neighbouring rows that share an x), so no
-    surface or floor parts their centres, numbered from 0 in order of first appearance."""
+    surface or floor parts their centres, numbered from 0 in order of first appearance. Only the
+    voxels of kind 1 or 2 are visited (sorted along their rows), not the whole grid."""
     kind = np.zeros(nx * ny * nz, np.int8)
-    for n in range(floor.shape[0]):
-        kind[floor[n]] = 2
+    rows = ny * nz  # row (j, k) is r = j * nz + k; voxel (i, r) at i * rows + r
+    taken = np.empty(surface.shape[0] + floor.shape[0], np.int64)  # each voxel of kind 1 or 2 once
+    held = 0
     for n in range(surface.shape[0]):
-        kind[surface[n]] = 1
-    rows = ny * nz  # row (j, k) is r = j * nz + k; voxel (i, r) at i * rows + r: read in memory order
+        v = surface[n]
+        if kind[v] == 0:
+            taken[held] = v
+            held += 1
+        kind[v] = 1
+    for n in range(floor.shape[0]):
+        v = floor[n]
+        if kind[v] == 0:
+            kind[v] = 2
+            taken[held] = v
+            held += 1
+    held_first = np.zeros(rows + 1, np.int64)  # the row's voxels of kind 1 or 2: their x, sorted
+    for n in range(held):
+        held_first[taken[n] % rows + 1] += 1
+    for r in range(rows):
+        held_first[r + 1] += held_first[r]
+    held_x = np.empty(held, np.int64)
+    at = held_first[:rows].copy()
+    for n in range(held):
+        r = taken[n] % rows
+        held_x[at[r]] = taken[n] // rows
+        at[r] += 1
     row_first = np.zeros(rows + 1, np.int64)  # the runs of row r: row_first[r]:row_first[r + 1]
     cast_first = np.zeros(rows + 1, np.int64)  # its voxels to cast: cast_first[r]:cast_first[r + 1]
-    prev = np.ones(rows, np.int8)
-    for i in range(nx):
-        base = i * rows
-        for r in range(rows):
-            c = kind[base + r]
-            if c == 2 or (c == 0 and prev[r] != 0):
-                cast_first[r + 1] += 1
-            if c == 0 and prev[r] != 0:
-                row_first[r + 1] += 1
-            prev[r] = c
     for r in range(rows):
-        cast_first[r + 1] += cast_first[r]
-        row_first[r + 1] += row_first[r]
+        a, b = held_first[r], held_first[r + 1]
+        for n in range(a + 1, b):  # insertion sort: a row holds few
+            x = held_x[n]
+            m = n - 1
+            while m >= a and held_x[m] > x:
+                held_x[m + 1] = held_x[m]
+                m -= 1
+            held_x[m + 1] = x
+        runs_here, casts_here, free_from = 0, 0, 0
+        for n in range(a, b):
+            i = held_x[n]
+            if i > free_from:
+                runs_here += 1
+            if kind[i * rows + r] == 2:
+                casts_here += 1
+            free_from = i + 1
+        if free_from < nx:
+            runs_here += 1
+        row_first[r + 1] = row_first[r] + runs_here
+        cast_first[r + 1] = cast_first[r] + runs_here + casts_here
     count, runs = cast_first[rows], row_first[rows]
     ijk = np.empty((count, 3), np.int64)
     run_of = np.empty(count, np.int64)
     low = np.empty(runs, np.int64)  # each run's x extent and row
     high = np.empty(runs, np.int64)
-    cast_at = cast_first[:rows].copy()
-    run_at = row_first[:rows].copy()
-    prev[:] = 1
-    for i in range(nx):
-        base = i * rows
-        for r in range(rows):
-            c = kind[base + r]
-            if c == 2 or (c == 0 and prev[r] != 0):
-                m = cast_at[r]
-                ijk[m, 0], ijk[m, 1], ijk[m, 2] = i, r // nz, r % nz
+    for r in range(rows):
+        m, run = cast_first[r], row_first[r]
+        j, k = r // nz, r % nz
+        free_from = 0
+        for n in range(held_first[r], held_first[r + 1] + 1):
+            i = held_x[n] if n < held_first[r + 1] else nx
+            if i > free_from:  # the free voxels free_from .. i - 1: a run, cast at its first
+                ijk[m, 0], ijk[m, 1], ijk[m, 2] = free_from, j, k
+                run_of[m] = run
+                low[run], high[run] = free_from, i - 1
+                m += 1
+                run += 1
+            if i < nx and kind[i * rows + r] == 2:
+                ijk[m, 0], ijk[m, 1], ijk[m, 2] = i, j, k
                 run_of[m] = -1
-                if c == 0:
-                    run_of[m] = run_at[r]
-                    low[run_at[r]] = i
-                    run_at[r] += 1
-                cast_at[r] += 1
-            if c == 0:
-                high[run_at[r] - 1] = i
-            prev[r] = c
+                m += 1
+            free_from = i + 1
     parent = np.arange(runs)
     for j in range(ny):
         for k in range(nz):
@@ -738,39 +721,41 @@ def solid_runs(
 
 @njit(cache=True, nogil=True)
 def solid_fill(
-    kind: npt.NDArray[np.int8], cls: npt.NDArray[np.uint8], nx: int, ny: int, nz: int
+    kind: npt.NDArray[np.int8], ijk: I64, cls: npt.NDArray[np.uint8], nx: int, ny: int, nz: int
 ) -> tuple[I64, npt.NDArray[np.uint8]]:  # pragma: no cover - compiled
-    """``(flat, class)`` of the voxels inside solids (ascending): each run of :func:`solid_runs`
-    takes its cast voxel's class ``cls``, each floor-only voxel its own, surface voxels none."""
-    out = np.zeros(nx * ny * nz, np.uint8)
-    m = 0
-    for j in range(ny):
-        for k in range(nz):
-            prev = 1
-            run = np.uint8(0)
-            for i in range(nx):
-                v = (i * ny + j) * nz + k
-                c = kind[v]
-                if c == 2:
-                    out[v] = cls[m]
-                    m += 1
-                elif c == 0:
-                    if prev != 0:
-                        run = cls[m]
-                        m += 1
-                    out[v] = run
-                prev = c
+    """``(flat, class)`` of the voxels inside solids (row by row, ``(j, k)`` then ``i``): each run of
+    :func:`solid_runs` (its first voxel cast, ``ijk``) takes its cast voxel's class ``cls``, each
+    floor-only voxel its own, surface voxels none. Only the runs of a class are visited."""
     count = 0
-    for v in range(out.shape[0]):
-        if out[v] != 0:
+    for t in range(ijk.shape[0]):
+        if cls[t] == 0:
+            continue
+        v = (ijk[t, 0] * ny + ijk[t, 1]) * nz + ijk[t, 2]
+        if kind[v] == 2:
             count += 1
+            continue
+        for _ in range(ijk[t, 0], nx):
+            if kind[v] != 0:
+                break
+            count += 1
+            v += ny * nz
     flat = np.empty(count, np.int64)
     value = np.empty(count, np.uint8)
     m = 0
-    for v in range(out.shape[0]):
-        if out[v] != 0:
-            flat[m], value[m] = v, out[v]
+    for t in range(ijk.shape[0]):
+        if cls[t] == 0:
+            continue
+        v = (ijk[t, 0] * ny + ijk[t, 1]) * nz + ijk[t, 2]
+        if kind[v] == 2:
+            flat[m], value[m] = v, cls[t]
             m += 1
+            continue
+        for _ in range(ijk[t, 0], nx):
+            if kind[v] != 0:
+                break
+            flat[m], value[m] = v, cls[t]
+            m += 1
+            v += ny * nz
     return flat, value
 
 
@@ -943,3 +928,187 @@ def floor_joins(
             out[t] = part[max(a, a + np.searchsorted(ijk[a : row_first[r + 1], 0], i, side="right") - 1)]
             break
     return out
+
+
+@njit(cache=True, nogil=True)
+def agents_filled(
+    flat: I64,
+    bounds: I64,
+    tri_first: I64,
+    tri_last: I64,
+    tri_rows: I64,
+    vertices_m: npt.NDArray[np.floating],
+    triangles: npt.NDArray[np.integer],
+    lower_m: npt.NDArray[np.float64],
+    voxel_m: float,
+    nx: int,
+    ny: int,
+    nz: int,
+    rotation: npt.NDArray[np.float64],
+    translation: npt.NDArray[np.float64],
+) -> npt.NDArray[np.bool_]:  # pragma: no cover - compiled
+    """Which box voxels ``flat`` (grouped by agent: group ``g`` is ``bounds[g]:bounds[g + 1]``) the
+    agent fills: those its surface meets or encloses (:func:`enclosed`). Group ``g``'s triangles
+    are the rows ``tri_rows[tri_first[g]:tri_last[g]]`` of ``triangles`` (corners in
+    ``vertices_m``, placed in the grid's frame by ``rotation`` and ``translation`` as
+    :func:`mesh_voxels` places them); none: its whole box. Each triangle meets the voxels
+    :func:`triangle_voxels` gives it, but only those of the box block the flood from outside, so
+    a row of voxels (along x) is searched only where it crosses the box and, within the x a
+    triangle can reach there (:func:`_x_bounds`), still holds a box voxel no triangle met: the
+    voxels kept are the same as from all of the triangles' voxels."""
+    keep = np.ones(flat.shape[0], np.bool_)
+    shape = (nx, ny, nz)
+    low = np.empty(3, np.int64)
+    size = np.empty(3, np.int64)
+    tri = np.empty((3, 3))
+    n = np.empty(3)
+    lo = np.empty(3, np.int64)
+    hi = np.empty(3, np.int64)
+    for g in range(bounds.shape[0] - 1):
+        if tri_last[g] <= tri_first[g]:
+            continue
+        a, b = bounds[g], bounds[g + 1]
+        if a == b:
+            continue
+        for ax in range(3):
+            low[ax] = 1 << 62
+            size[ax] = -(1 << 62)
+        for m in range(a, b):
+            v = flat[m]
+            cell = (v // (ny * nz), (v // nz) % ny, v % nz)
+            for ax in range(3):
+                low[ax] = min(low[ax], cell[ax])
+                size[ax] = max(size[ax], cell[ax])  # the highest for now
+        for ax in range(3):
+            low[ax] -= 1
+            size[ax] = size[ax] - low[ax] + 2
+        inside = np.zeros((size[0], size[1], size[2]), np.bool_)
+        open_in_row = np.zeros((size[1], size[2]), np.int64)  # box voxels of each row no triangle met yet
+        for m in range(a, b):
+            v = flat[m]
+            i, j, k = v // (ny * nz) - low[0], (v // nz) % ny - low[1], v % nz - low[2]
+            if not inside[i, j, k]:
+                inside[i, j, k] = True
+                open_in_row[j, k] += 1
+        blocked = np.zeros_like(inside)
+        for q in range(tri_first[g], tri_last[g]):
+            t = tri_rows[q]
+            for c in range(3):
+                vi = triangles[t, c]
+                for ax in range(3):
+                    x = _placed(vertices_m[vi], rotation, translation, ax)
+                    tri[c, ax] = (x - lower_m[ax]) / voxel_m
+            missed = False
+            for ax in range(3):  # as triangle_voxels
+                mn = min(tri[0, ax], min(tri[1, ax], tri[2, ax]))
+                mx = max(tri[0, ax], max(tri[1, ax], tri[2, ax]))
+                if not (mx >= -EPS and mn <= shape[ax] + EPS):
+                    missed = True
+                lo[ax] = min(max(math.floor(mn - EPS), 0), shape[ax] - 1)
+                hi[ax] = min(max(math.floor(mx + EPS), 0), shape[ax] - 1)
+            if missed:
+                continue
+            if lo[0] == hi[0] and lo[1] == hi[1] and lo[2] == hi[2]:
+                i, j, k = lo[0] - low[0], lo[1] - low[1], lo[2] - low[2]
+                in_box = 0 <= i < size[0] and 0 <= j < size[1] and 0 <= k < size[2]
+                if in_box and inside[i, j, k] and not blocked[i, j, k]:
+                    blocked[i, j, k] = True
+                    open_in_row[j, k] -= 1
+                continue
+            e0 = (tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2])
+            e2 = (-(tri[0, 0] - tri[2, 0]), -(tri[0, 1] - tri[2, 1]), -(tri[0, 2] - tri[2, 2]))
+            n[0] = e0[1] * e2[2] - e0[2] * e2[1]
+            n[1] = e0[2] * e2[0] - e0[0] * e2[2]
+            n[2] = e0[0] * e2[1] - e0[1] * e2[0]
+            x_lo, x_hi = _x_bounds(tri, n, lo, hi)
+            if x_lo <= x_hi:  # the row's voxels the triangle may meet, clipped to the box
+                x_lo, x_hi = max(x_lo, low[0]) - low[0], min(x_hi, low[0] + size[0] - 1) - low[0]
+            for j in range(max(lo[1], low[1]), min(hi[1], low[1] + size[1] - 1) + 1):
+                for k in range(max(lo[2], low[2]), min(hi[2], low[2] + size[2] - 1) + 1):
+                    if open_in_row[j - low[1], k - low[2]] == 0:
+                        continue  # nothing left in this row for the triangle to block
+                    if x_lo <= x_hi:
+                        found = False
+                        for li in range(x_lo, x_hi + 1):
+                            if inside[li, j - low[1], k - low[2]] and not blocked[li, j - low[1], k - low[2]]:
+                                found = True
+                                break
+                        if not found:
+                            continue  # every box voxel the triangle may meet in this row is met already
+                    x_min, x_max = _x_extent(tri, float(j), float(k), n)
+                    if not (x_min <= x_max and x_max >= -EPS and x_min <= nx + EPS):
+                        continue
+                    i0 = min(max(math.floor(x_min - EPS), 0), nx - 1)
+                    i1 = min(max(math.floor(x_max + EPS), 0), nx - 1)
+                    for i in range(max(i0, low[0]), min(i1, low[0] + size[0] - 1) + 1):
+                        li, lj, lk = i - low[0], j - low[1], k - low[2]
+                        if inside[li, lj, lk] and not blocked[li, lj, lk]:
+                            blocked[li, lj, lk] = True
+                            open_in_row[lj, lk] -= 1
+        reached = _flood_out(inside, blocked)
+        for m in range(a, b):
+            v = flat[m]
+            keep[m] = not reached[v // (ny * nz) - low[0], (v // nz) % ny - low[1], v % nz - low[2]]
+    return keep
+
+
+@njit(cache=True, nogil=True)
+def _flood_out(
+    inside: npt.NDArray[np.bool_], blocked: npt.NDArray[np.bool_]
+) -> npt.NDArray[np.bool_]:  # pragma: no cover - compiled
+    """The voxels of :func:`enclosed`'s flood: from every voxel not ``inside``, through face
+    neighbours that are not ``blocked``."""
+    s0, s1, s2 = inside.shape
+    reached = ~inside
+    queue = np.empty((s0 * s1 * s2, 3), np.int64)
+    head, tail = 0, 0
+    for i in range(s0):
+        for j in range(s1):
+            for k in range(s2):
+                if reached[i, j, k]:
+                    queue[tail, 0], queue[tail, 1], queue[tail, 2] = i, j, k
+                    tail += 1
+    while head < tail:
+        i, j, k = queue[head, 0], queue[head, 1], queue[head, 2]
+        head += 1
+        for di, dj, dk in ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)):
+            a, b, c = i + di, j + dj, k + dk
+            if 0 <= a < s0 and 0 <= b < s1 and 0 <= c < s2 and not reached[a, b, c] and not blocked[a, b, c]:
+                reached[a, b, c] = True
+                queue[tail, 0], queue[tail, 1], queue[tail, 2] = a, b, c
+                tail += 1
+    return reached
+
+
+@njit(cache=True, nogil=True)
+def _x_bounds(
+    tri: npt.NDArray[np.float64], n: npt.NDArray[np.float64], lo: I64, hi: I64
+) -> tuple[int, int]:  # pragma: no cover - compiled
+    """Voxels ``x_lo..x_hi`` (not clipped to the grid) holding every voxel :func:`_x_extent` can
+    name in any row of the triangle ``tri`` (normal ``n``, rows ``lo..hi`` along y and z), or
+    ``x_lo > x_hi`` where no such bound is sure (a triangle nearly parallel to x). Its extent comes
+    from its corners (within ``[mn, mx]``, its corners' x), its edges' crossings of row faces (at
+    most ``EPS`` of an edge beyond a corner) and the row's corners on its plane inside it within
+    a tolerance of ``EPS`` times the largest edge function ``s_i`` (barycentric coordinates above
+    ``-2 EPS max(1, |s_i|) / |n_x|``, so at most twice that times ``mx - mn`` beyond ``[mn, mx]``);
+    rounding is covered many times over."""
+    mn = min(tri[0, 0], min(tri[1, 0], tri[2, 0]))
+    mx = max(tri[0, 0], max(tri[1, 0], tri[2, 0]))
+    span = mx - mn
+    margin = 2.0 * EPS * (span + 1.0) + 1e-12 * (1.0 + abs(mn) + abs(mx))
+    n0 = abs(n[0])
+    if n0 > EPS:
+        reach = 0.0  # the largest |y| or |z| offset between a row corner and a triangle corner
+        edge = 0.0  # the largest y or z extent of the triangle
+        for ax in (1, 2):
+            a_mn = min(tri[0, ax], min(tri[1, ax], tri[2, ax]))
+            a_mx = max(tri[0, ax], max(tri[1, ax], tri[2, ax]))
+            edge = max(edge, a_mx - a_mn)
+            reach = max(reach, max(a_mx - lo[ax], hi[ax] + 1.0 - a_mn))
+        s_max = 4.0 * edge * (reach + 1.0) + 1.0
+        size = abs(n[1]) * (abs(hi[1]) + 2.0) + abs(n[2]) * (abs(hi[2]) + 2.0)
+        size += abs(n[0]) * abs(mx) + abs(n[1]) * abs(tri[0, 1]) + abs(n[2]) * abs(tri[0, 2])
+        margin += (4.0 * EPS * s_max * (span + 1.0) + 1e-12 * (1.0 + size + s_max)) / n0
+    if not margin < 1e-3:
+        return 0, -1
+    return math.floor(mn - EPS - margin), math.floor(mx + EPS + margin)

@@ -23,6 +23,7 @@ only across a wall, a top or a floor).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import cv2
@@ -78,9 +79,8 @@ class Solids:
         f = self.floors
         if f.shape[0] == 0:
             return f
-        low, high = self._floor_low, self._floor_high
-        gap = np.maximum(np.maximum(low - center_m[:2], center_m[:2] - high), 0.0)
-        return np.asarray(f[np.linalg.norm(gap, axis=1) <= reach_m], np.float64)
+        center = np.asarray(center_m[:2], np.float64)
+        return np.asarray(f[_boxes_within(self._floor_low, self._floor_high, center, float(reach_m))], np.float64)
 
     def inside(self, xyz_map_m: npt.NDArray[np.float64]) -> npt.NDArray[np.uint8]:
         """``(N,) uint8``: the class of the solid each point (map frame) lies inside, 0 if none."""
@@ -265,3 +265,20 @@ def _union(corner: npt.NDArray[np.int64], count: int) -> npt.NDArray[np.int64]: 
             a = parent[a]
         out[t] = a
     return out
+
+
+@njit(cache=True, nogil=True)
+def _boxes_within(
+    low: npt.NDArray[np.float64], high: npt.NDArray[np.float64], center: npt.NDArray[np.float64], reach: float
+) -> npt.NDArray[np.int64]:  # pragma: no cover - compiled
+    """The rows of the boxes ``low .. high: (N, 2)`` at most ``reach`` from ``center: (2,)``: each
+    axis's gap (0 where the box spans the centre), the distance as ``np.linalg.norm`` computes it."""
+    out = np.empty(low.shape[0], np.int64)
+    m = 0
+    for n in range(low.shape[0]):
+        g0 = max(max(low[n, 0] - center[0], center[0] - high[n, 0]), 0.0)
+        g1 = max(max(low[n, 1] - center[1], center[1] - high[n, 1]), 0.0)
+        if math.sqrt(g0 * g0 + g1 * g1) <= reach:
+            out[m] = n
+            m += 1
+    return out[:m].copy()
