@@ -484,10 +484,13 @@ def point_flow_m(
         return flow
     order = np.argsort(agents.instance_id)
     ids = agents.instance_id[order]
-    pos = np.clip(np.searchsorted(ids, scan.instance_id), 0, len(ids) - 1)
-    known = (scan.instance_id != 0) & (ids[pos] == scan.instance_id)
+    some = np.flatnonzero(scan.instance_id != 0)  # the static world's points (id 0) are not looked up
+    pos = np.clip(np.searchsorted(ids, scan.instance_id[some]), 0, len(ids) - 1)
+    hit = ids[pos] == scan.instance_id[some]
+    known = np.zeros(len(scan), np.bool_)
+    known[some[hit]] = True
     map_SE3_lidar = map_SE3_ego.compose(lidar.spec.ego_SE3_sensor)
-    row = order[pos[known]]
+    row = order[pos[hit]]
     period = 1.0 / lidar.spec.rate_hz
     timed = lidar.spec.sweep == "timed" and ego is not None
     dt = scan.t_s[known].astype(np.float64) - reference_s(lidar.spec.reference, lidar.spec.period_s) if timed else None
@@ -497,7 +500,7 @@ def point_flow_m(
         flow[known] = agents.velocity_map_mps[row] @ map_SE3_lidar.rotation / lidar.spec.rate_hz
         turning = np.flatnonzero(known)[after != 0.0]
         if turning.size:  # along the arc: the centre's shift and the point turned about the centre
-            row = order[pos[turning]]
+            row = row[after != 0.0]
             shift, turn = motion_over(agents.velocity_map_mps[row], agents.yaw_rate_after_rad_s[row], period)
             arm = _transform(map_SE3_lidar, scan.xyz_lidar_m[turning]) - agents.center_map_m[row]
             flow[turning] = (shift + turned_about_z(arm, turn) - arm) @ map_SE3_lidar.rotation

@@ -535,12 +535,20 @@ def octant_areas(
 
 @njit(cache=True, nogil=True)
 def choose_shared(
-    voxels: I64, area: npt.NDArray[np.float64], label: npt.NDArray[np.integer], nx: int, ny: int, nz: int, sweeps: int
+    voxels: I64,
+    area: npt.NDArray[np.float64],
+    classes: I64,
+    label: npt.NDArray[np.integer],
+    nx: int,
+    ny: int,
+    nz: int,
+    sweeps: int,
 ) -> I64:  # pragma: no cover - compiled
     """The class of each shared voxel ``voxels: (M,)`` (flat): the class with the most area
-    ``area: (M, C, 8)`` in the voxel's eighths whose 7 neighbours on that eighth's side hold no
-    voxel of that class in ``label`` (flat, every voxel's class; updated as each voxel is chosen,
-    in order, sweep after sweep until none changes); where none needs it, its class in ``label``."""
+    ``area: (M, C, 8)`` (of the classes ``classes: (C,)``, ascending) in the voxel's eighths whose 7
+    neighbours on that eighth's side hold no voxel of that class in ``label`` (flat, every voxel's
+    class; updated as each voxel is chosen, in order, sweep after sweep until none changes; of
+    equal areas the lowest class); where none needs it, its class in ``label``."""
     chosen = np.empty(voxels.shape[0], np.int64)
     for m in range(voxels.shape[0]):
         chosen[m] = label[voxels[m]]
@@ -561,14 +569,14 @@ def choose_shared(
                         qj = j + ((1 if o & 2 else -1) if step & 2 else 0)
                         qk = k + ((1 if o & 1 else -1) if step & 1 else 0)
                         ok = 0 <= qi < nx and 0 <= qj < ny and 0 <= qk < nz
-                        if ok and label[(qi * ny + qj) * nz + qk] == c:
+                        if ok and label[(qi * ny + qj) * nz + qk] == classes[c]:
                             covered = True
                             break
                     if not covered:
                         need[c] += area[m, c, o]
             best = chosen[m]
             if need.max() > 0.0:
-                best = np.argmax(need)
+                best = classes[np.argmax(need)]
             if best != chosen[m]:
                 chosen[m] = best
                 label[v] = best
@@ -843,11 +851,17 @@ def shared_keep(
             for a in range(3):
                 tri[q, c, a] = (tri_m[source[e], c, a] - lower_m[a]) / voxel_m
     areas = octant_areas(tri, ijk)
-    area = np.zeros((voxels_n, n_occ, 8))
+    column = np.full(n_occ, -1, np.int64)  # the shared entries' classes, ascending: their areas' columns
+    for q in range(entries.shape[0]):
+        column[occ[entries[q]]] = 0
+    classes = np.flatnonzero(column >= 0)
+    for c in range(classes.shape[0]):
+        column[classes[c]] = c
+    area = np.zeros((voxels_n, classes.shape[0], 8))
     for o in range(8):
         for q in range(entries.shape[0]):
-            area[local[q], occ[entries[q]], o] += areas[q, o]
-    chosen = choose_shared(voxels, area, label, nx, ny, nz, sweeps)
+            area[local[q], column[occ[entries[q]]], o] += areas[q, o]
+    chosen = choose_shared(voxels, area, classes, label, nx, ny, nz, sweeps)
     present = np.zeros(voxels_n, np.bool_)
     for q in range(entries.shape[0]):
         if occ[entries[q]] == chosen[local[q]]:

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from numba import njit
 
 from gtgen import occupancy, voxel_kernels
-from gtgen.voxel_kernels import I64, _root, enclosed
+from gtgen.voxel_kernels import I64, _root, class_bits, enclosed, octant_areas
 from gtgen.voxels import OccupancyGrid, VoxelGrid, box_voxels, triangle_voxels
 from networks.classes import SemanticClass
 from networks.geometry import SE3, box_rotations
@@ -191,6 +191,123 @@ def mark_walked_before(first, flat, entry, reach, out):
             out[flat[n]] = True
 
 
+@njit(nogil=True)
+def choose_shared_before(
+    voxels: I64, area: npt.NDArray[np.float64], label: npt.NDArray[np.integer], nx: int, ny: int, nz: int, sweeps: int
+) -> I64:
+    """The class of each shared voxel ``voxels: (M,)`` (flat): the class with the most area
+    ``area: (M, C, 8)`` in the voxel's eighths whose 7 neighbours on that eighth's side hold no
+    voxel of that class in ``label`` (flat, every voxel's class; updated as each voxel is chosen,
+    in order, sweep after sweep until none changes); where none needs it, its class in ``label``."""
+    chosen = np.empty(voxels.shape[0], np.int64)
+    for m in range(voxels.shape[0]):
+        chosen[m] = label[voxels[m]]
+    need = np.zeros(area.shape[1])
+    for _ in range(sweeps):
+        changed = 0
+        for m in range(voxels.shape[0]):
+            v = voxels[m]
+            i, j, k = v // (ny * nz), (v // nz) % ny, v % nz
+            need[:] = 0.0
+            for c in range(area.shape[1]):
+                for o in range(8):
+                    if area[m, c, o] <= 0.0:
+                        continue
+                    covered = False
+                    for step in range(1, 8):
+                        qi = i + ((1 if o & 4 else -1) if step & 4 else 0)
+                        qj = j + ((1 if o & 2 else -1) if step & 2 else 0)
+                        qk = k + ((1 if o & 1 else -1) if step & 1 else 0)
+                        ok = 0 <= qi < nx and 0 <= qj < ny and 0 <= qk < nz
+                        if ok and label[(qi * ny + qj) * nz + qk] == c:
+                            covered = True
+                            break
+                    if not covered:
+                        need[c] += area[m, c, o]
+            best = chosen[m]
+            if need.max() > 0.0:
+                best = np.argmax(need)
+            if best != chosen[m]:
+                chosen[m] = best
+                label[v] = best
+                changed += 1
+        if changed == 0:
+            break
+    return chosen
+
+
+@njit(nogil=True)
+def shared_keep_before(
+    flat: I64,
+    occ: I64,
+    tri_m: npt.NDArray[np.float64],
+    source: I64,
+    lower_m: npt.NDArray[np.float64],
+    voxel_m: float,
+    label: npt.NDArray[np.uint8],
+    n_occ: int,
+    nx: int,
+    ny: int,
+    nz: int,
+    sweeps: int,
+    paved_bits: int,
+    terrain: int,
+) -> npt.NDArray[np.bool_]:
+    """Which surface entries (voxel ``flat``, class ``occ``, triangle ``tri_m[source]`` in the grid's
+    frame, metres) keep their voxel where several classes' surfaces meet one (as
+    ``gtgen.occupancy._shared_surfaces``): the terrain hidden in voxels with paving (a class among
+    ``paved_bits``), the voxels of several classes chosen in ascending order by
+    :func:`choose_shared` from the areas of :func:`octant_areas` (summed per class in the entries'
+    order), each keeping the entries of its chosen class (all of them where it chose none of its
+    own). ``label``: every voxel's class so far (updated with the choices), of ``n_occ`` classes."""
+    size = nx * ny * nz
+    bits = class_bits(flat, occ, size)
+    keep = np.ones(flat.shape[0], np.bool_)
+    terrain_bit = np.uint32(1) << np.uint32(terrain)
+    for n in range(flat.shape[0]):
+        b = bits[flat[n]]
+        if b & np.uint32(paved_bits):
+            b &= ~terrain_bit
+            if occ[n] == terrain:
+                continue  # hidden under paving
+        count = 0
+        while b:
+            b &= b - np.uint32(1)
+            count += 1
+        if count > 1:
+            keep[n] = False  # marked shared for now
+    entries = np.flatnonzero(~keep)
+    if entries.shape[0] == 0:
+        keep[:] = True
+        return keep
+    voxels = np.unique(flat[entries])  # ascending
+    voxels_n = voxels.shape[0]
+    local = np.searchsorted(voxels, flat[entries])
+    ijk = np.empty((entries.shape[0], 3), np.int64)
+    tri = np.empty((entries.shape[0], 3, 3))
+    for q in range(entries.shape[0]):
+        e = entries[q]
+        v = flat[e]
+        ijk[q, 0], ijk[q, 1], ijk[q, 2] = v // (ny * nz), (v // nz) % ny, v % nz
+        for c in range(3):
+            for a in range(3):
+                tri[q, c, a] = (tri_m[source[e], c, a] - lower_m[a]) / voxel_m
+    areas = octant_areas(tri, ijk)
+    area = np.zeros((voxels_n, n_occ, 8))
+    for o in range(8):
+        for q in range(entries.shape[0]):
+            area[local[q], occ[entries[q]], o] += areas[q, o]
+    chosen = choose_shared_before(voxels, area, label, nx, ny, nz, sweeps)
+    present = np.zeros(voxels_n, np.bool_)
+    for q in range(entries.shape[0]):
+        if occ[entries[q]] == chosen[local[q]]:
+            present[local[q]] = True
+    for q in range(entries.shape[0]):
+        mine = occ[entries[q]] == chosen[local[q]]
+        keep[entries[q]] = mine or not present[local[q]]
+    return keep
+
+
 def agent_voxels_before(grid, agents, meshes, ego_SE3_map):
     """The agents' voxels as made before: every in-grid agent's triangles voxelised, then each box
     flooded from outside through the voxels its surface leaves free."""
@@ -336,3 +453,32 @@ def test_floors_near_a_point_as_numpy_finds_them():
         gap = np.maximum(np.maximum(low - center, center - high), 0.0)
         expected = np.flatnonzero(np.linalg.norm(gap, axis=1) <= reach)
         assert np.array_equal(_boxes_within(low, high, center, reach), expected)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_shared_surfaces_keep_the_same_entries_as_before(seed):
+    """Flat triangles of a few classes on a small grid, many of them in the same voxels (equal
+    areas too: squares of ground split alike), as the static world's surfaces meet."""
+    rng = np.random.default_rng(seed)
+    shape = (8, 7, 4)
+    grid = VoxelGrid((0.0, 0.0, 0.0), 1.0, shape)
+    triangles = []
+    for _ in range(rng.integers(5, 40)):
+        x0, y0 = rng.integers(0, 6, 2) + rng.choice([0.0, 0.5, 0.25], 2)
+        w, h = rng.choice([0.5, 1.0, 2.0, 1.7], 2)
+        z = rng.choice([0.5, 1.0, 1.25, 2.0]) + rng.choice([0.0, 0.0, 0.1]) * rng.random()
+        a, b, c, d = [x0, y0, z], [x0 + w, y0, z], [x0 + w, y0 + h, z], [x0, y0 + h, z]
+        triangles += [[a, b, c], [a, c, d]]
+    tri_m = np.asarray(triangles, np.float64)
+    tri_m[rng.random(tri_m.shape[0]) < 0.3, 2, 2] += 0.4  # some tilted
+    flat, source = triangle_voxels(grid, tri_m)
+    occ_classes = np.array([11, 12, 13, 14, 15, 16])
+    cls = rng.choice(occ_classes, tri_m.shape[0])[source].astype(np.int64)
+    label = rng.choice(np.r_[occ_classes, 4, 17], grid.size).astype(np.uint8)
+    args = (flat, cls, tri_m, source, np.zeros(3), 1.0)
+    tail = (18, *shape, 6, (1 << 11) | (1 << 12) | (1 << 13), 14)
+    got_label, expected_label = label.copy(), label.copy()
+    got = voxel_kernels.shared_keep(*args, got_label, *tail)
+    expected = shared_keep_before(*args, expected_label, *tail)
+    assert np.array_equal(got, expected) and np.array_equal(got_label, expected_label)
