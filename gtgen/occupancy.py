@@ -280,9 +280,10 @@ def _classes(
     native, instance, best = _paint(grid, parts)
     keep = _shared_surfaces(grid, surface, surface_class, tri_ego, source, native)
     if not keep.all():  # painted again where surface entries left: those voxels' entries only
+        cleared = surface[~keep]
         again = np.zeros(grid.size, np.bool_)
-        again[surface[~keep]] = True
-        native[again], instance[again], best[again] = FREE_NATIVE, 0, len(PRIORITY) + 1
+        again[cleared] = True
+        native[cleared], instance[cleared], best[cleared] = FREE_NATIVE, 0, len(PRIORITY) + 1
         _paint(grid, parts, keep, (native, instance, best, again))
     return native, instance
 

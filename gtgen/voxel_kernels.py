@@ -978,6 +978,8 @@ def agents_filled(
     n = np.empty(3)
     lo = np.empty(3, np.int64)
     hi = np.empty(3, np.int64)
+    corner = np.empty((vertices_m.shape[0], 3))  # the vertices in grid coordinates, as first needed
+    placed = np.zeros(vertices_m.shape[0], np.bool_)
     for g in range(bounds.shape[0] - 1):
         if tri_last[g] <= tri_first[g]:
             continue
@@ -1009,9 +1011,12 @@ def agents_filled(
             t = tri_rows[q]
             for c in range(3):
                 vi = triangles[t, c]
+                if not placed[vi]:  # each corner placed once (its triangles share it)
+                    for ax in range(3):
+                        corner[vi, ax] = (_placed(vertices_m[vi], rotation, translation, ax) - lower_m[ax]) / voxel_m
+                    placed[vi] = True
                 for ax in range(3):
-                    x = _placed(vertices_m[vi], rotation, translation, ax)
-                    tri[c, ax] = (x - lower_m[ax]) / voxel_m
+                    tri[c, ax] = corner[vi, ax]
             missed = False
             for ax in range(3):  # as triangle_voxels
                 mn = min(tri[0, ax], min(tri[1, ax], tri[2, ax]))
