@@ -14,9 +14,10 @@ from enum import IntFlag
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
 from networks.classes import SemanticClass
-from networks.geometry import SE3, box_rotations, place_in_boxes
+from networks.geometry import SE3, box_rotations
 from networks.mesh import BOX_TRIANGLES, ClassedMesh
 from networks.records import check_arrays
 from sensors.bodies import BODIES, Body, body_of, pose_of
@@ -324,39 +325,90 @@ def body_keys(agents: Agents) -> npt.NDArray[np.int64]:
 
 def agent_meshes(agents: Agents) -> AgentMeshes:
     """All agents' body meshes, scaled to their l/w/h (less :data:`AGENT_LIFT_M` at the
-    bottom) and posed; one pass per body type and pose."""
+    bottom) and posed. The vertices come grouped by body type and pose (the groups in order of
+    class, body, pose; an agent's own in order of the agents), the triangles by instance id."""
+    if len(agents) == 0:
+        return AgentMeshes(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros(0, np.uint32),
+                           np.zeros(0, np.uint8), np.zeros(0, np.uint8))  # fmt: skip
     rotations = agents.rotations()
     mesh_center = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
     mesh_lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
-    keys = body_keys(agents)
-    verts, tris, inst, cls, parts = [], [], [], [], []
-    offset = 0
-    groups, group_of = np.unique(keys, axis=0, return_inverse=True) if len(agents) else (keys, np.zeros(0, np.intp))
-    for g, (c, body, pose) in enumerate(groups.tolist()):
-        mask = group_of.ravel() == g
-        template = template_of(c, body, pose)
-        ids = agents.instance_id[mask]
-        n, v, t = len(ids), template.unit_vertices.shape[0], template.triangles.shape[0]
-        posed = place_in_boxes(template.unit_vertices, mesh_center[mask], mesh_lwh[mask], rotations[mask])
-        verts.append(posed.reshape(-1, 3))
-        tris.append(
-            (template.triangles[None] + offset + v * np.arange(n, dtype=np.int32)[:, None, None]).reshape(-1, 3)
-        )
-        inst.append(np.repeat(ids, t))
-        cls.append(np.full(n * t, c, np.uint8))
-        parts.append(np.tile(template.triangle_part, n))
-        offset += n * v
-    if not verts:
-        return AgentMeshes(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros(0, np.uint32),
-                           np.zeros(0, np.uint8), np.zeros(0, np.uint8))  # fmt: skip
-    order = np.argsort(np.concatenate(inst), kind="stable")  # an agent's triangles contiguous
-    return AgentMeshes(
-        np.concatenate(verts).astype(np.float32),
-        np.concatenate(tris).astype(np.int32)[order],
-        np.concatenate(inst)[order],
-        np.concatenate(cls)[order],
-        np.concatenate(parts)[order],
-    )
+    groups, group_of = np.unique(body_keys(agents), axis=0, return_inverse=True)
+    group_of = group_of.ravel()
+    templates = [template_of(c, body, pose) for c, body, pose in groups.tolist()]
+    by_group = np.argsort(group_of, kind="stable")  # the agents in the order of their vertices
+    by_instance = np.argsort(agents.instance_id[by_group], kind="stable")  # ... and of their triangles
+    vertices, triangles, instance, cls, part = _posed_meshes(
+        np.concatenate([t.unit_vertices for t in templates]).astype(np.float64),
+        np.concatenate([t.triangles for t in templates]).astype(np.int32),
+        np.concatenate([t.triangle_part for t in templates]).astype(np.uint8),
+        _starts([t.unit_vertices.shape[0] for t in templates]), _starts([t.triangles.shape[0] for t in templates]),
+        groups[:, 0].astype(np.uint8), group_of[by_group], mesh_center[by_group], mesh_lwh[by_group],
+        rotations[by_group], agents.instance_id[by_group], by_instance,
+    )  # fmt: skip
+    return AgentMeshes(vertices, triangles, instance, cls, part)
+
+
+def _starts(counts: list[int]) -> npt.NDArray[np.int64]:
+    """``(K + 1,)`` where each of ``K`` consecutive runs of ``counts`` starts, and their end."""
+    return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+
+
+@njit(cache=True, nogil=True)
+def _placed(r0: float, r1: float, r2: float, x: float, y: float, z: float, c: float) -> float:  # pragma: no cover
+    """One coordinate of a point ``(x, y, z)`` (in its box, scaled) turned by the rotation's row
+    ``(r0, r1, r2)`` and moved by ``c``: as :func:`networks.geometry.place_in_boxes` computes it,
+    the float64 bits included (numpy's einsum there sums ``(x r0 + z r2) + y r1``, from 0)."""
+    return (0.0 + (((0.0 + r0 * x) + r2 * z) + (0.0 + r1 * y))) + c
+
+
+@njit(cache=True, nogil=True)
+def _posed_meshes(
+    unit_vertices: npt.NDArray[np.float64], triangles: npt.NDArray[np.int32], parts: npt.NDArray[np.uint8],
+    vertex_starts: npt.NDArray[np.int64], triangle_starts: npt.NDArray[np.int64], group_class: npt.NDArray[np.uint8],
+    group: npt.NDArray[np.intp], center: npt.NDArray[np.float64], lwh: npt.NDArray[np.float64],
+    rotations: npt.NDArray[np.float64], instance_id: npt.NDArray[np.uint32], triangle_order: npt.NDArray[np.intp],
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32], npt.NDArray[np.uint32], npt.NDArray[np.uint8],
+           npt.NDArray[np.uint8]]:  # fmt: skip  # pragma: no cover - compiled
+    """The merged mesh of agents, each posed from its group's template (rows ``vertex_starts[g]``
+    to ``vertex_starts[g + 1]`` of ``unit_vertices``, likewise the triangles): the vertices agent
+    after agent, the triangles in ``triangle_order`` of the agents, each vertex posed by
+    :func:`_placed`."""
+    n = group.shape[0]
+    first_vertex = np.zeros(n + 1, np.int64)
+    first_triangle = np.zeros(n + 1, np.int64)
+    for a in range(n):
+        g = group[a]
+        first_vertex[a + 1] = first_vertex[a] + vertex_starts[g + 1] - vertex_starts[g]
+    for rank in range(n):
+        g = group[triangle_order[rank]]
+        first_triangle[rank + 1] = first_triangle[rank] + triangle_starts[g + 1] - triangle_starts[g]
+    vertices = np.empty((first_vertex[n], 3), np.float32)
+    for a in range(n):
+        g = group[a]
+        row = first_vertex[a]
+        for k in range(vertex_starts[g], vertex_starts[g + 1]):
+            x, y, z = unit_vertices[k, 0] * lwh[a, 0], unit_vertices[k, 1] * lwh[a, 1], unit_vertices[k, 2] * lwh[a, 2]
+            for i in range(3):
+                r = rotations[a, i]
+                vertices[row, i] = np.float32(_placed(r[0], r[1], r[2], x, y, z, center[a, i]))
+            row += 1
+    m = first_triangle[n]
+    out_triangles = np.empty((m, 3), np.int32)
+    out_instance = np.empty(m, np.uint32)
+    out_class = np.empty(m, np.uint8)
+    out_part = np.empty(m, np.uint8)
+    for rank in range(n):
+        a = triangle_order[rank]
+        g = group[a]
+        row = first_triangle[rank]
+        offset = np.int32(first_vertex[a])
+        for t in range(triangle_starts[g], triangle_starts[g + 1]):
+            for j in range(3):
+                out_triangles[row, j] = triangles[t, j] + offset
+            out_instance[row], out_class[row], out_part[row] = instance_id[a], group_class[g], parts[t]
+            row += 1
+    return vertices, out_triangles, out_instance, out_class, out_part
 
 
 def as_classed_mesh(meshes: AgentMeshes) -> ClassedMesh:

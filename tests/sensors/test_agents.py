@@ -7,8 +7,8 @@ import pytest
 
 from cosim.demand import CHILD, KINDS, PEDESTRIAN
 from networks.classes import AGENT_CLASSES, SemanticClass
-from networks.geometry import SE3
-from sensors.agents import AGENT_LIFT_M, Agents, agent_meshes, body_keys, template_of
+from networks.geometry import SE3, box_rotations, place_in_boxes
+from sensors.agents import AGENT_LIFT_M, Agents, _placed, agent_meshes, body_keys, template_of
 from sensors.bodies import (
     BODIES,
     GAIT_PHASES,
@@ -267,6 +267,62 @@ def test_a_class_without_template_is_drawn_as_its_box_standing_just_off_the_road
     expected = corners(boxes)[0]
     expected[:, 2] = np.maximum(expected[:, 2], AGENT_LIFT_M)  # the bottom 3 cm above the box's (the road)
     np.testing.assert_allclose(np.sort(meshes.vertices_m, axis=0), np.sort(expected, axis=0), atol=1e-5)
+
+
+def numpy_agent_meshes(agents_: Agents) -> tuple[np.ndarray, ...]:
+    """The merged mesh posed one body type and pose at a time with numpy (place_in_boxes), the
+    triangles put in order of instance id by a stable sort."""
+    rotations = agents_.rotations()
+    center = agents_.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
+    lwh = agents_.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
+    groups, group_of = np.unique(body_keys(agents_), axis=0, return_inverse=True)
+    verts, tris, inst, cls, parts, offset = [], [], [], [], [], 0
+    for g, (c, body, pose) in enumerate(groups.tolist()):
+        mask = group_of.ravel() == g
+        template = template_of(c, body, pose)
+        ids = agents_.instance_id[mask]
+        n, v, t = len(ids), template.unit_vertices.shape[0], template.triangles.shape[0]
+        verts.append(place_in_boxes(template.unit_vertices, center[mask], lwh[mask], rotations[mask]).reshape(-1, 3))
+        firsts = offset + v * np.arange(n, dtype=np.int32)[:, None, None]
+        tris.append((template.triangles[None] + firsts).reshape(-1, 3))
+        inst.append(np.repeat(ids, t))
+        cls.append(np.full(n * t, c, np.uint8))
+        parts.append(np.tile(template.triangle_part, n))
+        offset += n * v
+    order = np.argsort(np.concatenate(inst), kind="stable")
+    return (np.concatenate(verts).astype(np.float32), np.concatenate(tris).astype(np.int32)[order],
+            np.concatenate(inst)[order], np.concatenate(cls)[order], np.concatenate(parts)[order])  # fmt: skip
+
+
+def test_a_compiled_vertex_is_placed_as_numpy_places_it_to_the_float64_bit() -> None:
+    r = np.random.default_rng(5)
+    n, v = 40, 50
+    unit = r.uniform(-0.5, 0.5, (v, 3))
+    unit[r.random((v, 3)) < 0.1] = 0.0
+    center, lwh = r.uniform(-3.0, 3.0, (n, 3)), r.uniform(0.3, 15.0, (n, 3))  # near 0: the sums' low bits show
+    rotations = box_rotations(r.uniform(-np.pi, np.pi, n), r.uniform(-0.2, 0.2, n) * (r.random(n) < 0.5))
+    numpys = place_in_boxes(unit, center, lwh, rotations)
+    mine = np.array([[[_placed(*rotations[a, i], *(unit[k] * lwh[a]), center[a, i]) for i in range(3)]
+                      for k in range(v)] for a in range(n)])  # fmt: skip
+    assert mine.tobytes() == numpys.tobytes()
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_compiled_merged_mesh_is_numpys_to_the_bit(seed: int) -> None:
+    # every class, walkers and cyclists on the move (their poses), repeated ids, far from the origin
+    r = np.random.default_rng(seed)
+    n = 120
+    boxes = random_agents(n, seed)
+    boxes = Agents(
+        r.integers(1, 60, n).astype(np.uint32), boxes.semantic_class, boxes.center_map_m + r.uniform(-3e3, 3e3, 3),
+        boxes.lwh_m, boxes.yaw_map_rad, boxes.pitch_rad * (r.random(n) < 0.5), r.uniform(-3, 3, (n, 3)),
+        boxes.parked, gait_cycles=np.where(r.random(n) < 0.5, r.uniform(0, 50, n), np.nan),
+    )  # fmt: skip
+    meshes = agent_meshes(boxes)
+    got = (meshes.vertices_m, meshes.triangles, meshes.triangle_instance, meshes.triangle_class, meshes.triangle_part)
+    for mine, numpys in zip(got, numpy_agent_meshes(boxes), strict=True):
+        assert mine.dtype == numpys.dtype and mine.shape == numpys.shape
+        assert mine.tobytes() == numpys.tobytes()
 
 
 def test_no_agents_give_an_empty_mesh() -> None:
