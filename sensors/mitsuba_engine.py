@@ -172,18 +172,26 @@ STILL_GROWTH = 0.25
 outside it hold this share of its triangles (or when one of its agents moved or left)."""
 
 
-def _agent_keys(meshes: AgentMeshes) -> tuple[dict[int, bytes], dict[int, tuple[int, int]]]:
-    """Per agent of ``meshes``: a digest of its posed triangles (SHA-256 of its vertices, its faces
-    from its first vertex, each face's class and part; 16 bytes) and its run of triangles."""
-    runs = _triangle_runs(meshes.triangle_instance)
-    keys = {}
-    for instance, (a, b) in runs.items():
-        vertices, faces = own_mesh(meshes.vertices_m, meshes.triangles[a:b])
-        digest = hashlib.sha256()
-        for part in (vertices, faces, meshes.triangle_class[a:b], meshes.triangle_part[a:b]):
-            digest.update(np.ascontiguousarray(part).data)
-        keys[instance] = digest.digest()[:16]
-    return keys, runs
+class _AgentDigests:
+    """Per agent of a frame's meshes a digest of its posed triangles (SHA-256 of its vertices, its
+    faces from its first vertex, each face's class and part; 16 bytes) and its run of triangles.
+    An agent whose bytes are the same as at the last frame keeps its digest without hashing them
+    again (a standing agent's; the same bytes give the same digest)."""
+
+    def __init__(self) -> None:
+        self._last: dict[int, tuple[bytes, bytes]] = {}  # per agent of the last frame: its bytes, its digest
+
+    def __call__(self, meshes: AgentMeshes) -> tuple[dict[int, bytes], dict[int, tuple[int, int]]]:
+        runs = _triangle_runs(meshes.triangle_instance)
+        keys, last = {}, {}
+        for instance, (a, b) in runs.items():
+            vertices, faces = own_mesh(meshes.vertices_m, meshes.triangles[a:b])
+            data = b"".join(p.data for p in (vertices, faces, meshes.triangle_class[a:b], meshes.triangle_part[a:b]))
+            kept = self._last.get(instance)
+            digest = kept[1] if kept is not None and kept[0] == data else hashlib.sha256(data).digest()[:16]
+            keys[instance], last[instance] = digest, (data, digest)
+        self._last = last
+        return keys, runs
 
 
 class _Tables:
@@ -219,6 +227,7 @@ class MitsubaEngine:
         self._last_keys: dict[int, bytes] = {}
         self._kept: dict[int, bytes] = {}  # the still part's agents and their triangles' bytes
         self._kept_tables: _Tables | None = None
+        self._digests = _AgentDigests()
         self._alone = AloneScenes()  # each agent's own scene, for the labels' silhouettes
 
     def scene(self, static: ClassedMesh, agents: Agents) -> MitsubaScene:
@@ -235,7 +244,7 @@ class MitsubaEngine:
     def _split(self, meshes: AgentMeshes) -> tuple[_Tables, _Tables]:
         """This frame's moving agents' tables (their part made here) and the kept still ones'
         (their part made again when an agent in it changed or left, or many more stand)."""
-        keys, runs = _agent_keys(meshes)
+        keys, runs = self._digests(meshes)
         intact = all(keys.get(i) == k for i, k in self._kept.items())
         standing = [i for i, k in keys.items() if self._last_keys.get(i) == k]
         kept_triangles = sum(runs[i][1] - runs[i][0] for i in self._kept) if intact else 0

@@ -228,3 +228,23 @@ def test_an_engine_restored_from_a_checkpoint_splits_the_agents_as_the_engine_th
             differs += split(fresh.scene(static, frame)) != want_split
     assert differs > 0  # without the checkpoint the split is another
     assert MitsubaEngine().checkpoint() == {"agents": {}, "kept": []}
+
+
+def test_an_agents_digest_kept_from_the_last_frame_is_the_digest_of_its_bytes(town):
+    import hashlib
+
+    from sensors.mitsuba_engine import _AgentDigests
+    from sensors.scene import own_mesh
+
+    static, agents, _ = town
+    engine = MitsubaEngine()
+    for frame in _moves(agents):
+        meshes = engine.scene(static, frame).agent_meshes
+        a, b = 0, int(np.sum(meshes.triangle_instance == meshes.triangle_instance[0]))
+        vertices, faces = own_mesh(meshes.vertices_m, meshes.triangles[a:b])
+        digest = hashlib.sha256()
+        for part in (vertices, faces, meshes.triangle_class[a:b], meshes.triangle_part[a:b]):
+            digest.update(part.tobytes())
+        fresh, _ = _AgentDigests()(meshes)  # every agent hashed
+        assert fresh[int(meshes.triangle_instance[0])] == digest.digest()[:16]
+        assert engine.checkpoint()["agents"] == {str(i): k.hex() for i, k in fresh.items()}
