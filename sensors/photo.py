@@ -684,6 +684,16 @@ def black_level(image: F32) -> tuple[F32, np.float32, np.float32]:
     return grey, black, scale
 
 
+def standard_normals(seed: int, n: int) -> F32:
+    """``(n,)`` float32 draws equal to ``np.random.default_rng(seed).standard_normal(n,
+    dtype=np.float32)``, by a compiled loop (:func:`sensors.shade_kernels.standard_normals`):
+    about a third of numpy's time."""
+    state = np.random.PCG64(seed).state
+    pcg, low = state["state"], (1 << 64) - 1
+    words = [pcg["state"] >> 64, pcg["state"] & low, pcg["inc"] >> 64, pcg["inc"] & low]
+    return kernels.standard_normals(np.array([*words, state["has_uint32"], state["uinteger"]], np.uint64), n)
+
+
 @functools.lru_cache(maxsize=4)
 def vignette(height: int, width: int) -> F32:
     """``(H * W,)`` light kept at each pixel (read-only: one array per image size)."""

@@ -4,9 +4,12 @@ size of the image). Compiled on first use and cached beside this file."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 from numba import njit
+from numba.np.random._constants import fi_float, ki_float, wi_float, ziggurat_nor_inv_r_f, ziggurat_nor_r_f
 
 from sensors.textures import _noise_at
 
@@ -873,3 +876,79 @@ def emitting_rows(
             at[k] = i
             k += 1
     return at[:k]
+
+
+_LOW32 = np.uint64(0xFFFFFFFF)
+_PCG_MULT_HI, _PCG_MULT_LO = np.uint64(2549297995355413924), np.uint64(4865540595714422341)
+"""PCG64's 128-bit multiplier, its high and low 64 bits."""
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _pcg64_next32(st: npt.NDArray[np.uint64]) -> np.uint64:  # pragma: no cover - compiled
+    """The next 32 bits of a PCG64 stream as numpy's ``PCG64`` hands them out, ``st`` its state
+    (state's high and low 64 bits, increment's high and low 64 bits, whether a 32-bit half is
+    kept, that half) advanced in place: each 64-bit output (the 128-bit state times the multiplier
+    plus the increment, then its halves xored and rotated by its top 6 bits) gives its low half,
+    then its high half."""
+    if st[4] != 0:
+        st[4] = np.uint64(0)
+        return np.uint64(st[5])
+    hi, lo = st[0], st[1]
+    s32 = np.uint64(32)
+    a0, a1 = lo & _LOW32, lo >> s32  # the high 64 bits of lo * the multiplier's low word, by 32-bit halves
+    b0, b1 = _PCG_MULT_LO & _LOW32, _PCG_MULT_LO >> s32
+    t = a1 * b0 + ((a0 * b0) >> s32)
+    u = a0 * b1 + (t & _LOW32)
+    carried = a1 * b1 + (t >> s32) + (u >> s32)
+    low = lo * _PCG_MULT_LO
+    new_lo = low + st[3]
+    new_hi = carried + hi * _PCG_MULT_LO + lo * _PCG_MULT_HI + st[2] + (np.uint64(1) if new_lo < low else np.uint64(0))
+    st[0], st[1] = new_hi, new_lo
+    x = new_hi ^ new_lo
+    rot = new_hi >> np.uint64(58)
+    out = (x >> rot) | (x << ((np.uint64(64) - rot) & np.uint64(63)))
+    st[4], st[5] = np.uint64(1), out >> s32
+    return np.uint64(out & _LOW32)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _pcg64_float(st: npt.NDArray[np.uint64]) -> np.float32:  # pragma: no cover - compiled
+    """numpy's float32 uniform in [0, 1) from the next 32 bits: their top 24 over 2**24."""
+    return np.float32(_pcg64_next32(st) >> np.uint64(8)) * np.float32(1.0 / 16777216.0)
+
+
+@njit(cache=True, nogil=True)
+def standard_normals(state: npt.NDArray[np.uint64], n: int) -> F32:  # pragma: no cover - compiled
+    """``(n,)`` float32 draws of numpy's ``Generator.standard_normal(n, dtype=np.float32)`` on a
+    PCG64 bit generator in ``state`` (:func:`_pcg64_next32`'s six words; left as it is): the
+    same ziggurat (numpy's tables, as numba keeps them), 32 bits a draw, its rare tail and
+    wedge draws with the same float32 and float64 steps (``log1pf``, ``exp``)."""
+    st = state.copy()
+    out = np.empty(n, np.float32)
+    one, byte, low23 = np.uint64(1), np.uint64(0xFF), np.uint64(0x7FFFFF)
+    for i in range(n):
+        while True:
+            r = _pcg64_next32(st)
+            idx = np.int64(r & byte)
+            rabs = (r >> np.uint64(9)) & low23
+            x = np.float32(rabs) * wi_float[idx]
+            if (r >> np.uint64(8)) & one:
+                x = -x
+            if rabs < ki_float[idx]:
+                out[i] = x
+                break
+            if idx == 0:  # the tail beyond the base strip
+                while True:
+                    xx = -ziggurat_nor_inv_r_f * np.float32(math.log1p(-_pcg64_float(st)))
+                    yy = -np.float32(math.log1p(-_pcg64_float(st)))
+                    if yy + yy > xx * xx:
+                        tail = ziggurat_nor_r_f + xx
+                        out[i] = -tail if (rabs >> np.uint64(8)) & one else tail
+                        break
+                break
+            wedge = (fi_float[idx - 1] - fi_float[idx]) * _pcg64_float(st) + fi_float[idx]
+            xd = np.float64(x)
+            if np.float64(wedge) < math.exp(-0.5 * xd * xd):
+                out[i] = x
+                break
+    return out

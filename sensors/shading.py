@@ -42,6 +42,7 @@ from sensors.photo import (
     radiance,
     rounded_normals,
     sky_light,
+    standard_normals,
     tone_map,
     vignette,
 )
@@ -266,9 +267,9 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     lens = np.asarray(cv2.GaussianBlur(linear.reshape(h, w, 3), (0, 0), LENS_BLUR_PX), np.float32)
     image = tone_map(bloom(lens).reshape(-1, 3), sh.weather.exposure, vignette(h, w))
     grey, black, scale = black_level(image)  # auto_levels and the noise in one pass
-    rng = np.random.default_rng(sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w))
+    seed = sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w)
     sigma = np.float32(np.hypot(READ_NOISE, sh.weather.noise_sigma))
-    noise = rng.standard_normal((h * w, 1), dtype=np.float32)
+    noise = standard_normals(seed, h * w).reshape(-1, 1)  # numpy's default_rng(seed).standard_normal, float32
     out = shade_kernels.levelled_bytes(
         image, grey, black, scale, np.float32(sh.weather.saturation), np.float32(BLACK_TOE), noise, sigma
     )

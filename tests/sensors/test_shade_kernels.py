@@ -358,3 +358,27 @@ def test_shadow_rays_come_in_columns_of_the_rows() -> None:
     point = (origin + dirs[at] * range_m[at, None]) + facing[at] * np.float32(0.02)
     np.testing.assert_array_equal(rays[:, :3].view(np.uint32), point.astype(np.float32).view(np.uint32))
     np.testing.assert_array_equal(rays[:, 3:], np.broadcast_to(sun, (len(at), 3)))
+
+
+def _pcg64_words(bit_generator: np.random.PCG64) -> np.ndarray:
+    state = bit_generator.state
+    pcg, low = state["state"], (1 << 64) - 1
+    words = [pcg["state"] >> 64, pcg["state"] & low, pcg["inc"] >> 64, pcg["inc"] & low]
+    return np.array([*words, state["has_uint32"], state["uinteger"]], np.uint64)
+
+
+def test_standard_normals_are_numpys_draws() -> None:
+    from sensors.photo import standard_normals
+
+    for seed in (0, 7, 2**40 + 3):
+        want = np.random.default_rng(seed).standard_normal(2_000_000, dtype=np.float32)
+        assert (np.abs(want) > 3.6541528).sum() > 100  # the ziggurat's tail drawn, as its wedges are
+        np.testing.assert_array_equal(standard_normals(seed, len(want)).view(np.uint32), want.view(np.uint32))
+    assert len(standard_normals(5, 0)) == 0
+    rng = np.random.default_rng(11)
+    rng.random(3, dtype=np.float32)  # a 32-bit half kept for the next draw
+    words = _pcg64_words(rng.bit_generator)
+    assert words[4] == 1
+    got = kernels.standard_normals(words, 1000)
+    np.testing.assert_array_equal(got.view(np.uint32), rng.standard_normal(1000, dtype=np.float32).view(np.uint32))
+    assert words[4] == 1  # the state given is left as it is
