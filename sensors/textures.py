@@ -8,6 +8,8 @@ doors in a style per wall, grass and canopies their mottling.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 from numba import njit
@@ -224,17 +226,35 @@ def _facade(
     lit_out = np.zeros(n, np.bool_)
     f32 = np.float32
     half = f32(0.5)
+    floor_h = f32(3.2)
+    # What a point's normal and its wall decide, kept from the point before while they stay the
+    # same (a wall's points come one after another): the normal's horizontal length and the
+    # direction along the wall (the same normal, signs of zeros included), the wall's hash, style,
+    # bay width and window width (the same wall).
+    last_nx, last_ny = f32(np.nan), f32(np.nan)
+    horiz, tx, ty = f32(1.0), f32(0.0), f32(0.0)
+    last_key, last_angle = np.int64(0), np.int64(-1)
+    wall, style, bay, win_w = f32(0.0), np.int64(0), f32(0.0), f32(0.0)
     for i in range(n):
         nx, ny = normal[i, 0], normal[i, 1]
-        horiz = np.sqrt(nx * nx + ny * ny) + f32(1e-6)
-        tx, ty = -ny / horiz, nx / horiz  # along the wall
+        same_normal = nx == last_nx and ny == last_ny
+        if not (
+            same_normal
+            and math.copysign(1.0, nx) == math.copysign(1.0, last_nx)
+            and math.copysign(1.0, ny) == math.copysign(1.0, last_ny)
+        ):
+            horiz = np.sqrt(nx * nx + ny * ny) + f32(1e-6)
+            tx, ty = -ny / horiz, nx / horiz  # along the wall
+            last_nx, last_ny = nx, ny
         s = p[i, 0] * tx + p[i, 1] * ty
         offset = p[i, 0] * nx / horiz + p[i, 1] * ny / horiz  # which wall: its distance from the origin
-        wall = _hash_at(np.int64(np.round(offset / f32(2.0))), angle[i], s_wall)
-        style = np.int64(np.floor(wall * f32(10.0)))
-        floor_h = f32(3.2)
-        bay = f32(2.2) + f32(1.6) * bays[style]
-        win_w = f32(0.45) + f32(0.25) * wall
+        key = np.int64(np.round(offset / f32(2.0)))
+        if i == 0 or key != last_key or angle[i] != last_angle:
+            wall = _hash_at(key, angle[i], s_wall)
+            style = np.int64(np.floor(wall * f32(10.0)))
+            bay = f32(2.2) + f32(1.6) * bays[style]
+            win_w = f32(0.45) + f32(0.25) * wall
+            last_key, last_angle = key, angle[i]
         u = s / bay
         fu = u - np.floor(u)
         z = p[i, 2]

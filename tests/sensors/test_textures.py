@@ -86,3 +86,23 @@ def test_bark_furrows_run_up_the_trunk() -> None:
     around = np.abs(bark(p + np.array([step, 0, 0], np.float32)) - bark(p)).mean()
     up = np.abs(bark(p + np.array([0, 0, step], np.float32)) - bark(p)).mean()
     assert around > 3 * up
+
+
+def test_facade_of_runs_of_points_equals_each_point_taken_alone() -> None:
+    rng = np.random.default_rng(12)
+    normals = np.array(
+        [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.6, 0.8, 0.0],
+         [0.6, 0.8, 0.0], [0.0, 0.0, 1.0], [0.3, -0.2, 0.93], [-0.7071, 0.7071, 0.0]],
+        np.float32,
+    )  # fmt: skip
+    runs = rng.integers(0, len(normals), 60)  # runs of one normal, some repeated, along walls and across them
+    normal = np.repeat(normals[runs], rng.integers(1, 40, len(runs)), axis=0)
+    p = rng.uniform(-60.0, 60.0, (len(normal), 3)).astype(np.float32)
+    p[:, 2] = rng.uniform(0.0, 20.0, len(normal))
+    p[::3, :2] = np.round(p[::3, :2] / 4.0) * 4.0  # points on the same wall, one bay after another
+    wall, glass, lit = textures.facade(p, normal)
+    assert glass.any() and lit.any() and (~glass).any()
+    for i in range(len(p)):
+        one = textures.facade(p[i : i + 1], normal[i : i + 1])
+        np.testing.assert_array_equal(wall[i : i + 1].view(np.uint32), one[0].view(np.uint32))
+        assert glass[i] == one[1][0] and lit[i] == one[2][0]
