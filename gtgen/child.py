@@ -29,6 +29,9 @@ from gtgen.errors import GtgenError
 ABORT_WAIT_S = 30.0
 BOOT = "import json, sys; sys.path[:0] = json.loads(sys.argv[4]); import gtgen.child as c; c.child_main()"
 PR_SET_PDEATHSIG = 1  # prctl(2)
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # mallopt(3)
+MMAP_THRESHOLD_BYTES = 32 << 20  # glibc's largest
+TRIM_THRESHOLD_BYTES = 1 << 30
 
 
 class ChildGoneError(GtgenError):
@@ -130,3 +133,18 @@ def _die_with(parent_pid: int) -> None:
         libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
     if os.getppid() != parent_pid:  # the parent ended before the signal was set up
         os._exit(1)
+
+
+def keep_freed_memory() -> None:
+    """Have the C allocator (glibc's) keep memory this process frees for its next allocations:
+    blocks up to 32 MB come from its heap, whose free top is not handed back to the system below
+    1 GB. A process that makes and drops arrays of several megabytes every frame (the writer's
+    images) would otherwise map them afresh each time and fault every page in again: about 7,000
+    page faults a frame, a tenth of its CPU time. Elsewhere than on Linux, or without glibc's
+    ``mallopt``, nothing changes."""
+    if not sys.platform.startswith("linux"):
+        return
+    mallopt = getattr(ctypes.CDLL(None), "mallopt", None)
+    if mallopt is not None:
+        mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)
+        mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES)

@@ -49,7 +49,7 @@ from gtgen.channel import (
     tell_parent,
 )
 from gtgen.channel import serve as serve_child
-from gtgen.child import ABORT_WAIT_S
+from gtgen.child import ABORT_WAIT_S, keep_freed_memory
 from gtgen.errors import OutputKeptError, SinkError
 from gtgen.frame import FrameRecord
 from gtgen.lifetime import ClosedOnExit
@@ -198,6 +198,7 @@ def serve(frames_rx: Connection, acks_tx: Connection) -> None:  # runs in the wr
     """Open the sinks, write frames until :class:`Close` or :class:`Abort`. The parent gone
     (its pipe closed) or the disk full: the sinks keep their files; any other error aborts
     them. Errors are reported as one line."""
+    keep_freed_memory()  # a frame's images and their encodings are made and dropped every frame
     slots: list[SharedMemory] = []
 
     def work(group: SinkGroup, times: StageTimes) -> None:

@@ -5,6 +5,8 @@ import multiprocessing
 import os
 import pickle
 import signal
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -181,3 +183,27 @@ def test_the_writer_process_reports_its_stage_times_on_close(records, tmp_path):
     assert times.calls["handoff"] == len(records)
     assert times.calls["writer encode"] == len(records) and times.calls["writer write"] == len(records)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["foxglove_layout.json", "labels.csv", "run.mcap"]
+
+
+CHURN = """
+import resource
+import numpy as np
+from gtgen.child import keep_freed_memory
+keep_freed_memory()
+def frame():
+    arrays = [np.ones((921600, 3), np.float32) for _ in range(3)] + [np.ones(921600, np.float32) for _ in range(3)]
+    del arrays
+frame()
+before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+for _ in range(10):
+    frame()
+print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's allocator")
+def test_the_writer_keeps_freed_memory_instead_of_faulting_its_pages_in_every_frame():
+    done = subprocess.run([sys.executable, "-c", CHURN], capture_output=True, text=True, check=True)
+    # ten frames of 44 MB of arrays made and dropped: their pages stay mapped (without: about 80,000
+    # page faults with glibc 2.36)
+    assert int(done.stdout.strip()) < 500
