@@ -440,24 +440,23 @@ def radiance(
     out = np.empty((n, 3), np.float32)
     for start in range(0, n, STRIPE_PX):
         s = slice(start, start + STRIPE_PX)
-        out[s] = _radiance(rays.rows(s), origin_map_m, weather, max_range_m, boxes)
+        _radiance(rays.rows(s), origin_map_m, weather, max_range_m, boxes, out[s])
     return out
 
 
 def _radiance(
     rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float,
-    boxes: AgentBoxes | None,
-) -> F32:  # fmt: skip
-    """The light of one stripe of rays: misses see the sky; hits' albedo, mirror and glow by
-    numpy (textures, parts), their lighting by compiled loops (:mod:`sensors.shade_kernels`)."""
+    boxes: AgentBoxes | None, out: F32,
+) -> None:  # fmt: skip
+    """The light of one stripe of rays into ``out`` (``(N, 3)``, C-contiguous): misses see the
+    sky; hits' albedo, mirror and glow by numpy (textures, parts), their lighting by compiled
+    loops (:mod:`sensors.shade_kernels`)."""
     dirs_map, range_m, cls, instance, part = rays.dirs_map, rays.range_m, rays.cls, rays.instance, rays.part
-    n = len(cls)
-    out = np.empty((n, 3), np.float32)
     at, miss, c, inst, pt = kernels.split_hits(range_m, np.float32(max_range_m), cls, instance, part)
     if len(miss):
         sky_linear_at(weather, np.ascontiguousarray(dirs_map, np.float32), miss, out)
     if len(at) == 0:
-        return out
+        return
     origin = origin_map_m.astype(np.float32)
     p, nrm, cos_v = kernels.hit_geometry(at, dirs_map, range_m, rays.normal, origin)
 
@@ -521,7 +520,6 @@ def _radiance(
         LAMP_BGR, np.float32(weather.sun_gain + weather.lamp_key_gain), window,
         _haze_at(weather, at, range_m, max_range_m), to_linear(weather.haze_bgr), out,
     )  # fmt: skip
-    return out
 
 
 def _haze_at(weather: Weather, at: npt.NDArray[np.int64], range_m: F32, max_range_m: float) -> F32:

@@ -499,11 +499,13 @@ def agents_low_light(
     if k == 0:
         return
     zero, one = np.float32(0.0), np.float32(1.0)
+    last, pos = np.uint32(0), 0  # the last instance looked up (0: none) and where it was found
     for i in range(range_m.shape[0]):
         r = range_m[i]
         if instance[i] == 0 or not np.isfinite(r):
             continue
-        pos = min(np.searchsorted(ids, instance[i]), k - 1)
+        if instance[i] != last:  # runs of one agent's pixels, as along an image's rows, looked up once
+            last, pos = instance[i], min(np.searchsorted(ids, instance[i]), k - 1)
         if ids[pos] != instance[i]:
             continue
         height = (origin[2] + dirs[i, 2] * r) - floor_z[pos]

@@ -382,3 +382,24 @@ def test_standard_normals_are_numpys_draws() -> None:
     got = kernels.standard_normals(words, 1000)
     np.testing.assert_array_equal(got.view(np.uint32), rng.standard_normal(1000, dtype=np.float32).view(np.uint32))
     assert words[4] == 1  # the state given is left as it is
+
+
+def test_agents_lower_parts_take_their_own_boxes_floor_as_numpy_looks_it_up() -> None:
+    rng = np.random.default_rng(13)
+    n = 20_000
+    instance = np.repeat(rng.choice(np.array([0, 3, 5, 9, 40, 41], np.uint32), 400), rng.integers(1, 100, 400))[:n]
+    n = len(instance)
+    dirs = _unit_rows(rng, n)
+    range_m = rng.uniform(1.0, 80.0, n).astype(np.float32)
+    range_m[::17] = np.inf
+    ids = np.array([3, 5, 5, 9, 41], np.uint32)  # sorted, one repeated; 40 has no box
+    floor_z = rng.uniform(-2.0, 1.0, len(ids)).astype(np.float32)
+    origin = np.array([1.0, 2.0, 1.5], np.float32)
+    light = rng.uniform(0.5, 1.0, n).astype(np.float32)
+    want = light.copy()
+    pos = np.minimum(np.searchsorted(ids, instance), len(ids) - 1)
+    found = (instance > 0) & np.isfinite(range_m) & (ids[pos] == instance)
+    height = (origin[2] + dirs[:, 2] * range_m) - floor_z[pos]
+    want[found] = (np.float32(0.45) + np.float32(0.55) * np.clip(height / np.float32(0.5), 0.0, 1.0))[found]
+    kernels.agents_low_light(light, dirs, range_m, instance, origin, ids, floor_z)
+    np.testing.assert_array_equal(light.view(np.uint32), want.view(np.uint32))
