@@ -718,11 +718,11 @@ def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32]
 
     h, w = depth_m.shape
     out = kernels.turned_to_camera(np.ascontiguousarray(normal, np.float32), np.ascontiguousarray(dirs_map, np.float32))
-    agent = (instance > 0).astype(np.float32)
-    if not agent.any():
+    if not instance.any():  # no agent in view
         return out
     grid = out.reshape(h, w, 3)  # a view: agents' pixels are written back through it
-    ids, depth = np.ascontiguousarray(instance).ravel(), np.ascontiguousarray(depth_m, np.float32).ravel()
+    instance = np.ascontiguousarray(instance)
+    ids, depth = instance.ravel(), np.ascontiguousarray(depth_m, np.float32).ravel()
     ratio = kernels.level_ratios(
         ids, depth, np.float32(focal_px * ROUNDING_M), np.float32(0.1), np.asarray(ROUNDING_LEVELS_PX, np.float32)
     )  # the pixels ROUNDING_M spans on each agent's pixel over each level's
@@ -732,8 +732,9 @@ def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32]
         rows, cols = _span(pick, 3.0 * sigma)
         if rows is None or cols is None:
             continue
-        near = agent[rows, cols]
-        num = soft_blur(grid[rows, cols] * near[..., None], sigma)
+        row1, col1 = min(rows.stop, h), min(cols.stop, w)
+        weighted, near = kernels.agent_weighted(grid, instance, rows.start, row1, cols.start, col1)
+        num = soft_blur(weighted, sigma)  # agents' normals (others' weighed 0) blurred, and their weights
         den = soft_blur(near, sigma)
         kernels.blurred_unit(grid, rows.start, cols.start, np.ascontiguousarray(pick[rows, cols]), num, den)
     return out

@@ -636,6 +636,25 @@ def nearest_levels(
 
 
 @njit(cache=True, nogil=True)
+def agent_weighted(
+    grid: F32, instance: npt.NDArray[np.uint32], row0: int, row1: int, col0: int, col1: int
+) -> tuple[F32, F32]:  # pragma: no cover - compiled
+    """Of the window ``row0:row1, col0:col1`` of ``grid (H, W, 3)`` and ``instance (H, W)``: the
+    window times each pixel's agent weight ``(h, w, 3)`` (1 where ``instance`` is above 0, else
+    0: the float32 products, -0 and NaN kept) and the weights ``(h, w)``, both contiguous."""
+    h, w = row1 - row0, col1 - col0
+    weighted = np.empty((h, w, 3), np.float32)
+    near = np.empty((h, w), np.float32)
+    for y in range(h):
+        for x in range(w):
+            a = np.float32(1.0) if instance[row0 + y, col0 + x] > 0 else np.float32(0.0)
+            near[y, x] = a
+            for c in range(3):
+                weighted[y, x, c] = grid[row0 + y, col0 + x, c] * a
+    return weighted, near
+
+
+@njit(cache=True, nogil=True)
 def blurred_unit(
     grid: F32, row0: int, col0: int, pick: npt.NDArray[np.bool_], num: F32, den: F32
 ) -> None:  # pragma: no cover - compiled

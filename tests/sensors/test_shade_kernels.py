@@ -403,3 +403,16 @@ def test_agents_lower_parts_take_their_own_boxes_floor_as_numpy_looks_it_up() ->
     want[found] = (np.float32(0.45) + np.float32(0.55) * np.clip(height / np.float32(0.5), 0.0, 1.0))[found]
     kernels.agents_low_light(light, dirs, range_m, instance, origin, ids, floor_z)
     np.testing.assert_array_equal(light.view(np.uint32), want.view(np.uint32))
+
+
+def test_agent_weighted_windows_are_numpys_products() -> None:
+    rng = np.random.default_rng(14)
+    grid = rng.standard_normal((30, 40, 3)).astype(np.float32)
+    grid[0, 0] = np.nan
+    instance = np.where(rng.random((30, 40)) < 0.4, rng.integers(1, 9, (30, 40)), 0).astype(np.uint32)
+    agent = (instance > 0).astype(np.float32)
+    weighted, near = kernels.agent_weighted(grid, instance, 0, 22, 5, 40)
+    want = grid[0:22, 5:40] * agent[0:22, 5:40][..., None]  # -0 off agents where the normal is negative
+    np.testing.assert_array_equal(weighted.view(np.uint32), want.view(np.uint32))
+    np.testing.assert_array_equal(near, agent[0:22, 5:40])
+    assert weighted.flags.c_contiguous and near.flags.c_contiguous
