@@ -47,6 +47,7 @@ from sensors.photo import (
     vignette,
 )
 from sensors.pinhole import Pinhole
+from sensors.rays import turned_directions
 from sensors.weather import Weather, haze_fraction, image_noise, sky_bgr
 
 LAMP_BGR = np.array([[40, 40, 255], [0, 200, 255], [90, 255, 60]], np.float32)  # red, yellow, green: lit
@@ -202,7 +203,7 @@ def shade_frame(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     depth = frame.depth_m.ravel()
     hit = depth > 0
     range_m = depth / dirs_cam[:, 2]
-    dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
+    dirs_map = turned_directions(sh.map_R_cam, dirs_cam)
     classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
     noise = None if sh.noise_seed is None else image_noise(sh.weather, np.random.default_rng(sh.noise_seed), len(depth))
     image = np.empty((len(depth), 3), np.uint8)
@@ -232,7 +233,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     dirs_cam = sh.pinhole.image_directions()
     depth = frame.depth_m.ravel()
     range_m = shade_kernels.ray_range(depth, dirs_cam)
-    dirs_map = np.asarray(cv2.transform(dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
+    dirs_map = turned_directions(sh.map_R_cam, dirs_cam)
     classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
     normal = rounded_normals(sh.normal, dirs_map, frame.instance_id, frame.depth_m, sh.pinhole.focal_px)
     sky_open = sky_light(dirs_map, range_m, classes, instances, sh.origin_map_m, sh.boxes)
@@ -247,7 +248,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     extra = sh.extra
     if extra is not None and len(extra.pixel):
         sub = len(extra.range_m) // len(extra.pixel)
-        sub_dirs = np.asarray(cv2.transform(extra.dirs_cam.reshape(-1, 1, 3), sh.map_R_cam), np.float32).reshape(-1, 3)
+        sub_dirs = turned_directions(sh.map_R_cam, extra.dirs_cam)
         sub_open = sky_light(
             sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, sh.origin_map_m, sh.boxes
         )
