@@ -74,6 +74,45 @@ def _x_extent(
     return lo, hi
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _tri_span(
+    t: npt.NDArray[np.float64], shape: tuple[int, int, int], lo: I64, hi: I64
+) -> bool:  # pragma: no cover - compiled
+    """The voxels triangle ``t: (3, 3)`` (grid coordinates) may meet: ``lo[a]..hi[a]`` per axis,
+    clamped to the grid ``shape``; False where the triangle lies wholly outside it."""
+    meets = True
+    for a in range(3):
+        mn = min(t[0, a], min(t[1, a], t[2, a]))
+        mx = max(t[0, a], max(t[1, a], t[2, a]))
+        if not (mx >= -EPS and mn <= shape[a] + EPS):
+            meets = False
+        lo[a] = min(max(math.floor(mn - EPS), 0), shape[a] - 1)
+        hi[a] = min(max(math.floor(mx + EPS), 0), shape[a] - 1)
+    return meets
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _tri_normal(t: npt.NDArray[np.float64], n: npt.NDArray[np.float64]) -> None:  # pragma: no cover - compiled
+    """``n = cross(t1 - t0, t2 - t0)``, as :func:`_x_extent` takes it."""
+    e0 = (t[1, 0] - t[0, 0], t[1, 1] - t[0, 1], t[1, 2] - t[0, 2])
+    e2 = (-(t[0, 0] - t[2, 0]), -(t[0, 1] - t[2, 1]), -(t[0, 2] - t[2, 2]))
+    n[0] = e0[1] * e2[2] - e0[2] * e2[1]
+    n[1] = e0[2] * e2[0] - e0[0] * e2[2]
+    n[2] = e0[0] * e2[1] - e0[1] * e2[0]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _row_span(
+    t: npt.NDArray[np.float64], j: int, k: int, n: npt.NDArray[np.float64], nx: int
+) -> tuple[int, int]:  # pragma: no cover - compiled
+    """The voxels ``i0..i1`` of the row ``(j, k)`` triangle ``t`` meets (``n``: :func:`_tri_normal`),
+    clamped to the grid; ``i0 > i1``: none."""
+    x_min, x_max = _x_extent(t, float(j), float(k), n)
+    if not (x_min <= x_max and x_max >= -EPS and x_min <= nx + EPS):
+        return 1, 0
+    return min(max(math.floor(x_min - EPS), 0), nx - 1), min(max(math.floor(x_max + EPS), 0), nx - 1)
+
+
 @njit(cache=True, nogil=True)
 def triangle_voxels(
     tri: npt.NDArray[np.float64], nx: int, ny: int, nz: int
@@ -89,15 +128,7 @@ def triangle_voxels(
     state = np.zeros(count, np.int8)  # 0: missed, 1: one voxel, 2: rows
     shape = (nx, ny, nz)
     for t in range(count):
-        keep = True
-        for a in range(3):
-            mn = min(tri[t, 0, a], min(tri[t, 1, a], tri[t, 2, a]))
-            mx = max(tri[t, 0, a], max(tri[t, 1, a], tri[t, 2, a]))
-            if not (mx >= -EPS and mn <= shape[a] + EPS):
-                keep = False
-            low[t, a] = min(max(math.floor(mn - EPS), 0), shape[a] - 1)
-            high[t, a] = min(max(math.floor(mx + EPS), 0), shape[a] - 1)
-        if keep:
+        if _tri_span(tri[t], shape, low[t], high[t]):
             one = low[t, 0] == high[t, 0] and low[t, 1] == high[t, 1] and low[t, 2] == high[t, 2]
             state[t] = 1 if one else 2
     for t in range(count):
@@ -112,18 +143,12 @@ def triangle_voxels(
         if state[t] != 2:
             continue
         v = tri[t]
-        e0 = (v[1, 0] - v[0, 0], v[1, 1] - v[0, 1], v[1, 2] - v[0, 2])
-        e2 = (-(v[0, 0] - v[2, 0]), -(v[0, 1] - v[2, 1]), -(v[0, 2] - v[2, 2]))
-        n[0] = e0[1] * e2[2] - e0[2] * e2[1]
-        n[1] = e0[2] * e2[0] - e0[0] * e2[2]
-        n[2] = e0[0] * e2[1] - e0[1] * e2[0]
+        _tri_normal(v, n)
         for j in range(low[t, 1], high[t, 1] + 1):
             for k in range(low[t, 2], high[t, 2] + 1):
-                x_min, x_max = _x_extent(v, float(j), float(k), n)
-                if not (x_min <= x_max and x_max >= -EPS and x_min <= nx + EPS):
+                i0, i1 = _row_span(v, j, k, n, nx)
+                if i0 > i1:
                     continue
-                i0 = min(max(math.floor(x_min - EPS), 0), nx - 1)
-                i1 = min(max(math.floor(x_max + EPS), 0), nx - 1)
                 if m + (i1 - i0 + 1) > flat.shape[0]:
                     flat, source = _grow(flat, m + i1 - i0 + 1), _grow(source, m + i1 - i0 + 1)
                 for i in range(i0, i1 + 1):
@@ -1017,15 +1042,7 @@ def agents_filled(
                     placed[vi] = True
                 for ax in range(3):
                     tri[c, ax] = corner[vi, ax]
-            missed = False
-            for ax in range(3):  # as triangle_voxels
-                mn = min(tri[0, ax], min(tri[1, ax], tri[2, ax]))
-                mx = max(tri[0, ax], max(tri[1, ax], tri[2, ax]))
-                if not (mx >= -EPS and mn <= shape[ax] + EPS):
-                    missed = True
-                lo[ax] = min(max(math.floor(mn - EPS), 0), shape[ax] - 1)
-                hi[ax] = min(max(math.floor(mx + EPS), 0), shape[ax] - 1)
-            if missed:
+            if not _tri_span(tri, shape, lo, hi):
                 continue
             if lo[0] == hi[0] and lo[1] == hi[1] and lo[2] == hi[2]:
                 i, j, k = lo[0] - low[0], lo[1] - low[1], lo[2] - low[2]
@@ -1034,11 +1051,7 @@ def agents_filled(
                     blocked[i, j, k] = True
                     open_in_row[j, k] -= 1
                 continue
-            e0 = (tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2])
-            e2 = (-(tri[0, 0] - tri[2, 0]), -(tri[0, 1] - tri[2, 1]), -(tri[0, 2] - tri[2, 2]))
-            n[0] = e0[1] * e2[2] - e0[2] * e2[1]
-            n[1] = e0[2] * e2[0] - e0[0] * e2[2]
-            n[2] = e0[0] * e2[1] - e0[1] * e2[0]
+            _tri_normal(tri, n)
             x_lo, x_hi = _x_bounds(tri, n, lo, hi)
             if x_lo <= x_hi:  # the row's voxels the triangle may meet, clipped to the box
                 x_lo, x_hi = max(x_lo, low[0]) - low[0], min(x_hi, low[0] + size[0] - 1) - low[0]
@@ -1054,11 +1067,7 @@ def agents_filled(
                                 break
                         if not found:
                             continue  # every box voxel the triangle may meet in this row is met already
-                    x_min, x_max = _x_extent(tri, float(j), float(k), n)
-                    if not (x_min <= x_max and x_max >= -EPS and x_min <= nx + EPS):
-                        continue
-                    i0 = min(max(math.floor(x_min - EPS), 0), nx - 1)
-                    i1 = min(max(math.floor(x_max + EPS), 0), nx - 1)
+                    i0, i1 = _row_span(tri, j, k, n, nx)
                     for i in range(max(i0, low[0]), min(i1, low[0] + size[0] - 1) + 1):
                         li, lj, lk = i - low[0], j - low[1], k - low[2]
                         if inside[li, lj, lk] and not blocked[li, lj, lk]:
