@@ -269,15 +269,18 @@ BOX_TEMPLATE = MeshTemplate(
 
 def _unit_templates(body: Body) -> tuple[MeshTemplate, ...]:
     """Every pose of a body, normalised together into the unit box (one scale for all poses,
-    so a walker's limbs swing inside its box without the body changing size)."""
+    so a walker's limbs swing inside its box without the body changing size); poses that are
+    proportions (a truck's) each on its own."""
     pieces = [body.build(p) for p in range(body.poses)]
-    lo = np.min([p.vertices.min(axis=0) for p in pieces], axis=0)
-    hi = np.max([p.vertices.max(axis=0) for p in pieces], axis=0)
-    centre, extent = (lo + hi) / 2.0, np.maximum(hi - lo, 1e-6)
+    groups = [[p] for p in pieces] if body.proportions else [pieces]
     out = []
-    for p in pieces:
-        unit = np.clip((p.vertices - centre) / extent, -0.5, 0.5)
-        out.append(MeshTemplate(unit, p.triangles, p.parts))
+    for group in groups:
+        lo = np.min([p.vertices.min(axis=0) for p in group], axis=0)
+        hi = np.max([p.vertices.max(axis=0) for p in group], axis=0)
+        centre, extent = (lo + hi) / 2.0, np.maximum(hi - lo, 1e-6)
+        for p in group:
+            unit = np.clip((p.vertices - centre) / extent, -0.5, 0.5)
+            out.append(MeshTemplate(unit, p.triangles, p.parts))
     return tuple(out)
 
 
@@ -307,7 +310,7 @@ def body_keys(agents: Agents) -> npt.NDArray[np.int64]:
     """``(N, 3)`` class, body type and pose of each agent (:func:`sensors.bodies.body_of`,
     :func:`sensors.bodies.pose_of`): a walker's pose from the gait cycles it has walked (else
     from its distance along its heading), so its legs move with the ground it covers and stand
-    still when it does."""
+    still when it does; a truck's from its length over its height."""
     keys = np.zeros((len(agents), 3), np.int64)
     speed = np.linalg.norm(agents.velocity_map_mps[:, :2], axis=1)
     along = agents.center_map_m[:, 0] * np.cos(agents.yaw_map_rad) + agents.center_map_m[:, 1] * np.sin(
@@ -315,11 +318,9 @@ def body_keys(agents: Agents) -> npt.NDArray[np.int64]:
     )
     for i in range(len(agents)):
         c = int(agents.semantic_class[i])
-        keys[i] = (
-            c,
-            body_of(c, agents.lwh_m[i], int(agents.instance_id[i])),
-            pose_of(c, float(speed[i]), float(along[i]), float(agents.lwh_m[i, 2]), float(agents.gait_cycles[i])),
-        )
+        length, height = float(agents.lwh_m[i, 0]), float(agents.lwh_m[i, 2])
+        pose = pose_of(c, float(speed[i]), float(along[i]), height, float(agents.gait_cycles[i]), length)
+        keys[i] = (c, body_of(c, agents.lwh_m[i], int(agents.instance_id[i])), pose)
     return keys
 
 

@@ -155,16 +155,18 @@ def blob(
     return Piece(v, t, np.full(t.shape[0], part, np.uint8))
 
 
-def wheel(x: float, r: float, y_in: float, y_out: float, sides: int = 14, rim_share: float = 0.62) -> list[Piece]:
+def wheel(
+    x: float, r: float, y_in: float, y_out: float, sides: int = 14, rim_share: float = 0.62, hub: int = Part.TRIM
+) -> list[Piece]:
     """A tyre with a rim on its outer face (``y_out`` is the outer face, either side);
-    ``rim_share`` is the rim's radius as a share of the tyre's (0.5 on trucks' tall tyres)."""
+    ``rim_share`` is the rim's radius as a share of the tyre's; ``hub`` the hub cap's part."""
     width = abs(y_out - y_in)
     sign = 1.0 if y_out > y_in else -1.0
     # outwards, each face a few millimetres beyond the last (no two parts share a plane)
     tyre = prism(circle(x, r, r, sides), width / 2 - 0.008, Part.TYRE, Part.TYRE, (y_in + y_out) / 2 - sign * 0.008)
     rim = prism(circle(x, r, rim_share * r, sides), 0.011, Part.RIM, Part.RIM, y_out - sign * 0.014)
-    hub = prism(circle(x, r, 0.18 * r, 6), 0.0025, Part.TRIM, Part.TRIM, y_out + sign * 0.0015)
-    return [tyre, rim, hub]
+    cap = prism(circle(x, r, 0.18 * r, 6), 0.0025, hub, hub, y_out + sign * 0.0015)
+    return [tyre, rim, cap]
 
 
 def ring_wheel(x: float, r: float, half_width: float, sides: int = 16) -> list[Piece]:
@@ -394,12 +396,15 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
     cab_x0 = hl - cab_l
     cab_top = min(h - 0.05, 3.0) if not trailer else min(h - 0.2, 3.1)
     face = cab_x1 - 0.02  # the cab's front: lamps, plate, grille and bumper stand out of it
-    cab = [(cab_x0, 0.55), (face, 0.55), (face, 1.5), (face - 0.12, 2.4), (face - 0.3, cab_top), (cab_x0, cab_top)]
+    front_axle = hl - 1.2
+    r = 0.52
+    arch = _arch(front_axle, r)  # the front wheel's arch cut into the cab's lower edge
+    cab = [(cab_x0, r), *arch, (face, r), (face, 1.5), (face - 0.12, 2.4), (face - 0.3, cab_top), (cab_x0, cab_top)]
 
-    def cab_part(nx: float, nz: float) -> int:
-        return int(Part.PAINT)
+    def cab_side(nx: float, nz: float) -> int:
+        return int(Part.UNDERBODY) if nz < -0.6 else int(Part.CAB)
 
-    pieces = [prism(cab, hw - 0.03, Part.PAINT, cab_part)]
+    pieces = [prism(cab, hw - 0.03, Part.CAB, cab_side)]
     # windscreen and side windows over the cab
     pieces.append(
         prism(
@@ -409,7 +414,7 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
             Part.GLASS,
         )
     )
-    pieces.append(box(cab_x0 + 0.9, cab_x1 - 0.35, -hw + 0.005, hw - 0.005, 1.6, 2.35, Part.GLASS))
+    pieces.append(box(cab_x0 + 0.75, face - 0.2, -hw + 0.005, hw - 0.005, 1.5, 2.4, Part.GLASS))  # doors' windows
     # the grille: dark slats across the front under the windscreen, the cab's colour between them
     for k in range(5):
         z = 0.95 + 0.11 * k
@@ -422,8 +427,9 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
         y0, y1 = sorted((side * (hw - 0.1), side * (hw - 0.01)))
         pieces.append(box(face - 0.3, face - 0.01, y0, y1, 1.0, cab_top - 0.25, Part.TRIM))
         s0, s1 = sorted((side * (hw - 0.25), side * (hw - 0.02)))
-        pieces.append(box(face - 1.1, face - 0.55, s0, s1, 0.3, 0.52, Part.TRIM))
-        pieces.append(box(face - 1.1, face - 0.55, s0, s1, 0.62, 0.74, Part.TRIM))
+        step_x = (cab_x0 + 0.05, front_axle - r - 0.1)  # behind the front wheel's arch
+        pieces.append(box(*step_x, s0, s1, 0.3, 0.5, Part.TRIM))
+        pieces.append(box(*step_x, s0, s1, 0.62, 0.74, Part.TRIM))
     for side in (-1.0, 1.0):
         y0, y1 = sorted((side * 0.72 * hw, side * 0.86 * hw))
         pieces.append(box(cab_x1 - 0.05, cab_x1, y0, y1, 0.72, 0.9, Part.HEADLAMP))
@@ -445,21 +451,15 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
         for side in (-1.0, 1.0):
             y0, y1 = sorted((side * (hw - 0.07), side * hw))
             pieces.append(box(x0, x1, y0, y1, box_z0 + 0.16, h - 0.1, Part.CHROME))
-    # the operator's livery on both sides of the box, in the cab's colour
-    lx0, lx1 = -hl + 0.25 * (box_x1 + hl), box_x1 - 0.2 * (box_x1 + hl)
-    for side in (-1.0, 1.0):
-        y0, y1 = sorted((side * (hw - inset + 0.002), side * (hw - inset + 0.01)))
-        pieces.append(box(lx0, lx1, y0, y1, box_z0 + 0.45 * (h - box_z0), box_z0 + 0.8 * (h - box_z0), Part.PAINT))
     pieces.append(box(-hl + 0.2, hl - 0.3, -0.45, 0.45, 0.5, box_z0 - 0.03, Part.UNDERBODY))  # chassis
     rear_axle = -hl + (1.3 if trailer else 1.8)
     rear_axles = [-hl + 1.3, -hl + 2.6, -hl + 3.9] if trailer else [rear_axle]
-    front_axle = hl - 1.2
-    r = 0.52
+    drive_axle = front_axle - 3.6  # a tractor's wheelbase: its drive axle under the trailer's front
+    guard = (rear_axles[-1] + r + 0.15, drive_axle - r - 0.15) if trailer else (rear_axle + r + 0.15, hl - 1.9)
     for side in (-1.0, 1.0):  # side guards (two rails) between the wheels, rear lamps
         y0, y1 = sorted((side * (hw - 0.09), side * (hw - 0.05)))
-        guard_x0 = (-hl + 4.5) if trailer else rear_axle + r + 0.15
         for z in (0.5, 0.78):
-            pieces.append(box(guard_x0, hl - 1.9, y0, y1, z, z + 0.12, Part.TRIM))
+            pieces.append(box(*guard, y0, y1, z, z + 0.12, Part.TRIM))
         t0, t1 = sorted((side * 0.7 * hw, side * 0.84 * hw))
         pieces.append(box(-hl, -hl + 0.05, t0, t1, box_z0 - 0.3, box_z0 - 0.12, Part.TAIL_LAMP))
         t0, t1 = sorted((side * (0.84 * hw + 0.01), side * 0.95 * hw))
@@ -486,10 +486,10 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
     pieces.append(box(-hl + 0.12, -hl + 0.24, -hw + 0.2, hw - 0.2, 0.42, 0.56, Part.TRIM))  # underrun guard
     axles = [front_axle, *rear_axles]
     if trailer:
-        axles.append(cab_x0 - 0.3)
+        axles.append(drive_axle)
     for x in axles:
         for side in (-1.0, 1.0):
-            pieces += wheel(x, r, side * (hw - 0.32), side * (hw - 0.04), rim_share=0.5)
+            pieces += wheel(x, r, side * (hw - 0.32), side * (hw - 0.04), rim_share=0.62, hub=Part.CHROME)
     return merge(pieces)
 
 
@@ -875,7 +875,7 @@ def work_truck(length: float = 7.0, width: float = 2.5, h: float = 3.2) -> Piece
     along its sides and an amber beacon on the cab roof."""
     body = _recoloured(
         box_truck(length, width, h),
-        {int(Part.PAINT): int(Part.SAFETY_YELLOW), int(Part.CARGO): int(Part.SAFETY_YELLOW)},
+        {int(Part.CAB): int(Part.SAFETY_YELLOW), int(Part.CARGO): int(Part.SAFETY_YELLOW)},
     )
     hl, hw = length / 2, width / 2 - 0.01
     pieces = [body]
@@ -1007,13 +1007,34 @@ def _rigid(build: Callable[[CarShape], Piece], shape: CarShape) -> Callable[[int
 @dataclass(frozen=True, slots=True)
 class Body:
     """A body type: its name, nominal l/w/h (m), share among its class, and its mesh builder
-    (given a pose index: the gait or pedal phase, or 0 for rigid bodies)."""
+    (given a pose index: the gait or pedal phase, a truck's proportions, or 0 for rigid bodies)."""
 
     name: str
     lwh_m: tuple[float, float, float]
     share: float
     build: Callable[[int], Piece]
     poses: int = 1
+    proportions: bool = False  # poses differ in proportions (each fills the box), not in motion
+
+
+TRUCK_LENGTH_PER_HEIGHT = (1.6, 2.0, 2.5, 3.1, 3.8, 4.6)
+"""A truck's length over its height in each of its body's proportions (poses): a truck is
+drawn in the one nearest its box's (:func:`pose_of`), so its wheels stay round and its cab
+as long as a real one of its height, however long its box."""
+
+
+def _proportioned(
+    length: float, width: float, h: float, lengths: tuple[float, float], trailer: bool = False
+) -> Callable[[int], Piece]:
+    """A truck body's builder by proportion: pose ``k`` is :func:`box_truck` built
+    :data:`TRUCK_LENGTH_PER_HEIGHT` [k] times ``h`` long (within ``lengths``; ``length`` where
+    the pose is not one of them)."""
+
+    def one(pose: int) -> Piece:
+        ratio = TRUCK_LENGTH_PER_HEIGHT[pose] if 0 <= pose < len(TRUCK_LENGTH_PER_HEIGHT) else length / h
+        return box_truck(float(np.clip(ratio * h, *lengths)), width, h, trailer)
+
+    return one
 
 
 WALKER_POSES = 1 + GAIT_PHASES * len(PACES_MPS)
@@ -1048,8 +1069,22 @@ BODIES: dict[int, tuple[Body, ...]] = {
         )
     ),
     int(SemanticClass.TRUCK): (
-        Body("box_truck", (8.0, 2.5, 3.4), 0.6, lambda _p: box_truck(8.0, 2.5, 3.4)),
-        Body("semi_trailer", (11.5, 2.5, 3.8), 0.4, lambda _p: box_truck(11.5, 2.5, 3.8, trailer=True)),
+        Body(
+            "box_truck",
+            (8.0, 2.5, 3.4),
+            0.6,
+            _proportioned(8.0, 2.5, 3.4, (5.0, 12.0)),
+            len(TRUCK_LENGTH_PER_HEIGHT),
+            True,
+        ),
+        Body(
+            "semi_trailer",
+            (11.5, 2.5, 3.8),
+            0.4,
+            _proportioned(11.5, 2.5, 3.8, (11.0, 16.5), True),
+            len(TRUCK_LENGTH_PER_HEIGHT),
+            True,
+        ),
     ),
     int(SemanticClass.BUS): (
         Body("city_bus", (12.0, 2.55, 3.1), 0.7, lambda _p: bus(12.0, 2.55, 3.1)),
@@ -1104,13 +1139,21 @@ def _fit(semantic_class: int, lwh_m: npt.NDArray[np.floating], instance_id: int)
 
 
 def pose_of(
-    semantic_class: int, speed_mps: float, along_m: float, height_m: float = 1.75, gait_cycles: float = math.nan
+    semantic_class: int, speed_mps: float, along_m: float, height_m: float = 1.75, gait_cycles: float = math.nan,
+    length_m: float = math.nan,
 ) -> int:  # fmt: skip
-    """The pose index of a walking pedestrian or a pedalling cyclist. A walker: 0 (standing)
-    below 0.2 m/s, else its pace's (:func:`pace_index`) gait phase from the gait cycles it has
-    walked (``gait_cycles``: its distance walked over its stride, summed as it goes), or where
-    not given from the distance it has come along its heading (``along_m``) over its stride
-    (:func:`stride_m`). A cyclist: the crank's phase from ``along_m``."""
+    """The pose index of a walking pedestrian, a pedalling cyclist or a truck. A walker: 0
+    (standing) below 0.2 m/s, else its pace's (:func:`pace_index`) gait phase from the gait
+    cycles it has walked (``gait_cycles``: its distance walked over its stride, summed as it
+    goes), or where not given from the distance it has come along its heading (``along_m``) over
+    its stride (:func:`stride_m`). A cyclist: the crank's phase from ``along_m``. A truck: the
+    proportion (:data:`TRUCK_LENGTH_PER_HEIGHT`) nearest its ``length_m`` over its ``height_m``
+    (the middle one where its length is not given)."""
+    if semantic_class == int(SemanticClass.TRUCK):
+        if not (math.isfinite(length_m) and length_m > 0 and height_m > 0):
+            return len(TRUCK_LENGTH_PER_HEIGHT) // 2
+        ratio = math.log(length_m / height_m)
+        return min(range(len(TRUCK_LENGTH_PER_HEIGHT)), key=lambda k: abs(math.log(TRUCK_LENGTH_PER_HEIGHT[k]) - ratio))
     if semantic_class == int(SemanticClass.PEDESTRIAN):
         if speed_mps < 0.2:
             return 0

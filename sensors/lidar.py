@@ -532,7 +532,7 @@ INTENSITY_RESPONSES: dict[str, IntensityResponse] = {
                                asphalt_binder=0.02, asphalt_stone=0.27, stone_share_beta=(0.4, 0.3),
                                sheeting_echo=RETRO_GAIN, top=0.99, step=0.01),
 }  # fmt: skip
-GLOSSY_PARTS = np.array([Part.PAINT, Part.LIVERY, Part.SAFETY_YELLOW], np.uint8)
+GLOSSY_PARTS = np.array([Part.PAINT, Part.CAB, Part.LIVERY, Part.SAFETY_YELLOW], np.uint8)
 SHEETING_PARTS = np.array([Part.PLATE, Part.RETRO_WHITE], np.uint8)
 ASPHALT = np.array([SemanticClass.ROAD, SemanticClass.PARKING], np.uint8)  # the classes whose surface is asphalt
 LASER_GAIN_SEED = 64

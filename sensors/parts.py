@@ -45,6 +45,7 @@ class Part(IntEnum):
     SAFETY_YELLOW = 21  # construction vehicles' yellow paint
     LIVERY = 22  # white paint: emergency vehicles, box trucks' rear doors
     BEACON = 23  # emergency vehicles' blue light bars (not lit: SUMO drives them as cars)
+    CAB = 24  # trucks' cab paint, colour per instance from trucks' colours (white most)
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,6 +96,7 @@ MATERIALS: dict[Part, PartMaterial] = {
     Part.SAFETY_YELLOW: PartMaterial((0.05, 0.65, 0.92), 0.5, 50.0, 0.06, 0.0, 0.43, 1.0),  # body paint
     Part.LIVERY: PartMaterial((0.9, 0.9, 0.9), 0.6, 60.0, 0.08, 0.0, 0.68, 1.0),  # as white body paint
     Part.BEACON: PartMaterial((0.75, 0.3, 0.05), 0.8, 120.0, 0.15, 0.0, 0.5, 0.5),  # blue polycarbonate
+    Part.CAB: PartMaterial(None, 0.6, 60.0, 0.08, 0.0, 0.45, 1.0),  # as body paint
 }
 
 # Car paint by real-world frequency (BASF/Axalta global colour popularity reports, 2020-2024:
@@ -111,6 +113,13 @@ PAINT_PALETTE: tuple[tuple[tuple[float, float, float], float], ...] = (
 CARGO_PALETTE: tuple[tuple[tuple[float, float, float], float], ...] = (
     ((0.9, 0.9, 0.9), 0.5), ((0.75, 0.76, 0.78), 0.2), ((0.55, 0.3, 0.1), 0.1), ((0.1, 0.35, 0.75), 0.1),
     ((0.2, 0.45, 0.2), 0.1),
+)  # fmt: skip
+# Truck cabs: white far more often than on cars, then the primary colours of fleet liveries,
+# rarely black.
+CAB_PALETTE: tuple[tuple[tuple[float, float, float], float], ...] = (
+    ((0.88, 0.88, 0.87), 0.45), ((0.62, 0.62, 0.63), 0.1), ((0.08, 0.08, 0.6), 0.12),  # white, silver, red
+    ((0.5, 0.25, 0.08), 0.1), ((0.3, 0.14, 0.05), 0.05), ((0.06, 0.06, 0.065), 0.06),  # blue, dark blue, black
+    ((0.18, 0.4, 0.15), 0.04), ((0.05, 0.45, 0.85), 0.04), ((0.05, 0.7, 0.9), 0.04),  # green, orange, yellow
 )  # fmt: skip
 SKIN_PALETTE = (
     ((0.55, 0.66, 0.85), 0.4),
@@ -141,6 +150,7 @@ def _palette(entries: tuple[tuple[tuple[float, float, float], float], ...], size
 PALETTES: dict[Part, npt.NDArray[np.float32]] = {
     Part.PAINT: _palette(PAINT_PALETTE),
     Part.CARGO: _palette(CARGO_PALETTE),
+    Part.CAB: _palette(CAB_PALETTE),
     Part.SKIN: _palette(SKIN_PALETTE),
     Part.HAIR: _palette(HAIR_PALETTE),
     Part.TOP: _palette(TOP_PALETTE),
@@ -148,7 +158,9 @@ PALETTES: dict[Part, npt.NDArray[np.float32]] = {
 }
 """Colours of the parts coloured per instance; each part hashes the id differently."""
 
-PALETTE_SALT = {Part.PAINT: 0, Part.CARGO: 11, Part.SKIN: 23, Part.HAIR: 31, Part.TOP: 41, Part.TROUSERS: 53}
+PALETTE_SALT = {
+    Part.PAINT: 0, Part.CARGO: 11, Part.SKIN: 23, Part.HAIR: 31, Part.TOP: 41, Part.TROUSERS: 53, Part.CAB: 61
+}  # fmt: skip
 
 
 def _column(name: str) -> npt.NDArray[np.float32]:
@@ -186,7 +198,7 @@ def lidar_reflectivity(semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[
 # back (the kitti reading, sensors.lidar.IntensityResponse.glint_chance).
 PAINT_REFLECTIVITY_FLOOR = 0.05
 PAINT_REFLECTIVITY_PER_ALBEDO = 0.7
-COLOURED_BY_PAINT = (Part.PAINT, Part.CARGO)
+COLOURED_BY_PAINT = (Part.PAINT, Part.CARGO, Part.CAB)
 RETRO_PARTS = (Part.PLATE, Part.RETRO_WHITE)
 
 
