@@ -395,3 +395,85 @@ def test_no_two_parts_of_a_body_share_a_plane_where_they_overlap() -> None:
                         for b in range(a + 1, len(ids)):
                             if piece.parts[ids[a]] != piece.parts[ids[b]]:
                                 assert flat[a].intersection(flat[b]).area < 1e-6, (body.name, pose, key)
+
+
+def _wheels_m(cls: int, lwh_m: tuple[float, float, float], instance: int) -> list[np.ndarray]:
+    """The tyre vertices (m, in the agent's box) of an agent of this size, one array per wheel
+    (grouped by axle and side)."""
+    size = np.asarray(lwh_m, np.float64)
+    body = body_of(cls, size, instance)
+    pose = pose_of(cls, 5.0, 0.0, lwh_m[2], length_m=lwh_m[0])
+    t = template_of(cls, body, pose)
+    root = np.arange(t.unit_vertices.shape[0])
+
+    def find(i: int) -> int:
+        while root[i] != i:
+            root[i] = root[root[i]]
+            i = int(root[i])
+        return i
+
+    for a, b, c in t.triangles[t.triangle_part == Part.TYRE].tolist():  # a wheel: its tyre's connected triangles
+        root[find(b)] = find(a)
+        root[find(c)] = find(a)
+    tyre = np.unique(t.triangles[t.triangle_part == Part.TYRE])
+    group = np.array([find(int(i)) for i in tyre])
+    v = t.unit_vertices[tyre] * size
+    return [v[group == g] for g in np.unique(group)]
+
+
+def test_a_trucks_wheels_stay_round_and_its_cab_keeps_its_length_over_the_class_size_range() -> None:
+    # a box stretched to a truck's box would squash its wheels into ovals and its cab into a
+    # sliver on a short truck: each truck is drawn in the proportion nearest its box's
+    truck = int(SemanticClass.TRUCK)
+    for lwh in ((4.2, 2.3, 2.7), (5.5, 2.4, 2.4), (6.9, 2.38, 2.73), (9.25, 2.53, 3.66), (12.0, 2.5, 3.8),
+                (16.5, 2.55, 4.0)):  # fmt: skip
+        for instance in range(1, 6):
+            for tyre in _wheels_m(truck, lwh, instance):
+                across, tall = np.ptp(tyre[:, 0]), np.ptp(tyre[:, 2])
+                assert 0.85 < across / tall < 1.18, (lwh, instance, across / tall)
+                assert 0.65 < tall < 1.25, (lwh, instance, tall)  # a truck's tyre: about 1 m
+            size = np.asarray(lwh)
+            t = template_of(truck, body_of(truck, size, instance), pose_of(truck, 5.0, 0.0, lwh[2], length_m=lwh[0]))
+            cab = t.unit_vertices[np.unique(t.triangles[t.triangle_part == Part.CAB])] * size
+            cab_per_height = np.ptp(cab[:, 0]) / lwh[2]  # a cab 2.2 m long on a truck 3.4 m high: 0.65
+            assert 0.5 < cab_per_height < 0.85, (lwh, instance, cab_per_height)
+
+
+def _first_part_along_y(piece: object, x: float, z: float) -> int:
+    """The part a ray from far out on +y towards -y at (x, z) meets first."""
+    v = piece.vertices[piece.triangles]  # type: ignore[attr-defined]
+    a, b, c = v[:, 0], v[:, 1], v[:, 2]
+    # barycentric test of the point (x, z) in each triangle's projection on the xz plane
+    d = (b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2]) - (c[:, 0] - a[:, 0]) * (b[:, 2] - a[:, 2])
+    ok = np.abs(d) > 1e-12
+    d = np.where(ok, d, 1.0)
+    s = ((x - a[:, 0]) * (c[:, 2] - a[:, 2]) - (c[:, 0] - a[:, 0]) * (z - a[:, 2])) / d
+    t = ((b[:, 0] - a[:, 0]) * (z - a[:, 2]) - (x - a[:, 0]) * (b[:, 2] - a[:, 2])) / d
+    inside = ok & (s >= 0) & (t >= 0) & (s + t <= 1)
+    y = a[:, 1] + s * (b[:, 1] - a[:, 1]) + t * (c[:, 1] - a[:, 1])
+    hit = np.flatnonzero(inside)
+    return int(piece.parts[hit[np.argmax(y[hit])]])  # type: ignore[attr-defined]
+
+
+def test_a_trucks_front_wheel_shows_below_its_cab_from_the_side() -> None:
+    # the cab's side is cut over the front wheel, as on real trucks: seen from the side, the
+    # wheel shows up to above its hub, not only its lower half under a flat cab
+    for body in BODIES[int(SemanticClass.TRUCK)] + BODIES[int(SemanticClass.CONSTRUCTION_VEHICLE)]:
+        for pose in range(body.poses):
+            piece = body.build(pose)
+            tyre = piece.vertices[np.unique(piece.triangles[piece.parts == Part.TYRE])]
+            front = tyre[tyre[:, 0] > tyre[:, 0].max() - 1.2]
+            x, r = float(front[:, 0].mean()), float(np.ptp(front[:, 2]) / 2)
+            for z in (r, 1.5 * r):  # the hub and half way up from it to the tyre's top
+                assert _first_part_along_y(piece, x, z) in {Part.TYRE, Part.RIM, Part.CHROME}, (body.name, pose, z)
+
+
+def test_truck_cabs_are_mostly_white_as_on_the_road() -> None:
+    from sensors.parts import part_albedo
+
+    cabs = part_albedo(np.full(400, int(Part.CAB), np.uint8), np.arange(1, 401, dtype=np.uint32)).mean(axis=1)
+    cars = part_albedo(np.full(400, int(Part.PAINT), np.uint8), np.arange(1, 401, dtype=np.uint32)).mean(axis=1)
+    assert (cabs > 0.8).mean() > 0.35 and (cabs < 0.1).mean() < 0.1
+    assert (cabs > 0.8).mean() > (cars > 0.8).mean() and (cabs < 0.1).mean() < (cars < 0.1).mean()
+    for body in BODIES[int(SemanticClass.TRUCK)]:
+        assert Part.CAB in set(body.build(0).parts.tolist()), body.name
