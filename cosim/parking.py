@@ -13,8 +13,10 @@ from dataclasses import dataclass
 import sumolib
 from shapely.geometry import LineString
 
-SPACE_LENGTH_M = 6.0
-END_CLEARANCE_M = 4.0
+from networks.markings import PARKING_END_M, PARKING_SPACE_M, parking_space_centres
+
+SPACE_LENGTH_M = PARKING_SPACE_M  # the spaces the world's markings paint
+END_CLEARANCE_M = PARKING_END_M
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,13 +32,11 @@ def _space_points(shape: list[tuple[float, ...]]) -> list[tuple[float, float, fl
     line = LineString([(p[0], p[1]) for p in shape])
     z0 = shape[0][2] if len(shape[0]) > 2 else 0.0
     spaces = []
-    s = END_CLEARANCE_M + SPACE_LENGTH_M / 2
-    while s <= line.length - END_CLEARANCE_M - SPACE_LENGTH_M / 2:
+    for s in parking_space_centres(line.length):  # the spaces the world's markings paint
         p, q = line.interpolate(s - 0.5), line.interpolate(s + 0.5)
         c = line.interpolate(s)
         angle = math.degrees(math.atan2(q.x - p.x, q.y - p.y)) % 360.0  # clockwise from north
         spaces.append((c.x, c.y, z0, angle))
-        s += SPACE_LENGTH_M
     return spaces
 
 

@@ -8,7 +8,9 @@ own markings and they lie exactly on the world mesh's lanes. A road without read
 ``roadMark`` records gets markings from rules on its SUMO lanes: broken lines between lanes of
 one direction, a solid line between directions, solid edge lines where the road has no
 sidewalk. Stop lines are painted where a lane enters a junction under a traffic light or a
-stop rule, give-way lines where it must yield; crossings get zebra stripes.
+stop rule, give-way lines where it must yield; crossings get zebra stripes; street-parking lanes
+(OpenDRIVE lane type ``parking``) get a line across them between their spaces
+(:func:`parking_space_centres`, where the traffic parks its vehicles).
 
 White paint is :attr:`SemanticClass.LANE_MARKING`, yellow paint
 :attr:`SemanticClass.LANE_MARKING_YELLOW`.
@@ -32,7 +34,7 @@ from networks.mesh import ClassedMesh, merge, polyline_normals, ribbon
 from networks.opendrive import opendrive_root
 from networks.vocabulary import LinePattern, LineRole
 
-MARKINGS_VERSION = "4"  # part of the world cache key: change it when the markings change
+MARKINGS_VERSION = "5"  # part of the world cache key: change it when the markings change
 PAINT_HEIGHT_M = 0.005  # above the lane surface
 CROSSING_PAINT_HEIGHT_M = 0.013  # 3 mm above the crossing's own strip (1 cm above the road)
 LINE_WIDTH_M = {"standard": 0.12, "bold": 0.25}
@@ -47,6 +49,10 @@ GIVE_WAY_DASH_M = (0.5, 0.25)
 LINE_BACK_M = 0.3  # a stop line's far side this far before the lane's end
 ZEBRA_STRIPE_M = 0.5  # along the walking direction (Germany and UK: 0.5 m bars, 0.5 m gaps)
 ZEBRA_MARGIN_M = 0.25  # each end of a bar inside the crossing's width
+PARKING_SPACE_M = 6.0  # a street-parking space's length along its lane, end to end with the next
+PARKING_END_M = 4.0  # a parking lane's first and last space this far from its ends
+BAY_LINE_WIDTH_M = 0.12  # the lines between parking spaces, along the lane
+BAY_LINE_INSET_M = 0.05  # each end of a bay line inside the parking lane's width
 
 PAINTED_TYPES = ("solid", "broken", "solid solid", "solid broken", "broken solid", "broken broken", "botts dots")
 UNPAINTED_TYPES = ("none", "grass", "curb", "custom", "edge")
@@ -223,10 +229,48 @@ def crossing_lanes(net: sumolib.net.Net) -> list[sumolib.net.lane.Lane]:
     return [lane for edge in edges for lane in edge.getLanes()]
 
 
-def marking_mesh(net: sumolib.net.Net, marks: RoadMarks, left_hand: bool) -> ClassedMesh:
-    """All markings of a network: lane and edge lines, stop and give-way lines, zebra stripes."""
+def marking_mesh(
+    net: sumolib.net.Net, marks: RoadMarks, left_hand: bool, lane_types: dict[str, str] | None = None
+) -> ClassedMesh:
+    """All markings of a network: lane and edge lines, stop and give-way lines, zebra stripes,
+    and the lines between the spaces of the lanes ``lane_types`` (lane id -> OpenDRIVE lane
+    type) names ``parking``."""
     parts = [_paint(line) for line in painted_lines(net, marks, left_hand)]
-    return merge(parts + [_zebra(lane) for lane in crossing_lanes(net)])
+    parts += [_zebra(lane) for lane in crossing_lanes(net)]
+    types = lane_types or {}
+    edges = sorted(net.getEdges(withInternal=False), key=lambda e: e.getID())
+    parking = [lane for edge in edges for lane in edge.getLanes() if types.get(lane.getID()) == "parking"]
+    return merge(parts + [_bay_lines(lane) for lane in parking])
+
+
+def parking_space_centres(length_m: float) -> list[float]:
+    """Where along a parking lane of ``length_m`` (its centre line's length in the plane) its
+    spaces' centres lie: ``PARKING_SPACE_M`` long, end to end, the outer ones ``PARKING_END_M``
+    clear of the lane's ends."""
+    centres = []
+    s = PARKING_END_M + PARKING_SPACE_M / 2
+    while s <= length_m - PARKING_END_M - PARKING_SPACE_M / 2:
+        centres.append(s)
+        s += PARKING_SPACE_M
+    return centres
+
+
+def _bay_lines(lane: sumolib.net.lane.Lane) -> ClassedMesh:
+    """A line across a parking lane at each end of each of its spaces."""
+    raw = np.asarray(lane.getShape3D(), np.float64)
+    shape = _clean(raw)
+    centres = parking_space_centres(polyline_length(raw))
+    if shape.shape[0] < 2 or not centres:
+        return ClassedMesh.empty()
+    half = lane.getWidth() / 2.0 - BAY_LINE_INSET_M
+    lines = []
+    for s in [c - PARKING_SPACE_M / 2 for c in centres] + [centres[-1] + PARKING_SPACE_M / 2]:
+        piece = _cut(shape, s - 0.01, s + 0.01)
+        c, heading = (piece[0] + piece[-1]) / 2.0, piece[-1, :2] - piece[0, :2]
+        left = np.array([-heading[1], heading[0]]) / max(float(np.linalg.norm(heading)), 1e-9)
+        across = np.array([[*(c[:2] + left * half), c[2]], [*(c[:2] - left * half), c[2]]])
+        lines.append(ribbon(across, BAY_LINE_WIDTH_M, SemanticClass.LANE_MARKING, PAINT_HEIGHT_M))
+    return merge(lines)
 
 
 def _paint(line: PaintedLine) -> ClassedMesh:

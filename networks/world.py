@@ -125,7 +125,8 @@ def build_world(
         notice = folder / "notice.txt"
         return dataclasses.replace(read_world(cached), notice=notice.read_text() if notice.exists() else "")
     net = load_net(net_path)
-    world = _build(net, seed, props, lane_types(net_path))
+    types = lane_types(net_path)
+    world = _build(net, seed, props, types)
     problems = []
     if traffic_lights or signs:
         poles = pole_mesh(street_objects(net, is_left_hand(net_path), traffic_lights, signs, xodr_path))
@@ -133,7 +134,7 @@ def build_world(
         problems.append(read_signs(xodr_path).problem if signs else "")
     if markings:
         marks = read_road_marks(xodr_path)
-        paint = marking_mesh(net, marks, is_left_hand(net_path))
+        paint = marking_mesh(net, marks, is_left_hand(net_path), types)
         world = dataclasses.replace(world, mesh=merge([world.mesh, paint]))
         problems.append(marks.problem)
     lines = "\n".join(_notice_line(p) for p in problems if p)

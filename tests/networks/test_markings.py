@@ -9,11 +9,14 @@ import numpy as np
 import pytest
 import sumolib
 
+from cosim.parking import find_parking_areas
 from networks.classes import SemanticClass
 from networks.convert import import_opendrive
-from networks.markings import read_road_marks
+from networks.geometry import arc_lengths
+from networks.markings import PARKING_SPACE_M, parking_space_centres, read_road_marks
+from networks.mesh import polyline_normals
 from networks.towns import town_opendrive
-from networks.world import StaticWorld, build_world, load_net
+from networks.world import StaticWorld, build_world, lane_types, load_net
 
 PAINT = (SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW)
 
@@ -93,6 +96,39 @@ def test_lanes_entering_a_signalised_junction_end_at_a_stop_line(town05):
             assert np.all(np.isin(_down(world, before), PAINT)), lane.getID()
             checked += 1
     assert checked > 50
+
+
+def _along(shape: np.ndarray, s: np.ndarray, offset: float = 0.0) -> np.ndarray:
+    """Points ``s`` along a ``(K, 2)`` polyline, ``offset`` to its left."""
+    along, normal = arc_lengths(shape), polyline_normals(shape)
+    xy = np.column_stack([np.interp(s, along, shape[:, k]) for k in (0, 1)])
+    return xy + np.column_stack([np.interp(s, along, normal[:, k]) for k in (0, 1)]) * offset
+
+
+def test_parking_lanes_have_a_line_between_their_spaces_and_none_where_a_car_stands(town05):
+    net, world = town05
+    net_path = import_opendrive(town_opendrive("town05"))
+    parking = [net.getLane(i) for i, kind in lane_types(net_path).items() if kind == "parking"]
+    assert len(parking) > 10
+    spaces = {a.lane_id: a.spaces for a in find_parking_areas(net, lane_types(net_path))}
+    lines = stands = 0
+    for lane in parking:
+        shape = np.asarray(lane.getShape(), np.float64)
+        centres = np.asarray(parking_space_centres(float(arc_lengths(shape)[-1])))
+        if not len(centres):
+            continue
+        ends = np.r_[centres - PARKING_SPACE_M / 2, centres[-1] + PARKING_SPACE_M / 2]
+        for offset in (-0.3 * lane.getWidth(), 0.0, 0.3 * lane.getWidth()):  # across the lane's width
+            assert np.all(_down(world, _along(shape, ends, offset)) == SemanticClass.LANE_MARKING), lane.getID()
+            assert np.all(_down(world, _along(shape, centres, offset)) == SemanticClass.PARKING), lane.getID()
+        lines += len(ends)
+        # the traffic's spaces (where parked vehicles stand) are these, midway between two lines
+        driving = net.getLane(f"{lane.getEdge().getID()}_{lane.getIndex() + 1}")
+        if driving.getID() in spaces:
+            xy = np.asarray([p[:2] for p in spaces[driving.getID()]])
+            assert np.allclose(xy, _along(shape, centres), atol=0.02)
+            stands += len(xy)
+    assert lines > 100 and stands > 100
 
 
 def test_markings_follow_the_files_roadmarks_colour_and_doubling(tmp_path):
