@@ -34,7 +34,6 @@ from networks.mesh import (
     ClassedMesh,
     box_mesh,
     draped_polygon,
-    ellipsoid_mesh,
     flat_polygon,
     merge,
     prism,
@@ -43,8 +42,9 @@ from networks.mesh import (
 )
 from networks.roadside import motorway_barriers, street_furniture
 from networks.street import STREET_VERSION, pole_mesh, read_signs, street_objects
+from networks.trees import street_tree
 
-WORLD_VERSION = "16"  # 15: tree trunks their own class (TRUNK); 16: parking lanes (PARKING)
+WORLD_VERSION = "17"  # 15: tree trunks their own class (TRUNK); 16: parking lanes (PARKING); 17: tree kinds
 CURB_HEIGHT_M = 0.15
 CURB_WALL_M = CURB_HEIGHT_M + 0.15  # curbs reach below the road and the terrain: no ray slips under a sidewalk
 ROAD_SKIRT_M = 0.15  # below a road's outer edges, deeper than the terrain lies under it
@@ -55,6 +55,7 @@ DECK_DEPTH_M = 0.8
 PIER_SPACING_M = 30.0
 PIER_CLEARANCE_M = 1.0  # between a pier and a lane or sidewalk under the bridge
 PROP_GAP_M = 0.4  # between a pole or tree and any paved surface
+CONIFER_ROOM_M = 4.0  # a conifer stands only where no building is this near
 
 
 @dataclass(frozen=True, slots=True)
@@ -181,7 +182,7 @@ def _build(net: sumolib.net.Net, seed: int, props: bool, types: dict[str, str]) 
         blocked = [b.footprint for b in buildings]
         furniture, taken = street_furniture(net, paved, blocked, districts, rng, ground_z - 0.05)
         parts += furniture
-        parts += _street_props(net, paved, blocked + taken, rng, ground_z - 0.05)
+        parts += _street_props(net, paved, blocked + taken, rng, ground_z - 0.05, seed)
     margin = 150.0
     terrain = box(xmin - margin, ymin - margin, xmax + margin, ymax + margin)
     parts.append(flat_polygon(terrain, ground_z - 0.05, SemanticClass.TERRAIN))
@@ -341,9 +342,12 @@ def _junction_surfaces(net: sumolib.net.Net, footprints: list[Polygon]) -> list[
 
 
 def _street_props(
-    net: sumolib.net.Net, paved: shapely.Geometry, buildings: list[Polygon], rng: np.random.Generator, z0_m: float
-) -> list[ClassedMesh]:
-    """Street lights (POLE) and trees (TRUNK under a VEGETATION crown) just outside the sidewalks."""
+    net: sumolib.net.Net, paved: shapely.Geometry, buildings: list[Polygon], rng: np.random.Generator, z0_m: float,
+    seed: int,
+) -> list[ClassedMesh]:  # fmt: skip
+    """Street lights (POLE) and trees (:func:`networks.trees.street_tree`: TRUNK forking into a
+    VEGETATION crown; conifers only where no building stands within :data:`CONIFER_ROOM_M`) just
+    outside the sidewalks."""
     keep_out = prep(paved.buffer(PROP_GAP_M))
     tree = shapely.STRtree(buildings) if buildings else None
     parts: list[ClassedMesh] = []
@@ -356,7 +360,11 @@ def _street_props(
                 spot = _beside(line, float(s), lane.getWidth() / 2.0 + PROP_GAP_M + 0.6, keep_out)
                 if spot is None or (tree is not None and len(tree.query(spot.buffer(2.0), predicate="intersects"))):
                     continue
-                parts.append(_tree(spot, z0_m, rng) if rng.random() < 0.6 else _pole(spot, z0_m))
+                if rng.random() < 0.6:
+                    roomy = tree is None or not len(tree.query(spot.buffer(CONIFER_ROOM_M), predicate="intersects"))
+                    parts.append(street_tree(spot.x, spot.y, z0_m, seed, conifer_fits=roomy))
+                else:
+                    parts.append(_pole(spot, z0_m))
     return parts
 
 
@@ -369,24 +377,6 @@ def _beside(line: LineString, s_m: float, offset_m: float, keep_out: object) -> 
         if not keep_out.intersects(spot.buffer(0.5)):  # type: ignore[attr-defined]
             return spot
     return None
-
-
-def _tree(spot: Point, z0_m: float, rng: np.random.Generator) -> ClassedMesh:
-    """A trunk under a lumpy, roughly round crown (as wide as 2.5-5 m, 0.9-1.3 times as tall),
-    resting on the trunk's top."""
-    trunk_m = float(rng.uniform(1.8, 3.0))
-    crown_m = float(rng.uniform(2.5, 5.0))
-    tall_m = crown_m * float(rng.uniform(0.9, 1.3))
-    trunk = prism(spot.buffer(0.18, quad_segs=1), z0_m, trunk_m, SemanticClass.TRUNK)
-    bumps = rng.uniform(0.82, 1.12, (TREE_RINGS - 1, TREE_SEGMENTS))
-    centre = (spot.x, spot.y, z0_m + trunk_m + tall_m / 2.0)
-    crown = ellipsoid_mesh(
-        centre, (crown_m / 2.0, crown_m / 2.0, tall_m / 2.0), SemanticClass.VEGETATION, bumps, TREE_RINGS, TREE_SEGMENTS
-    )
-    return merge([trunk, crown])
-
-
-TREE_RINGS, TREE_SEGMENTS = 7, 12
 
 
 def _pole(spot: Point, z0_m: float) -> ClassedMesh:

@@ -249,11 +249,14 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
     if len(at):
         leaves = textures.foliage(ordered[span(SemanticClass.VEGETATION)], kernels.rows_taken(normal, at), 71)
         kernels.scale_rows(albedo, at, np.ascontiguousarray(leaves, np.float32))
-    grass = functools.partial(textures.greenery, seed=73)
-    for c, texture in ((SemanticClass.TERRAIN, grass), (SemanticClass.TRUNK, textures.bark)):
-        at = rows_of(c)
-        if len(at):
-            kernels.scale_rows(albedo, at, np.ascontiguousarray(texture(ordered[span(c)]), np.float32))
+    at = rows_of(SemanticClass.TERRAIN)
+    if len(at):
+        kernels.tint_rows(albedo, at, textures.grass(ordered[span(SemanticClass.TERRAIN)], 73))
+    at = rows_of(SemanticClass.TRUNK)
+    if len(at):
+        kernels.scale_rows(
+            albedo, at, np.ascontiguousarray(textures.bark(ordered[span(SemanticClass.TRUNK)]), np.float32)
+        )
     for c in (SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW):
         at = rows_of(c)
         if len(at):
@@ -710,6 +713,27 @@ ROUNDING_M = 0.12
 """Agents' normals are averaged over about this much of their surface: flat faces meet in
 rounded edges, as pressed sheet metal and bodies do (the mesh itself stays as it is)."""
 ROUNDING_LEVELS_PX = (1.5, 4.0, 10.0)
+
+
+LEAF_TILT = np.float32(1.0)  # how far a crown's leaf clumps turn its normals (see textures.leaf_tilt)
+
+
+def leafy_normals(
+    normal: F32, cls: npt.NDArray[np.uint8], dirs_map: F32, range_m: F32, origin_map_m: npt.NDArray[np.float64]
+) -> F32:
+    """``normal`` with the crowns' (VEGETATION) ones tilted clump by clump (:func:`textures.leaf_tilt`
+    times :data:`LEAF_TILT`, unit length again, still facing the camera); the rest as they are."""
+    at = np.flatnonzero(cls == SemanticClass.VEGETATION)
+    if at.size == 0:
+        return normal
+    points = np.asarray(origin_map_m, np.float32) + dirs_map[at] * range_m[at, None]
+    bent = normal[at] + LEAF_TILT * textures.leaf_tilt(points, 67)
+    facing = np.einsum("ij,ij->i", bent, dirs_map[at])
+    bent -= np.where(facing > 0.0, facing + np.float32(0.05), np.float32(0.0))[:, None] * dirs_map[at]
+    bent /= np.maximum(np.linalg.norm(bent, axis=1, keepdims=True), np.float32(1e-6))
+    out = normal.copy()
+    out[at] = bent
+    return out
 
 
 def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32], depth_m: F32, focal_px: float) -> F32:

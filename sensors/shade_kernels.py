@@ -686,6 +686,15 @@ def scale_rows(table: F32, rows: npt.NDArray[np.int64], factor: F32) -> None:  #
 
 
 @njit(cache=True, nogil=True)
+def tint_rows(table: F32, rows: npt.NDArray[np.int64], factor: F32) -> None:  # pragma: no cover - compiled
+    """``table[rows] *= factor`` in place, a factor per row and column (``rows`` distinct)."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        for c in range(table.shape[1]):
+            table[i, c] = table[i, c] * factor[j, c]
+
+
+@njit(cache=True, nogil=True)
 def minimum_at(values: F32, rows: npt.NDArray[np.int64], other: F32) -> None:  # pragma: no cover - compiled
     """``np.minimum.at(values, rows, other)`` (no NaNs): each row the least of what it holds and
     every value given for it; in place."""

@@ -38,6 +38,7 @@ from sensors.photo import (
     bloom,
     image_motion_px,
     lamp_rays,
+    leafy_normals,
     motion_blur,
     radiance,
     rounded_normals,
@@ -236,6 +237,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
     dirs_map = turned_directions(sh.map_R_cam, dirs_cam)
     classes, instances = frame.semantic_class.ravel(), frame.instance_id.ravel()
     normal = rounded_normals(sh.normal, dirs_map, frame.instance_id, frame.depth_m, sh.pinhole.focal_px)
+    normal = leafy_normals(normal, classes, dirs_map, range_m, sh.origin_map_m)
     sky_open = sky_light(dirs_map, range_m, classes, instances, sh.origin_map_m, sh.boxes)
     lamp = lamp_rays(dirs_map, range_m, instances, sh.part, sh.origin_map_m, sh.boxes, sh.weather, classes)
     linear = radiance(
@@ -256,8 +258,9 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
             sub_dirs, extra.range_m, extra.instance_id, extra.part, sh.origin_map_m, sh.boxes, sh.weather,
             extra.semantic_class,
         )  # fmt: skip
+        sub_normal = leafy_normals(extra.normal, extra.semantic_class, sub_dirs, extra.range_m, sh.origin_map_m)
         sub_rays = ShadedRays(sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, extra.part,
-                              extra.normal, extra.sun_lit, extra.dirs_cam[:, 2], sub_open, sub_lamp)  # fmt: skip
+                              sub_normal, extra.sun_lit, extra.dirs_cam[:, 2], sub_open, sub_lamp)  # fmt: skip
         sub_lin = radiance(sub_rays, sh.origin_map_m, sh.weather, sh.range_m, sh.boxes)
         shade_kernels.add_subsamples(linear, np.asarray(extra.pixel, np.int64), sub_lin, sub)
     if sh.shutter_s > 0 and sh.ego_velocity_map_mps is not None:

@@ -3,7 +3,7 @@
 Every function takes hit points in the map frame (metres) and returns a per-point factor or
 colour, deterministic in the point (the same wall looks the same from every frame). Asphalt
 has grain and worn patches, paving its joints, kerbs their stones, facades floors, windows and
-doors in a style per wall, grass and canopies their mottling.
+doors in a style per wall, grass its patches, dry spots and blades' grain, canopies their mottling.
 """
 
 from __future__ import annotations
@@ -153,6 +153,44 @@ def kerb(p: F32) -> F32:
 def greenery(p: F32, seed: int) -> F32:
     """Mottling of grass or leaves."""
     return np.asarray(np.float32(0.6) + np.float32(0.9) * fbm(p[:, 0], p[:, 1] + p[:, 2], seed, 3, 1.5), np.float32)
+
+
+# Grass's colour (BGR factors on its class albedo): lush, worn-dry (straw) and bare (soil).
+GRASS_LUSH_BGR = np.array([0.75, 0.82, 0.7], np.float32)
+GRASS_DRY_BGR = np.array([1.35, 1.15, 1.35], np.float32)
+GRASS_BARE_BGR = np.array([1.25, 0.88, 1.15], np.float32)
+
+
+def grass(p: F32, seed: int) -> F32:
+    """``(N, 3)`` colour factors of a grass verge at ground points: lush and dry patches a few
+    metres across, smaller dry and bare spots, clumps a decimetre across and the blades' grain."""
+    x, y = np.ascontiguousarray(p[:, 0], np.float32), np.ascontiguousarray(p[:, 1], np.float32)
+    patches = fbm(x, y, seed, 3, 4.0)
+    dry = np.clip((patches - np.float32(0.52)) * np.float32(4.0), 0.0, 1.0)
+    lush = np.clip((np.float32(0.45) - patches) * np.float32(4.0), 0.0, 1.0)
+    spots = fbm(x, y, seed + 5, 2, 0.7)
+    bare = np.clip((spots - np.float32(0.7)) * np.float32(6.0), 0.0, 1.0)
+    clumps = value_noise(x * np.float32(9.0), y * np.float32(9.0), seed + 7) - np.float32(0.5)
+    grain = value_noise(x * np.float32(33.0), y * np.float32(33.0), seed + 9) - np.float32(0.5)
+    bright = np.float32(1.0) + np.float32(0.35) * clumps + np.float32(0.4) * grain
+    out = np.ones((x.shape[0], 3), np.float32)
+    out += lush[:, None] * (GRASS_LUSH_BGR - np.float32(1.0))
+    out += (dry * np.float32(0.8))[:, None] * (GRASS_DRY_BGR - np.float32(1.0))
+    out += (bare * (np.float32(1.0) - dry * np.float32(0.5)))[:, None] * (GRASS_BARE_BGR - out)
+    out *= bright[:, None]
+    return np.asarray(out, np.float32)
+
+
+def leaf_tilt(p: F32, seed: int) -> F32:
+    """``(N, 3)`` a crown's leaf clumps' tilt at its surface points: a vector of three value
+    noises (each -0.5..0.5) over clumps about 0.3 m across, to add to the surface's normal (the
+    crown's faces then light clump by clump, not face by face)."""
+    u = np.ascontiguousarray(p[:, 0] + np.float32(0.6) * p[:, 2], np.float32) * np.float32(3.0)
+    v = np.ascontiguousarray(p[:, 1] - np.float32(0.8) * p[:, 2], np.float32) * np.float32(3.0)
+    out = np.empty((u.shape[0], 3), np.float32)
+    for k in range(3):
+        out[:, k] = value_noise(u, v, seed + k) - np.float32(0.5)
+    return out
 
 
 def foliage(p: F32, normal: F32, seed: int) -> F32:

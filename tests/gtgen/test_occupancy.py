@@ -132,6 +132,8 @@ def test_solids_insides_by_runs_agree_with_every_voxel_centre_cast_alone():
             prism(rect(-17.0, -17.0, -9.0, -11.0), 2.45, 2.0, SemanticClass.BUILDING),
             gabled(rect(10.0, -14.0, 18.0, -8.0), -0.05, 2.6, 1.8, SemanticClass.BUILDING),
             _tree_for_test(-8.0, 10.0),
+            _tree_for_test(-3.0, 16.0, "columnar"),
+            _tree_for_test(-14.0, 3.0, "conifer"),
         ]
     )
     world = merge([GROUND, solids_mesh])
@@ -156,6 +158,49 @@ def test_solids_insides_by_runs_agree_with_every_voxel_centre_cast_alone():
     assert near_floating.any() and floating[near_floating, 2].min() > 1.0  # nothing under its floor
 
 
+@pytest.mark.parametrize("kind", ["broadleaf", "columnar", "conifer"])
+def test_a_street_trees_crown_fills_with_vegetation_its_trunk_with_trunk_and_the_air_round_it_stays_free(kind):
+    """Every voxel whose centre lies inside the tree's crown (ray parity against the crown alone)
+    is VEGETATION, or TRUNK where a limb's surface meets it; the trunk's voxel at 1 m is TRUNK;
+    voxels no surface meets and whose centre lies outside the tree are free."""
+    grid = SPEC.grid
+    tree = _tree_for_test(10.0, 6.0, kind)
+    occupancy, _ = frame(merge([GROUND, tree]), Agents.empty(), lidar=False, camera=False)
+    native = occupancy.semantics_native.ravel()
+    v = tree.vertices_m.astype(np.float64)
+    crown = tree.triangles[tree.triangle_class == SemanticClass.VEGETATION]
+    low, high = v[crown].reshape(-1, 3).min(axis=0), v[crown].reshape(-1, 3).max(axis=0)
+    centres = grid.centers_m(np.arange(grid.size))  # the ego stands at the map's origin
+    near = np.flatnonzero(np.all((centres >= low - 0.8) & (centres <= high + 0.8), axis=1))
+    inside = _inside_surface(centres[near], v[crown])
+    touched, wood = np.zeros(grid.size, np.bool_), np.zeros(grid.size, np.bool_)
+    flat, source = triangle_voxels(grid, v[tree.triangles])
+    touched[flat] = True
+    wood[flat[tree.triangle_class[source] == SemanticClass.TRUNK]] = True
+    leafy = near[inside & ~wood[near]]
+    assert leafy.size > 20 and np.all(native[leafy] == SemanticClass.VEGETATION)
+    assert np.all(native[near[inside & wood[near]]] == SemanticClass.TRUNK)  # the limbs inside the crown
+    outside = near[~inside & ~touched[near]]
+    assert outside.size > 100 and np.all(native[outside] == FREE_NATIVE)
+    ijk = np.floor(grid.to_grid(np.array([[10.0, 6.0, 1.0]]))).astype(int)[0]
+    assert occupancy.semantics_native[tuple(ijk)] == SemanticClass.TRUNK
+
+
+def _inside_surface(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Whether each point lies inside the closed surface of triangles ``tri: (T, 3, 3)`` (a ray
+    along a skew direction crosses it an odd number of times)."""
+    d = np.array([0.31, 0.17, 0.93])
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    p = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    s = points[:, None, :] - tri[None, :, 0]
+    u = np.einsum("ntj,tj->nt", s, p) / det
+    q = np.cross(s, e1[None])
+    w = (q @ d) / det
+    dist = np.einsum("tj,ntj->nt", e2, q) / det
+    return ((u >= 0) & (w >= 0) & (u + w <= 1) & (dist > 0)).sum(axis=1) % 2 == 1
+
+
 def _pose(yaw_rad: float, pitch_rad: float, xyz: tuple[float, float, float]) -> np.ndarray:
     cy, sy, cp, sp = np.cos(yaw_rad), np.sin(yaw_rad), np.cos(pitch_rad), np.sin(pitch_rad)
     m = np.eye(4)
@@ -166,13 +211,10 @@ def _pose(yaw_rad: float, pitch_rad: float, xyz: tuple[float, float, float]) -> 
     return m
 
 
-def _tree_for_test(x: float, y: float):
-    from shapely.geometry import Point
+def _tree_for_test(x: float, y: float, kind: str = "broadleaf"):
+    from networks.trees import street_tree
 
-    from networks.mesh import ellipsoid_mesh
-
-    trunk = prism(Point(x, y).buffer(0.18, quad_segs=1), -0.05, 2.0, SemanticClass.VEGETATION)
-    return merge([trunk, ellipsoid_mesh((x, y, 3.5), (2.0, 2.0, 1.6), SemanticClass.VEGETATION)])
+    return street_tree(x, y, -0.05, 0, kind=kind)
 
 
 def test_a_standing_ego_gets_the_same_occupancy_from_the_static_voxels_kept_from_its_last_frame(monkeypatch):

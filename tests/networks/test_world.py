@@ -87,37 +87,6 @@ def test_the_grid_finds_a_footprint_near_another_exactly_when_one_is(boxes, dist
     assert grid.footprints == footprints[:-1]
 
 
-@settings(max_examples=30, deadline=None)
-@given(st.integers(0, 2**31 - 1))
-def test_a_tree_crown_is_closed_faces_outwards_and_rests_on_the_trunk(seed):
-    from collections import Counter
-
-    from shapely.geometry import Point
-
-    from networks.classes import SemanticClass
-    from networks.mesh import ellipsoid_mesh
-    from networks.world import _tree
-
-    rng = np.random.default_rng(seed)
-    radii = tuple(rng.uniform(0.5, 3.0, 3))
-    crown = ellipsoid_mesh((1.0, 2.0, 5.0), radii, SemanticClass.VEGETATION, rng.uniform(0.8, 1.1, (5, 9)), 6, 9)
-    v, t = crown.vertices_m.astype(np.float64), crown.triangles
-    edges = Counter(tuple(sorted(e)) for tri in t for e in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])))
-    assert set(edges.values()) == {2}  # closed: every edge between two triangles
-    a, b, c = v[t[:, 0]] - (1.0, 2.0, 5.0), v[t[:, 1]] - (1.0, 2.0, 5.0), v[t[:, 2]] - (1.0, 2.0, 5.0)
-    assert np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0 > 0  # outward normals enclose a positive volume
-    whole = _tree(Point(3.0, -2.0), 0.1, rng)
-    tree = whole.vertices_m.astype(np.float64)
-    trunk_top = tree[np.isclose(np.hypot(tree[:, 0] - 3.0, tree[:, 1] + 2.0), 0.18, atol=0.01), 2].max()
-    corners = tree[whole.triangles]
-    trunk = np.hypot(corners[..., 0] - 3.0, corners[..., 1] + 2.0).max(axis=1) <= 0.18 + 1e-4
-    assert set(whole.triangle_class[trunk]) == {SemanticClass.TRUNK}  # its walls and top
-    assert set(whole.triangle_class[~trunk]) == {SemanticClass.VEGETATION}
-    above = tree[tree[:, 2] > trunk_top + 1e-4]
-    assert np.all(np.hypot(above[:, 0] - 3.0, above[:, 1] + 2.0) <= 2.5 * 1.12 + 1e-4)
-    assert len(above) > 60 and above[:, 2].min() > trunk_top  # nothing of the crown hangs below the trunk top
-
-
 def test_a_gable_house_is_closed_faces_outwards_and_its_roof_is_inside_it():
     from collections import Counter
 

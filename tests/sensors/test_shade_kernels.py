@@ -35,7 +35,7 @@ def test_blurred_normals_are_made_unit_as_numpy_makes_them() -> None:
     np.testing.assert_array_equal(grid.view(np.uint32), want.view(np.uint32))
 
 
-def test_rows_scaled_and_least_values_kept_as_numpy_does() -> None:
+def test_rows_scaled_tinted_and_least_values_kept_as_numpy_does() -> None:
     rng = np.random.default_rng(5)
     table = rng.uniform(0, 1, (1000, 3)).astype(np.float32)
     rows = np.sort(rng.choice(1000, 300, replace=False)).astype(np.int64)
@@ -43,6 +43,10 @@ def test_rows_scaled_and_least_values_kept_as_numpy_does() -> None:
     want = table.copy()
     want[rows] *= factor[:, None]
     kernels.scale_rows(table, rows, factor)
+    np.testing.assert_array_equal(table, want)
+    tint = rng.uniform(0.3, 1.7, (300, 3)).astype(np.float32)
+    want[rows] *= tint
+    kernels.tint_rows(table, rows, tint)
     np.testing.assert_array_equal(table, want)
     light = np.ones(500, np.float32)
     at = rng.integers(0, 500, 2000).astype(np.int64)  # a row given many values: the least is kept

@@ -88,6 +88,52 @@ def test_bark_furrows_run_up_the_trunk() -> None:
     assert around > 3 * up
 
 
+def test_grass_is_olive_with_dry_patches_metres_across_and_grain_centimetres_across() -> None:
+    from networks.classes import SemanticClass
+    from sensors.materials import ALBEDO_BGR_BY_CLASS
+
+    rng = np.random.default_rng(6)
+    p = np.stack([rng.uniform(-200, 200, 20000), rng.uniform(-200, 200, 20000), np.zeros(20000)], axis=1)
+    p = p.astype(np.float32)
+    tint = textures.grass(p, 73)
+    assert np.array_equal(tint, textures.grass(p.copy(), 73))  # the same ground, the same grass
+    bgr = tint * ALBEDO_BGR_BY_CLASS[SemanticClass.TERRAIN]
+    b, g, r = bgr.mean(axis=0)
+    assert b < 0.7 * g and 0.75 * g < r < g  # olive: red close under green, blue well below (not lime)
+    yellowness = bgr[:, 2] / bgr[:, 1]
+    assert np.quantile(yellowness, 0.95) > 1.05 * np.quantile(yellowness, 0.05)  # dry and lush patches
+    step = np.float32(0.03)
+    near = textures.grass(p + np.array([step, 0, 0], np.float32), 73)
+    far = textures.grass(p + np.array([1.5, 0, 0], np.float32), 73)
+    hue = lambda t: t[:, 2] / t[:, 1]  # noqa: E731
+    assert np.abs(near - tint).mean() > 0.05  # the blades' grain changes within centimetres
+    assert np.abs(hue(near) - hue(tint)).mean() < 0.5 * np.abs(hue(far) - hue(tint)).mean()  # patches: metres
+
+
+def test_leaf_tilt_turns_normals_clump_by_clump_and_they_stay_unit_and_facing_the_camera() -> None:
+    from networks.classes import SemanticClass
+    from sensors.photo import leafy_normals
+
+    rng = np.random.default_rng(7)
+    n = 5000
+    dirs = rng.normal(size=(n, 3)).astype(np.float32)
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    normal = -dirs  # facing the camera
+    cls = np.where(np.arange(n) % 2 == 0, SemanticClass.VEGETATION, SemanticClass.BUILDING).astype(np.uint8)
+    range_m = rng.uniform(2.0, 40.0, n).astype(np.float32)
+    out = leafy_normals(normal, cls, dirs, range_m, np.array([3.0, -2.0, 1.5]))
+    leafy = cls == SemanticClass.VEGETATION
+    assert np.array_equal(out[~leafy], normal[~leafy])
+    assert np.allclose(np.linalg.norm(out, axis=1), 1.0, atol=1e-5)
+    assert np.all(np.einsum("ij,ij->i", out[leafy], dirs[leafy]) < 0.0)
+    turned = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", out[leafy], normal[leafy]), -1, 1)))
+    assert np.median(turned) > 10.0 and np.quantile(turned, 0.9) > 25.0
+    p = np.stack([rng.uniform(0, 20, n), rng.uniform(0, 20, n), rng.uniform(0, 10, n)], axis=1).astype(np.float32)
+    near = textures.leaf_tilt(p + np.float32(0.02), 67) - textures.leaf_tilt(p, 67)
+    far = textures.leaf_tilt(p + np.float32(0.6), 67) - textures.leaf_tilt(p, 67)
+    assert np.abs(near).mean() < 0.25 * np.abs(far).mean()  # clumps decimetres across, not per point
+
+
 def test_facade_of_runs_of_points_equals_each_point_taken_alone() -> None:
     rng = np.random.default_rng(12)
     normals = np.array(
