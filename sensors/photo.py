@@ -721,19 +721,15 @@ LEAF_TILT = np.float32(1.0)  # how far a crown's leaf clumps turn its normals (s
 def leafy_normals(
     normal: F32, cls: npt.NDArray[np.uint8], dirs_map: F32, range_m: F32, origin_map_m: npt.NDArray[np.float64]
 ) -> F32:
-    """``normal`` with the crowns' (VEGETATION) ones tilted clump by clump (:func:`textures.leaf_tilt`
-    times :data:`LEAF_TILT`, unit length again, still facing the camera); the rest as they are."""
+    """``normal`` (written in place and returned) with the crowns' (VEGETATION) ones tilted clump
+    by clump (:func:`textures.leaf_tilt` times :data:`LEAF_TILT`, unit length again, still facing
+    the camera); the rest as they were."""
     at = np.flatnonzero(cls == SemanticClass.VEGETATION)
     if at.size == 0:
         return normal
     points = np.asarray(origin_map_m, np.float32) + dirs_map[at] * range_m[at, None]
-    bent = normal[at] + LEAF_TILT * textures.leaf_tilt(points, 67)
-    facing = np.einsum("ij,ij->i", bent, dirs_map[at])
-    bent -= np.where(facing > 0.0, facing + np.float32(0.05), np.float32(0.0))[:, None] * dirs_map[at]
-    bent /= np.maximum(np.linalg.norm(bent, axis=1, keepdims=True), np.float32(1e-6))
-    out = normal.copy()
-    out[at] = bent
-    return out
+    kernels.bent_rows(normal, at, textures.leaf_tilt(points, 67), dirs_map, LEAF_TILT)
+    return normal
 
 
 def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32], depth_m: F32, focal_px: float) -> F32:

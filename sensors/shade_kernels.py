@@ -695,6 +695,26 @@ def tint_rows(table: F32, rows: npt.NDArray[np.int64], factor: F32) -> None:  # 
 
 
 @njit(cache=True, nogil=True)
+def bent_rows(
+    normal: F32, rows: npt.NDArray[np.int64], tilt: F32, dirs: F32, strength: np.float32
+) -> None:  # pragma: no cover - compiled
+    """Each of ``normal[rows]`` plus ``strength`` times its row of ``tilt``, moved back to face
+    against its ray (``dirs``) where the tilt turned it away (its dot product with the ray then
+    -0.05), made unit length again; in place."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        b0 = normal[i, 0] + strength * tilt[j, 0]
+        b1 = normal[i, 1] + strength * tilt[j, 1]
+        b2 = normal[i, 2] + strength * tilt[j, 2]
+        facing = b0 * dirs[i, 0] + b1 * dirs[i, 1] + b2 * dirs[i, 2]
+        if facing > 0.0:
+            back = facing + np.float32(0.05)
+            b0, b1, b2 = b0 - back * dirs[i, 0], b1 - back * dirs[i, 1], b2 - back * dirs[i, 2]
+        length = max(np.sqrt(b0 * b0 + b1 * b1 + b2 * b2), np.float32(1e-6))
+        normal[i, 0], normal[i, 1], normal[i, 2] = b0 / length, b1 / length, b2 / length
+
+
+@njit(cache=True, nogil=True)
 def minimum_at(values: F32, rows: npt.NDArray[np.int64], other: F32) -> None:  # pragma: no cover - compiled
     """``np.minimum.at(values, rows, other)`` (no NaNs): each row the least of what it holds and
     every value given for it; in place."""

@@ -258,7 +258,7 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
             sub_dirs, extra.range_m, extra.instance_id, extra.part, sh.origin_map_m, sh.boxes, sh.weather,
             extra.semantic_class,
         )  # fmt: skip
-        sub_normal = leafy_normals(extra.normal, extra.semantic_class, sub_dirs, extra.range_m, sh.origin_map_m)
+        sub_normal = leafy_normals(extra.normal.copy(), extra.semantic_class, sub_dirs, extra.range_m, sh.origin_map_m)
         sub_rays = ShadedRays(sub_dirs, extra.range_m, extra.semantic_class, extra.instance_id, extra.part,
                               sub_normal, extra.sun_lit, extra.dirs_cam[:, 2], sub_open, sub_lamp)  # fmt: skip
         sub_lin = radiance(sub_rays, sh.origin_map_m, sh.weather, sh.range_m, sh.boxes)

@@ -166,19 +166,35 @@ def grass(p: F32, seed: int) -> F32:
     metres across, smaller dry and bare spots, clumps a decimetre across and the blades' grain."""
     x, y = np.ascontiguousarray(p[:, 0], np.float32), np.ascontiguousarray(p[:, 1], np.float32)
     patches = fbm(x, y, seed, 3, 4.0)
-    dry = np.clip((patches - np.float32(0.52)) * np.float32(4.0), 0.0, 1.0)
-    lush = np.clip((np.float32(0.45) - patches) * np.float32(4.0), 0.0, 1.0)
     spots = fbm(x, y, seed + 5, 2, 0.7)
-    bare = np.clip((spots - np.float32(0.7)) * np.float32(6.0), 0.0, 1.0)
-    clumps = value_noise(x * np.float32(9.0), y * np.float32(9.0), seed + 7) - np.float32(0.5)
-    grain = value_noise(x * np.float32(33.0), y * np.float32(33.0), seed + 9) - np.float32(0.5)
-    bright = np.float32(1.0) + np.float32(0.35) * clumps + np.float32(0.4) * grain
-    out = np.ones((x.shape[0], 3), np.float32)
-    out += lush[:, None] * (GRASS_LUSH_BGR - np.float32(1.0))
-    out += (dry * np.float32(0.8))[:, None] * (GRASS_DRY_BGR - np.float32(1.0))
-    out += (bare * (np.float32(1.0) - dry * np.float32(0.5)))[:, None] * (GRASS_BARE_BGR - out)
-    out *= bright[:, None]
-    return np.asarray(out, np.float32)
+    clumps = value_noise(x * np.float32(9.0), y * np.float32(9.0), seed + 7)
+    grain = value_noise(x * np.float32(33.0), y * np.float32(33.0), seed + 9)
+    return _grass_mix(patches, spots, clumps, grain, GRASS_LUSH_BGR, GRASS_DRY_BGR, GRASS_BARE_BGR)
+
+
+@njit(cache=True, nogil=True)
+def _grass_mix(
+    patches: F32, spots: F32, clumps: F32, grain: F32, lush_bgr: F32, dry_bgr: F32, bare_bgr: F32
+) -> F32:  # pragma: no cover - compiled
+    """:func:`grass`'s colour from its noises: lush where the patches' noise is low, dry where it
+    is high, bare where the spots' is high, brighter and darker by clumps and grain."""
+    out = np.empty((patches.shape[0], 3), np.float32)
+    for i in range(patches.shape[0]):
+        dry = min(max((patches[i] - np.float32(0.52)) * np.float32(4.0), np.float32(0.0)), np.float32(1.0))
+        lush = min(max((np.float32(0.45) - patches[i]) * np.float32(4.0), np.float32(0.0)), np.float32(1.0))
+        bare = min(max((spots[i] - np.float32(0.7)) * np.float32(6.0), np.float32(0.0)), np.float32(1.0))
+        bare = bare * (np.float32(1.0) - dry * np.float32(0.5))
+        bright = (
+            np.float32(1.0)
+            + np.float32(0.35) * (clumps[i] - np.float32(0.5))
+            + np.float32(0.4) * (grain[i] - np.float32(0.5))
+        )
+        for c in range(3):
+            v = np.float32(1.0) + lush * (lush_bgr[c] - np.float32(1.0))
+            v = v + dry * np.float32(0.8) * (dry_bgr[c] - np.float32(1.0))
+            v = v + bare * (bare_bgr[c] - v)
+            out[i, c] = v * bright
+    return out
 
 
 def leaf_tilt(p: F32, seed: int) -> F32:

@@ -121,7 +121,7 @@ def test_leaf_tilt_turns_normals_clump_by_clump_and_they_stay_unit_and_facing_th
     normal = -dirs  # facing the camera
     cls = np.where(np.arange(n) % 2 == 0, SemanticClass.VEGETATION, SemanticClass.BUILDING).astype(np.uint8)
     range_m = rng.uniform(2.0, 40.0, n).astype(np.float32)
-    out = leafy_normals(normal, cls, dirs, range_m, np.array([3.0, -2.0, 1.5]))
+    out = leafy_normals(normal.copy(), cls, dirs, range_m, np.array([3.0, -2.0, 1.5]))
     leafy = cls == SemanticClass.VEGETATION
     assert np.array_equal(out[~leafy], normal[~leafy])
     assert np.allclose(np.linalg.norm(out, axis=1), 1.0, atol=1e-5)
