@@ -166,33 +166,3 @@ BOX_TRIANGLES = (
     (0, 2, 6), (0, 6, 4),  # -z
     (1, 5, 7), (1, 7, 3),  # +z
 )  # fmt: skip
-
-
-def ellipsoid_mesh(
-    centre_m: tuple[float, float, float], radii_m: tuple[float, float, float], cls: SemanticClass,
-    bumps: npt.NDArray[np.float64] | None = None, rings: int = 6, segments: int = 10,
-) -> ClassedMesh:  # fmt: skip
-    """A closed ellipsoid of ``rings`` bands and ``segments`` sides between two poles, facing
-    outwards; ``bumps`` ``(rings - 1, segments)`` scales each inner vertex's distance from the
-    centre (a lumpy crown)."""
-    polar = np.linspace(0.0, np.pi, rings + 1)[1:-1]
-    azimuth = np.linspace(0.0, 2.0 * np.pi, segments, endpoint=False)
-    p, a = np.meshgrid(polar, azimuth, indexing="ij")
-    unit = np.stack([np.sin(p) * np.cos(a), np.sin(p) * np.sin(a), -np.cos(p)], axis=-1)
-    if bumps is not None:
-        unit = unit * np.asarray(bumps, np.float64)[..., None]
-    ring_vertices = unit.reshape(-1, 3) * np.asarray(radii_m) + np.asarray(centre_m)
-    bottom = np.asarray(centre_m) - np.array([0.0, 0.0, radii_m[2]])
-    top = np.asarray(centre_m) + np.array([0.0, 0.0, radii_m[2]])
-    vertices = np.vstack([ring_vertices, bottom, top])
-    n_ring, b, t = rings - 1, len(ring_vertices), len(ring_vertices) + 1
-    tris = []
-    for j in range(segments):
-        k = (j + 1) % segments
-        tris.append((b, k, j))  # the bottom cap
-        for i in range(n_ring - 1):
-            lo0, lo1, hi0, hi1 = i * segments + j, i * segments + k, (i + 1) * segments + j, (i + 1) * segments + k
-            tris += [(lo0, lo1, hi1), (lo0, hi1, hi0)]
-        top_ring = (n_ring - 1) * segments
-        tris.append((t, top_ring + j, top_ring + k))  # the top cap
-    return ClassedMesh(vertices, np.asarray(tris), np.full(len(tris), cls))
