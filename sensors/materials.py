@@ -80,9 +80,9 @@ _ALBEDO_BGR = {
     SemanticClass.SIDEWALK: (0.55, 0.57, 0.6),
     SemanticClass.CURB: (0.65, 0.66, 0.68),
     SemanticClass.BUILDING: (0.45, 0.55, 0.7),
-    SemanticClass.VEGETATION: (0.07, 0.15, 0.12),  # foliage: darker than grass, olive
+    SemanticClass.VEGETATION: (0.1, 0.22, 0.16),  # foliage: darker than grass
     SemanticClass.POLE: (0.35, 0.35, 0.38),
-    SemanticClass.TERRAIN: (0.11, 0.2, 0.18),  # grass: olive, yellow-green (sensors.textures.grass)
+    SemanticClass.TERRAIN: (0.15, 0.32, 0.26),  # grass: yellow-green (sensors.textures.grass)
     SemanticClass.CROSSING: (0.27, 0.26, 0.25),  # asphalt under the stripes
     SemanticClass.LANE_MARKING: (0.85, 0.85, 0.85),
     SemanticClass.LANE_MARKING_YELLOW: (0.1, 0.7, 0.9),
