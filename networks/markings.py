@@ -34,7 +34,7 @@ from networks.mesh import ClassedMesh, merge, polyline_normals, ribbon
 from networks.opendrive import opendrive_root
 from networks.vocabulary import LinePattern, LineRole
 
-MARKINGS_VERSION = "5"  # part of the world cache key: change it when the markings change
+MARKINGS_VERSION = "6"  # part of the world cache key: change it when the markings change
 PAINT_HEIGHT_M = 0.005  # above the lane surface
 CROSSING_PAINT_HEIGHT_M = 0.013  # 3 mm above the crossing's own strip (1 cm above the road)
 LINE_WIDTH_M = {"standard": 0.12, "bold": 0.25}
@@ -265,12 +265,19 @@ def _bay_lines(lane: sumolib.net.lane.Lane) -> ClassedMesh:
     half = lane.getWidth() / 2.0 - BAY_LINE_INSET_M
     lines = []
     for s in [c - PARKING_SPACE_M / 2 for c in centres] + [centres[-1] + PARKING_SPACE_M / 2]:
-        piece = _cut(shape, s - 0.01, s + 0.01)
-        c, heading = (piece[0] + piece[-1]) / 2.0, piece[-1, :2] - piece[0, :2]
-        left = np.array([-heading[1], heading[0]]) / max(float(np.linalg.norm(heading)), 1e-9)
-        across = np.array([[*(c[:2] + left * half), c[2]], [*(c[:2] - left * half), c[2]]])
+        across = _across(shape, s, s + 0.02, half)
         lines.append(ribbon(across, BAY_LINE_WIDTH_M, SemanticClass.LANE_MARKING, PAINT_HEIGHT_M))
     return merge(lines)
+
+
+def _across(shape: npt.NDArray[np.float64], s0_m: float, s1_m: float, half_m: float) -> npt.NDArray[np.float64]:
+    """The ``(2, 3)`` line across a lane whose centre line is ``shape``, through its point ``s0_m``
+    along it, square to its direction from there to ``s1_m`` (a little further), reaching
+    ``half_m`` to each side."""
+    piece = _cut(shape, s0_m, s1_m)
+    c, heading = piece[0], piece[-1, :2] - piece[0, :2]
+    left = np.array([-heading[1], heading[0]]) / max(float(np.linalg.norm(heading)), 1e-9)
+    return np.array([[*(c[:2] + left * half_m), c[2]], [*(c[:2] - left * half_m), c[2]]])
 
 
 def _paint(line: PaintedLine) -> ClassedMesh:
@@ -484,11 +491,7 @@ def _stop_line(lane: sumolib.net.lane.Lane) -> PaintedLine | None:
     if shape.shape[0] < 2 or length < width + LINE_BACK_M + 0.5:
         return None
     s = length - LINE_BACK_M - width / 2.0
-    centre = _cut(shape, s - 0.01, s + 0.01)
-    c, heading = centre[0], centre[-1, :2] - centre[0, :2]
-    left = np.array([-heading[1], heading[0]]) / max(float(np.linalg.norm(heading)), 1e-9)
-    half = lane.getWidth() / 2.0 - 0.05
-    across = np.array([[*(c[:2] + left * half), c[2]], [*(c[:2] - left * half), c[2]]])
+    across = _across(shape, s - 0.01, s + 0.01, lane.getWidth() / 2.0 - 0.05)
     pattern = LinePattern.SOLID if dashes is None else LinePattern.BROKEN
     return PaintedLine(role, pattern, False, width, across, lane.getID(), dashes)
 
