@@ -1024,15 +1024,13 @@ as long as a real one of its height, however long its box."""
 
 
 def _proportioned(
-    length: float, width: float, h: float, lengths: tuple[float, float], trailer: bool = False
+    width: float, h: float, lengths: tuple[float, float], trailer: bool = False
 ) -> Callable[[int], Piece]:
     """A truck body's builder by proportion: pose ``k`` is :func:`box_truck` built
-    :data:`TRUCK_LENGTH_PER_HEIGHT` [k] times ``h`` long (within ``lengths``; ``length`` where
-    the pose is not one of them)."""
+    :data:`TRUCK_LENGTH_PER_HEIGHT` [k] times ``h`` long (within ``lengths``)."""
 
     def one(pose: int) -> Piece:
-        ratio = TRUCK_LENGTH_PER_HEIGHT[pose] if 0 <= pose < len(TRUCK_LENGTH_PER_HEIGHT) else length / h
-        return box_truck(float(np.clip(ratio * h, *lengths)), width, h, trailer)
+        return box_truck(float(np.clip(TRUCK_LENGTH_PER_HEIGHT[pose] * h, *lengths)), width, h, trailer)
 
     return one
 
@@ -1073,7 +1071,7 @@ BODIES: dict[int, tuple[Body, ...]] = {
             "box_truck",
             (8.0, 2.5, 3.4),
             0.6,
-            _proportioned(8.0, 2.5, 3.4, (5.0, 12.0)),
+            _proportioned(2.5, 3.4, (5.0, 12.0)),
             len(TRUCK_LENGTH_PER_HEIGHT),
             True,
         ),
@@ -1081,7 +1079,7 @@ BODIES: dict[int, tuple[Body, ...]] = {
             "semi_trailer",
             (11.5, 2.5, 3.8),
             0.4,
-            _proportioned(11.5, 2.5, 3.8, (11.0, 16.5), True),
+            _proportioned(2.5, 3.8, (11.0, 16.5), True),
             len(TRUCK_LENGTH_PER_HEIGHT),
             True,
         ),
