@@ -300,6 +300,15 @@ def template_of(semantic_class: int, body: int, pose: int) -> MeshTemplate:
     return poses[pose % len(poses)]
 
 
+def template_poses(semantic_class: int, body: int) -> int:
+    """How many templates a class's body type has (:func:`template_of` takes a pose modulo it)."""
+    bodies = BODIES.get(int(semantic_class))
+    if not bodies:
+        return 1
+    template_of(semantic_class, body, 0)
+    return len(_TEMPLATE_CACHE[(int(semantic_class), int(body))])
+
+
 AGENT_LIFT_M = 0.03
 """Agents' meshes stand this far above the bottom of their box (the road): a clearance no
 sensor resolves, which keeps every return off the road out of every box and every return of

@@ -2,16 +2,18 @@
 kernels, coherent rays), the only module that imports them.
 
 The static world near the ego is one Mitsuba scene, made again only when the crop changes; the
-agents are a second scene whose one merged mesh is replaced every frame. A ray is cast in both and the
-nearer hit wins. Per hit the scenes give the triangle: its class, instance and face normal come
-from tables, as in the Open3D engine. A sensor's ray directions are handed to Dr.Jit once and
-turned into the map frame on its side. Importing this module raises ImportError, or
-RuntimeError/OSError from Dr.Jit, when the engine cannot start (no libLLVM 15 or newer).
+agents are a second scene of instances of their bodies' unit meshes (one shape group per body
+template, made once), of which a frame changes the transforms. A ray is cast in both and the
+nearer hit wins. Per hit the static scene gives the triangle, whose class and face normal come
+from tables as in the Open3D engine; the agents' scene gives the instance (the agent) and the
+template's triangle (its part, and its normal turned into the map frame). A sensor's ray
+directions are handed to Dr.Jit once and turned into the map frame on its side. Importing this
+module raises ImportError, or RuntimeError/OSError from Dr.Jit, when the engine cannot start (no
+libLLVM 15 or newer).
 """
 
 from __future__ import annotations
 
-import hashlib
 import os
 from typing import Any
 
@@ -38,10 +40,18 @@ CAST_THREADS = 1
 dr.set_thread_count(CAST_THREADS)
 
 from networks.mesh import ClassedMesh  # noqa: E402
-from sensors.agents import AgentMeshes, Agents, agent_meshes  # noqa: E402
+from sensors.agents import (  # noqa: E402
+    AGENT_LIFT_M,
+    AgentMeshes,
+    Agents,
+    agent_meshes,
+    body_keys,
+    template_of,
+    template_poses,
+)
 from sensors.hits import PairHits, RayHits  # noqa: E402
 from sensors.rays import map_directions  # noqa: E402
-from sensors.scene import AloneScenes, _hits_alone, _triangle_runs, cast_agents_moving, own_mesh  # noqa: E402
+from sensors.scene import AloneScenes, _hits_alone, cast_agents_moving  # noqa: E402
 
 
 def _face_normals(
@@ -71,28 +81,49 @@ def _unit_cross(
 
 
 U8 = npt.NDArray[np.uint8]
+F64 = npt.NDArray[np.float64]
+NO_SLOT = np.uint32(0xFFFFFFFF)
+"""The slot of a ray that hit no agent."""
 
 
 @njit(cache=True, nogil=True)
 def _rows_of(
-    rows: npt.NDArray[np.uint32], class_of: U8, instance_of: npt.NDArray[np.uint32], part_of: U8,
-    normal_bits_of: npt.NDArray[np.uint32],
+    rows: npt.NDArray[np.uint32], slots: npt.NDArray[np.uint32], class_of: U8, normal_bits_of: npt.NDArray[np.uint32],
+    slot_class: U8, slot_instance: npt.NDArray[np.uint32], slot_first: npt.NDArray[np.int64], slot_turn: F64,
+    template_part: U8, template_normal: F64,
 ) -> tuple[U8, npt.NDArray[np.uint32], U8, npt.NDArray[np.uint32]]:  # fmt: skip  # pragma: no cover - compiled
-    """Per ray its row's class, instance, part and normal (the normal's float32 bits, copied as
-    they are), in one pass over the rays."""
+    """Per ray its class, instance, part and normal (the normal's float32 bits), in one pass over
+    the rays: a ray that hit no agent (slot :data:`NO_SLOT`) from its row of the static tables
+    (class, normal bits copied as they are; instance and part 0), one that hit an agent from its
+    slot (class, instance) and its template's triangle ``rows[i]`` (part; unit normal turned by
+    the slot's rotation over its scale and made unit, in float64)."""
     n = rows.shape[0]
     cls = np.empty(n, np.uint8)
-    instance = np.empty(n, np.uint32)
-    part = np.empty(n, np.uint8)
+    instance = np.zeros(n, np.uint32)
+    part = np.zeros(n, np.uint8)
     normal = np.empty((n, 3), np.uint32)
+    turned = np.empty(3, np.float32)
     for i in range(n):
-        r = rows[i]
-        cls[i] = class_of[r]
-        instance[i] = instance_of[r]
-        part[i] = part_of[r]
-        normal[i, 0] = normal_bits_of[r, 0]
-        normal[i, 1] = normal_bits_of[r, 1]
-        normal[i, 2] = normal_bits_of[r, 2]
+        r, s = rows[i], slots[i]
+        if s == NO_SLOT:
+            cls[i] = class_of[r]
+            normal[i, 0] = normal_bits_of[r, 0]
+            normal[i, 1] = normal_bits_of[r, 1]
+            normal[i, 2] = normal_bits_of[r, 2]
+            continue
+        t = slot_first[s] + r
+        cls[i], instance[i], part[i] = slot_class[s], slot_instance[s], template_part[t]
+        m = slot_turn[s]
+        u0, u1, u2 = template_normal[t, 0], template_normal[t, 1], template_normal[t, 2]
+        x = m[0, 0] * u0 + m[0, 1] * u1 + m[0, 2] * u2
+        y = m[1, 0] * u0 + m[1, 1] * u1 + m[1, 2] * u2
+        z = m[2, 0] * u0 + m[2, 1] * u1 + m[2, 2] * u2
+        length = np.sqrt(x * x + y * y + z * z)
+        if not length > 0:
+            length = 1.0
+        turned[0], turned[1], turned[2] = x / length, y / length, z / length
+        bits = turned.view(np.uint32)
+        normal[i, 0], normal[i, 1], normal[i, 2] = bits[0], bits[1], bits[2]
     return cls, instance, part, normal
 
 
@@ -139,82 +170,173 @@ class _Part:
         return self.scene.ray_test(ray, coherent=True)
 
 
-class _AgentPart:
-    """An agents' scene: one mesh whose positions and faces are replaced when asked, at the new
-    size. The scene object stays the same, so Dr.Jit compiles the kernels that trace it once,
-    and Embree builds the BVH over these triangles only."""
+def _template_key(key: tuple[int, int, int]) -> tuple[int, int, int]:
+    """A body key (class, body, pose) with its pose taken modulo its body's poses (as
+    :func:`sensors.agents.template_of` takes it): keys of one template are one key."""
+    c, body, pose = key
+    return c, body, pose % template_poses(c, body)
 
-    def __init__(self, name: str = "agents") -> None:
-        self.triangles = 0
-        self._name = name
-        mesh = mi.Mesh(name, 3, 1, has_vertex_normals=False, has_vertex_texcoords=False)
-        self.scene: Any = mi.load_dict({"type": "scene", name: mesh})
-        self._params: Any = mi.traverse(self.scene)
 
-    def update(self, vertices: npt.NDArray[np.float32], triangles: npt.NDArray[np.int32]) -> None:
-        self.triangles = int(triangles.shape[0])
-        if self.triangles == 0:
-            return  # the last agents stay in the scene, never cast (see MitsubaScene)
-        self._params[f"{self._name}.vertex_positions"] = mi.Float(np.ascontiguousarray(vertices, np.float32).ravel())
-        self._params[f"{self._name}.faces"] = mi.UInt32(np.ascontiguousarray(triangles, np.uint32).ravel())
-        self._params.update()
+PARKED = np.diag([0.0, 0.0, 0.0, 1.0])
+PARKED[2, 3] = -1.0e6
+"""The transform of an instance no agent holds: every template shrunk to one point far below the
+map. No ray meets it (Embree's ray in a zero-scale instance's frame is not a number)."""
+SPARE_SLOTS = 1
+"""Instances a template's share of the agents' scene holds beyond the agents that last
+outgrew it (so a walker stepping from pose to pose seldom makes it grow again)."""
 
-    def cast(self, ray: Any) -> tuple[Any, Any]:
-        hit = self.scene.ray_intersect_preliminary(ray, coherent=True)
-        return hit.t, hit.prim_index
+
+class _Template:
+    """A body template's Mitsuba shape group (its unit mesh, made once an engine) and, per
+    triangle, its part and unit normal in the template's frame."""
+
+    def __init__(self, key: tuple[int, int, int], name: str) -> None:
+        template = template_of(*key)
+        vertices, triangles = template.unit_vertices, template.triangles
+        mesh = mi.Mesh(name, int(vertices.shape[0]), int(triangles.shape[0]), has_vertex_normals=False,
+                       has_vertex_texcoords=False)  # fmt: skip
+        params = mi.traverse(mesh)
+        params["vertex_positions"] = mi.Float(np.ascontiguousarray(vertices, np.float32).ravel())
+        params["faces"] = mi.UInt32(np.ascontiguousarray(triangles, np.uint32).ravel())
+        params.update()
+        self.group: Any = mi.load_dict({"type": "shapegroup", name: mesh})
+        self.part = template.triangle_part
+        v = vertices.astype(np.float64)
+        n = np.cross(v[triangles[:, 1]] - v[triangles[:, 0]], v[triangles[:, 2]] - v[triangles[:, 0]])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        self.normal = n / np.where(length > 0, length, 1.0)
+
+
+class _Instances:
+    """The agents' scene: per body template (:func:`sensors.agents.template_of`) a shape group,
+    made once, and a number of instances of it (slots), each holding one agent by its transform
+    (unit box to map: rotation, scale to the agent's size less :data:`AGENT_LIFT_M`, centre) or
+    none (:data:`PARKED`). A frame changes only the transforms that differ from the last frame's
+    (Embree then builds its instances' tree again over the templates' trees, which it also
+    rebuilds: Mitsuba 3.9 rebuilds every shape group whenever its scene changes). The scene is
+    made again, with more slots, when a template has more agents than slots; its layout (the
+    templates in order and their slots) is what :meth:`MitsubaEngine.checkpoint` keeps."""
+
+    def __init__(self) -> None:
+        self.layout: list[tuple[tuple[int, int, int], int]] = []
+        self._templates: dict[tuple[int, int, int], _Template] = {}
+        self.scene: Any = None
+        self.count = 0  # agents of the frame (0: the scene is not cast)
+        self._slot_props: list[tuple[Any, Any, Any]] = []
+        self._last = np.zeros((0, 4, 4), np.float32)
+
+    def set_layout(self, layout: list[tuple[tuple[int, int, int], int]]) -> None:
+        self.layout, self.scene = layout, None
+
+    def _template(self, key: tuple[int, int, int]) -> _Template:
+        if key not in self._templates:
+            self._templates[key] = _Template(key, f"template{len(self._templates)}")
+        return self._templates[key]
+
+    def update(self, agents: Agents) -> None:
+        """Hold this frame's agents: per slot its agent (-1: none), template rows, class, instance
+        id and normal turn (rotation times the inverse scale), for the hits' tables."""
+        n = len(agents)
+        keys = [_template_key(k) for k in map(tuple, body_keys(agents).tolist())] if n else []
+        need: dict[tuple[int, int, int], int] = {}
+        for k in keys:
+            need[k] = need.get(k, 0) + 1
+        have = dict(self.layout)
+        if any(count > have.get(k, 0) for k, count in need.items()):
+            grown = {k: need[k] + SPARE_SLOTS if need.get(k, 0) > c else c for k, c in have.items()}
+            grown.update({k: c + SPARE_SLOTS for k, c in sorted(need.items()) if k not in have})
+            self.set_layout(list(grown.items()))
+        self.count = n
+        if not self.layout:
+            return
+        first: dict[tuple[int, int, int], int] = {}
+        slot = 0
+        for k, c in self.layout:
+            first[k] = slot
+            slot += c
+        agent_of_slot = np.full(slot, -1, np.int64)
+        taken = dict.fromkeys(first, 0)
+        for a, k in enumerate(keys):
+            agent_of_slot[first[k] + taken[k]] = a
+            taken[k] += 1
+        rotations = agents.rotations()
+        centre = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
+        lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
+        to_world = np.repeat(PARKED[None], slot, axis=0)
+        held = agent_of_slot >= 0
+        mine = agent_of_slot[held]
+        to_world[held, :3, :3] = rotations[mine] * lwh[mine, None, :]
+        to_world[held, :3, 3] = centre[mine]
+        if self.scene is None:
+            self._make(to_world)
+        else:
+            self._move(to_world)
+        self.agent_of_slot = agent_of_slot
+        self.slot_instance = np.zeros(slot, np.uint32)
+        self.slot_instance[held] = agents.instance_id[mine]
+        self.slot_class = np.zeros(slot, np.uint8)
+        self.slot_class[held] = agents.semantic_class[mine]
+        self.slot_turn = np.zeros((slot, 3, 3))
+        self.slot_turn[held] = rotations[mine] / lwh[mine, None, :]  # R diag(1 / lwh): normals' map
+
+    def _make(self, to_world: npt.NDArray[np.float64]) -> None:
+        """The scene of the layout, its instances placed at ``to_world``."""
+        scene: dict[str, Any] = {"type": "scene"}
+        names: list[str] = []
+        for g, (k, c) in enumerate(self.layout):
+            scene[f"group{g}"] = self._template(k).group
+            for _ in range(c):
+                names.append(f"slot{len(names)}")
+                scene[names[-1]] = {"type": "instance", "shapegroup": self._template(k).group,
+                                    "to_world": mi.ScalarTransform4f(to_world[len(names) - 1])}  # fmt: skip
+        self.scene = mi.load_dict(scene)
+        params = mi.traverse(self.scene)
+        self._slot_props = [params.properties[f"{name}.to_world"][:3] for name in names]
+        shapes = {shape.id(): shape for shape in self.scene.shapes()}
+        registry: Any = [dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shapes[name])) for name in names]
+        ids = np.array([int(r[0]) for r in registry])
+        slot_of_id = np.full(int(ids.max()) + 1, NO_SLOT, np.uint32)
+        slot_of_id[ids] = np.arange(len(names), dtype=np.uint32)
+        self._slot_of_id = mi.UInt32(slot_of_id)  # a hit's instance (its registry id) -> its slot
+        self._last = to_world.astype(np.float32)
+        rows = [self._templates[k] for k, c in self.layout for _ in range(c)]
+        self.slot_first = np.cumsum([0] + [t.part.shape[0] for t in rows])[:-1].astype(np.int64)
+        self.part = np.concatenate([t.part for t in rows]).astype(np.uint8)
+        self.normal = np.concatenate([t.normal for t in rows])
+
+    def _move(self, to_world: npt.NDArray[np.float64]) -> None:
+        """Give the instances whose transform changed their new one; Embree's trees are built again."""
+        new = to_world.astype(np.float32)
+        changed = np.flatnonzero(np.any(new != self._last, axis=(1, 2)))
+        for s in changed.tolist():
+            value, value_type, node = self._slot_props[s]
+            mi.set_property(value, value_type, mi.AffineTransform4f(to_world[s]))
+            node.parameters_changed(["to_world"])
+        if changed.size:
+            self.scene.parameters_changed([f"slot{s}" for s in changed.tolist()])
+        self._last = new
+
+    def cast(self, ray: Any) -> tuple[Any, Any, Any]:
+        """Distance (inf: no hit), triangle of its template and slot of each ray."""
+        hit: Any = self.scene.ray_intersect_preliminary(ray, coherent=True)
+        registry: Any = dr.reinterpret_array(mi.UInt32, hit.instance)  # the instance's registry id
+        slot = dr.gather(mi.UInt32, self._slot_of_id, registry, hit.is_valid())
+        return hit.t, hit.prim_index, slot
 
     def test(self, ray: Any) -> Any:
         return self.scene.ray_test(ray, coherent=True)
 
 
-STILL_GROWTH = 0.25
-"""The kept scene of standing agents is made again when agents that stood since the last frame
-outside it hold this share of its triangles (or when one of its agents moved or left)."""
-
-
-class _AgentDigests:
-    """Per agent of a frame's meshes a digest of its posed triangles (SHA-256 of its vertices, its
-    faces from its first vertex, each face's class and part; 16 bytes) and its run of triangles.
-    An agent whose bytes are the same as at the last frame keeps its digest without hashing them
-    again (a standing agent's; the same bytes give the same digest)."""
-
-    def __init__(self) -> None:
-        self._last: dict[int, tuple[bytes, bytes]] = {}  # per agent of the last frame: its bytes, its digest
-
-    def __call__(self, meshes: AgentMeshes) -> tuple[dict[int, bytes], dict[int, tuple[int, int]]]:
-        runs = _triangle_runs(meshes.triangle_instance)
-        keys, last = {}, {}
-        for instance, (a, b) in runs.items():
-            vertices, faces = own_mesh(meshes.vertices_m, meshes.triangles[a:b])
-            data = b"".join(p.data for p in (vertices, faces, meshes.triangle_class[a:b], meshes.triangle_part[a:b]))
-            kept = self._last.get(instance)
-            digest = kept[1] if kept is not None and kept[0] == data else hashlib.sha256(data).digest()[:16]
-            keys[instance], last[instance] = digest, (data, digest)
-        self._last = last
-        return keys, runs
-
-
-class _Tables:
-    """Per triangle of an agents' scene: class, instance, part and face normal."""
-
-    def __init__(self, meshes: AgentMeshes, triangles: npt.NDArray[np.int32], rows: npt.NDArray[np.intp]) -> None:
-        self.triangles = triangles
-        self.cls = meshes.triangle_class[rows]
-        self.instance = meshes.triangle_instance[rows]
-        self.part = meshes.triangle_part[rows]
-        self.normal = _face_normals(meshes.vertices_m, triangles)
-
-
 class MitsubaEngine:
-    """Keeps the static scene (made again when the static mesh changes) and two agents' scenes:
-    one of the agents standing exactly as they stood (the same posed triangles, bit for bit),
-    kept from frame to frame, and one of the others, made every frame; and each agent's own Open3D
-    scene for the labels' silhouettes, kept while its triangles stay the same (which answers as a
-    fresh one: not part of the checkpoint).
+    """Keeps the static scene (made again when the static mesh changes), the agents' scene of
+    instanced body templates (:class:`_Instances`), and each agent's own Open3D scene for the
+    labels' silhouettes, kept while its triangles stay the same (which answers as a fresh one:
+    not part of the checkpoint).
 
-    Which agents share a scene changes what Embree answers for a few rays (a ray through an edge,
-    between surfaces microns apart), so the split is part of what a frame's outputs depend on:
-    :meth:`checkpoint` and :meth:`restore` carry it to a run that continues."""
+    A hit on an agent depends on its template and transform alone, but which of two agents'
+    surfaces at the very same distance a ray reports follows the order of the instances in the
+    scene: :meth:`checkpoint` and :meth:`restore` carry the scene's layout to a run that
+    continues."""
 
     name = "mitsuba"
 
@@ -222,12 +344,7 @@ class MitsubaEngine:
         self._static_mesh: ClassedMesh | None = None
         self._static: _Part | None = None
         self._static_normals = np.zeros((0, 3), np.float32)
-        self.agent_part = _AgentPart()
-        self.still_part = _AgentPart("still")
-        self._last_keys: dict[int, bytes] = {}
-        self._kept: dict[int, bytes] = {}  # the still part's agents and their triangles' bytes
-        self._kept_tables: _Tables | None = None
-        self._digests = _AgentDigests()
+        self.instances = _Instances()
         self._alone = AloneScenes()  # each agent's own scene, for the labels' silhouettes
 
     def scene(self, static: ClassedMesh, agents: Agents) -> MitsubaScene:
@@ -236,75 +353,42 @@ class MitsubaEngine:
             self._static_normals = _face_normals(static.vertices_m, static.triangles)
         if self._static is None:
             raise RuntimeError("MitsubaEngine: no static scene")
-        meshes = agent_meshes(agents)
-        moving, kept = self._split(meshes)
+        self.instances.update(agents)
         self._alone.keep_only(agents.instance_id)
-        return MitsubaScene(self, static, self._static, agents, meshes, moving, kept)
-
-    def _split(self, meshes: AgentMeshes) -> tuple[_Tables, _Tables]:
-        """This frame's moving agents' tables (their part made here) and the kept still ones'
-        (their part made again when an agent in it changed or left, or many more stand)."""
-        keys, runs = self._digests(meshes)
-        intact = all(keys.get(i) == k for i, k in self._kept.items())
-        standing = [i for i, k in keys.items() if self._last_keys.get(i) == k]
-        kept_triangles = sum(runs[i][1] - runs[i][0] for i in self._kept) if intact else 0
-        joining = sum(runs[i][1] - runs[i][0] for i in standing if i not in self._kept)
-        self._last_keys = keys
-        if not intact or joining > STILL_GROWTH * kept_triangles:
-            self._kept, self._kept_tables = {i: keys[i] for i in standing}, None
-        kept_tables = self._kept_tables
-        if kept_tables is None:  # made again, or first made (a fresh or restored engine)
-            rows = _rows_of_agents(runs, sorted(self._kept))
-            kept_tables = self._kept_tables = _Tables(meshes, meshes.triangles[rows], rows)
-            self.still_part.update(meshes.vertices_m, kept_tables.triangles)
-        rows = _rows_of_agents(runs, sorted(i for i in runs if i not in self._kept))
-        moving = _Tables(meshes, meshes.triangles[rows], rows)
-        self.agent_part.update(meshes.vertices_m, moving.triangles)
-        return moving, kept_tables
+        return MitsubaScene(self, static, self._static, agents)
 
     def checkpoint(self) -> dict[str, Any]:
-        """What a run that continues after this frame needs to split the agents as this engine
-        will: the digests of this frame's agents and which of them the kept scene holds (their
-        triangles are this frame's: an agent that changed has left it)."""
-        return {"agents": {str(i): k.hex() for i, k in self._last_keys.items()}, "kept": sorted(self._kept)}
+        """The agents' scene's layout: its templates (class, body, pose) in order, each with its
+        number of instances."""
+        return {"slots": [[*k, c] for k, c in self.instances.layout]}
 
     def restore(self, state: dict[str, Any]) -> None:
-        """Continue from :meth:`checkpoint`'s ``state`` (an empty one: as a fresh engine); the kept
-        scene is made at the next frame, of the same triangles as the engine that ran on had."""
-        self._last_keys = {int(i): bytes.fromhex(k) for i, k in state.get("agents", {}).items()}
-        self._kept = {int(i): self._last_keys[int(i)] for i in state.get("kept", [])}
-        self._kept_tables = None
-
-
-def _rows_of_agents(runs: dict[int, tuple[int, int]], instances: list[int]) -> npt.NDArray[np.intp]:
-    """The triangles (rows of the merged mesh) of ``instances``, in the mesh's order."""
-    spans = [np.arange(*runs[i]) for i in instances]
-    return np.concatenate(spans) if spans else np.zeros(0, np.intp)
+        """Continue from :meth:`checkpoint`'s ``state`` (an empty one: as a fresh engine); the
+        agents' scene is made at the next frame, of the same layout as the engine that ran on had."""
+        self.instances.set_layout([((int(c), int(b), int(p)), int(n)) for c, b, p, n in state.get("slots", [])])
 
 
 class MitsubaScene:
-    """One frame: the static part and the still agents' (kept by the engine) and this frame's
-    moving agents. Rows of the tables: static triangles, moving agents', still agents', and
-    one for rays that hit nothing."""
+    """One frame: the static part and the agents' instances (kept by the engine). Per hit, the
+    static world's triangles give its class and normal from tables (their rows, then one for
+    rays that hit nothing), an agent's its slot and template triangle (:func:`_rows_of`)."""
 
-    def __init__(
-        self, engine: MitsubaEngine, static: ClassedMesh, part: _Part, agents: Agents, meshes: AgentMeshes,
-        moving: _Tables, still: _Tables,
-    ) -> None:  # fmt: skip
+    def __init__(self, engine: MitsubaEngine, static: ClassedMesh, part: _Part, agents: Agents) -> None:
         self._engine, self._static = engine, part
         self.agents = agents
-        self.agent_meshes: AgentMeshes = meshes
-        self._agents, self._still = engine.agent_part, engine.still_part
-        n_static, n_moving, n_still = static.triangle_class.shape[0], moving.cls.shape[0], still.cls.shape[0]
-        self._agent_row0, self._still_row0 = n_static, n_static + n_moving
-        self._nothing_row = n_static + n_moving + n_still
-        self._class_of_row = np.concatenate([static.triangle_class, moving.cls, still.cls, [0]]).astype(np.uint8)
-        self._instance_of_row = np.concatenate([np.zeros(n_static, np.uint32), moving.instance, still.instance, [0]])
-        self._instance_of_row = self._instance_of_row.astype(np.uint32)
-        self._part_of_row = np.concatenate([np.zeros(n_static, np.uint8), moving.part, still.part, [0]])
-        self._part_of_row = self._part_of_row.astype(np.uint8)
-        normals = [engine._static_normals, moving.normal, still.normal, np.zeros((1, 3), np.float32)]
+        self._instances = engine.instances
+        self._nothing_row = static.triangle_class.shape[0]
+        self._class_of_row = np.concatenate([static.triangle_class, [0]]).astype(np.uint8)
+        normals = [engine._static_normals, np.zeros((1, 3), np.float32)]
         self._normal_of_row = np.ascontiguousarray(np.concatenate(normals)).view(np.uint32)  # bits, copied whole
+        self._agent_meshes: AgentMeshes | None = None
+
+    @property
+    def agent_meshes(self) -> AgentMeshes:
+        """The agents' posed meshes (made when first asked: the labels' silhouettes, the occupancy)."""
+        if self._agent_meshes is None:
+            self._agent_meshes = agent_meshes(self.agents)
+        return self._agent_meshes
 
     def cast(self, rays: npt.NDArray[np.float32]) -> RayHits:
         ray = _rays(rays)
@@ -325,39 +409,46 @@ class MitsubaScene:
     def occluded(self, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:
         ray = _rays(rays)
         hit = self._static.test(ray) if self._static.triangles else dr.zeros(mi.Bool, rays.shape[0])
-        for agents in (self._agents, self._still):
-            if agents.triangles:
-                hit = hit | agents.test(ray)
+        if self._instances.count:
+            hit = hit | self._instances.test(ray)
         return np.asarray(hit.numpy(), np.bool_)
 
     def cast_raw(self, rays: npt.NDArray[np.float32]) -> Any:
         ray = _rays(rays)
         t, _ = self._static.cast(ray)
-        for agents in (self._agents, self._still):
-            if agents.triangles:
-                t_agent = agents.cast(ray)[0]
-                t = dr.select(t_agent < t, t_agent, t)
+        if self._instances.count:
+            t_agent = self._instances.cast(ray)[0]
+            t = dr.select(t_agent < t, t_agent, t)
         return t.numpy()  # waits for the kernel: Dr.Jit launches it in the background
 
     def _hits(self, ray: Any) -> RayHits:
         t, prim = self._static.cast(ray)
         row = mi.UInt32(prim)
-        for agents, row0 in ((self._agents, self._agent_row0), (self._still, self._still_row0)):
-            if agents.triangles:
-                t_agent, prim_agent = agents.cast(ray)
-                nearer = t_agent < t
-                t = dr.select(nearer, t_agent, t)
-                # opaque: the numbers change from frame to frame, the compiled kernel must not
-                row = dr.select(nearer, prim_agent + dr.opaque(mi.UInt32, row0), row)
+        agents = self._instances.count > 0
+        if agents:
+            t_agent, prim_agent, slot_agent = self._instances.cast(ray)
+            nearer = t_agent < t
+            t = dr.select(nearer, t_agent, t)
+            row = dr.select(nearer, prim_agent, row)
+            slot = dr.select(nearer, slot_agent, dr.opaque(mi.UInt32, int(NO_SLOT)))
+        # opaque: the number changes from frame to frame, the compiled kernel must not
         row = dr.select(dr.isinf(t), dr.opaque(mi.UInt32, self._nothing_row), row)
-        dr.eval(t, row)
+        dr.eval(t, row, slot) if agents else dr.eval(t, row)
         range_m = t.numpy().astype(np.float32, copy=False)
-        return self._with_rows(range_m, row.numpy())
+        slots = slot.numpy() if agents else np.full(range_m.shape[0], NO_SLOT, np.uint32)
+        return self._with_rows(range_m, row.numpy(), slots)
 
-    def _with_rows(self, range_m: npt.NDArray[np.float32], rows: npt.NDArray[np.uint32]) -> RayHits:
+    def _with_rows(
+        self, range_m: npt.NDArray[np.float32], rows: npt.NDArray[np.uint32], slots: npt.NDArray[np.uint32]
+    ) -> RayHits:
+        inst = self._instances
+        if inst.count:
+            tables = (inst.slot_class, inst.slot_instance, inst.slot_first, inst.slot_turn, inst.part, inst.normal)
+        else:
+            tables = _NO_AGENTS
         cls, instance, part, normal = _rows_of(
-            np.ascontiguousarray(rows, np.uint32), self._class_of_row, self._instance_of_row, self._part_of_row,
-            self._normal_of_row,
+            np.ascontiguousarray(rows, np.uint32), np.ascontiguousarray(slots, np.uint32), self._class_of_row,
+            self._normal_of_row, *tables,
         )  # fmt: skip
         return RayHits(range_m, cls, instance, normal.view(np.float32), part)
 
@@ -367,7 +458,9 @@ class MitsubaScene:
         row = dr.select(dr.isinf(t), dr.opaque(mi.UInt32, self._nothing_row), mi.UInt32(prim))
         dr.eval(t, row)
         # the static rows' instance and part are 0
-        return self._with_rows(t.numpy().astype(np.float32, copy=False), row.numpy())
+        return self._with_rows(
+            t.numpy().astype(np.float32, copy=False), row.numpy(), np.full(rays.shape[0], NO_SLOT, np.uint32)
+        )
 
     def cast_agents_moving(
         self, rays: npt.NDArray[np.float32], dt_s: npt.NDArray[np.float64], ray_index: npt.NDArray[np.intp],
@@ -377,3 +470,7 @@ class MitsubaScene:
 
     def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
         return _hits_alone(self.agent_meshes, rays, instance_id, self._engine._alone)
+
+
+_NO_AGENTS = (np.zeros(0, np.uint8), np.zeros(0, np.uint32), np.zeros(0, np.int64), np.zeros((0, 3, 3)),
+              np.zeros(0, np.uint8), np.zeros((0, 3)))  # fmt: skip

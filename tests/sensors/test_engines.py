@@ -129,19 +129,42 @@ def test_rays_given_as_rows_or_as_columns_give_the_same_hits(town):
     np.testing.assert_array_equal(scene.occluded(rays), scene.occluded(np.asfortranarray(rays)))
 
 
-def test_a_hits_class_instance_part_and_normal_are_its_rows_in_the_tables(town):
-    from sensors.mitsuba_engine import _rows_of
+def test_a_hits_class_instance_part_and_normal_come_from_its_row_or_its_agents_template(town):
+    from sensors.agents import template_of
+    from sensors.mitsuba_engine import NO_SLOT, _rows_of, _template_key
 
     static, agents, _ = town
     scene = MitsubaEngine().scene(static, agents)
+    inst = scene._instances
     rng = np.random.default_rng(2)
-    rows = rng.integers(0, scene._nothing_row + 1, 20_000).astype(np.uint32)
-    cls, instance, part, normal_bits = _rows_of(rows, scene._class_of_row, scene._instance_of_row,
-                                                scene._part_of_row, scene._normal_of_row)  # fmt: skip
-    np.testing.assert_array_equal(cls, scene._class_of_row[rows])
-    np.testing.assert_array_equal(instance, scene._instance_of_row[rows])
-    np.testing.assert_array_equal(part, scene._part_of_row[rows])
-    np.testing.assert_array_equal(normal_bits, scene._normal_of_row[rows])
+    n = 20_000
+    slots = rng.integers(0, inst.agent_of_slot.shape[0], n).astype(np.uint32)
+    slots[inst.agent_of_slot[slots] < 0] = NO_SLOT  # an empty slot: no ray meets it
+    slots[rng.random(n) < 0.3] = NO_SLOT  # the static world, or nothing
+    held = slots != NO_SLOT
+    templates = {s: template_of(*_template_key(k)) for s, k in enumerate(k for k, c in inst.layout for _ in range(c))}
+    rows = rng.integers(0, scene._nothing_row + 1, n).astype(np.uint32)
+    rows[held] = [rng.integers(0, templates[s].triangles.shape[0]) for s in slots[held].tolist()]
+    cls, instance, part, normal_bits = _rows_of(
+        rows, slots, scene._class_of_row, scene._normal_of_row, inst.slot_class, inst.slot_instance, inst.slot_first,
+        inst.slot_turn, inst.part, inst.normal,
+    )  # fmt: skip
+    np.testing.assert_array_equal(cls[~held], scene._class_of_row[rows[~held]])
+    np.testing.assert_array_equal(normal_bits[~held], scene._normal_of_row[rows[~held]])
+    assert not instance[~held].any() and not part[~held].any()
+    a = inst.agent_of_slot[slots[held]]
+    np.testing.assert_array_equal(cls[held], agents.semantic_class[a])
+    np.testing.assert_array_equal(instance[held], agents.instance_id[a])
+    want_part = [templates[s].triangle_part[r] for s, r in zip(slots[held].tolist(), rows[held].tolist(), strict=True)]
+    np.testing.assert_array_equal(part[held], want_part)
+    # the normal: the posed triangle's (float64), within float32's rounding
+    posed = []
+    rotations, lwh = agents.rotations(), agents.lwh_m - [0.0, 0.0, 0.03]
+    for s, r, k in zip(slots[held].tolist(), rows[held].tolist(), a.tolist(), strict=True):
+        v = templates[s].unit_vertices[templates[s].triangles[r]] * lwh[k] @ rotations[k].T
+        c = np.cross(v[1] - v[0], v[2] - v[0])
+        posed.append(c / np.linalg.norm(c))
+    assert np.abs(normal_bits[held].view(np.float32) - np.array(posed)).max() < 1e-6
 
 
 def test_map_directions_are_cv2s_and_follow_the_rotation():
@@ -165,8 +188,8 @@ def _same_hits(a, b):
 
 
 def _moves(agents):
-    """Six frames of ``agents``: as given, a third moved, another third moved, all standing, one
-    moved, all standing."""
+    """Eight frames of ``agents``: as given, a third moved, another third moved, all standing, one
+    moved, all standing, half of them left, all back with a third of them walkers."""
     import dataclasses
 
     frames = [agents]
@@ -177,74 +200,52 @@ def _moves(agents):
         elif step == 4:
             centre[0, 1] += 0.5
         frames.append(dataclasses.replace(agents, center_map_m=centre))
+    frames.append(frames[-1].select(np.arange(len(agents)) % 2 == 0))
+    walkers = frames[-2].semantic_class.copy()
+    walkers[::3] = 15
+    frames.append(dataclasses.replace(frames[-2], semantic_class=walkers))
     return frames
 
 
-def test_agents_standing_kept_apart_give_the_hits_of_one_scene_of_all(town):
-
+def test_an_agents_hits_do_not_depend_on_the_frames_before(town):
     static, agents, ego = town
     rays = Lidar(LidarSpec()).rays(ego.map_SE3_ego())
     sun = rays.copy()
     sun[:, 3:] = np.array([0.3, 0.2, 0.93], np.float32) / np.linalg.norm([0.3, 0.2, 0.93])
     engine = MitsubaEngine()
-    frames = _moves(agents)[:5]
-    kept = []
-    for frame in frames:
-        scene = engine.scene(static, frame)
-        kept.append(scene._still.triangles)
-        fresh = MitsubaEngine().scene(static, frame)
-        assert fresh._still.triangles == 0
+    for frame in _moves(agents):
+        scene, fresh = engine.scene(static, frame), MitsubaEngine().scene(static, frame)
         _same_hits(scene.cast(rays), fresh.cast(rays))
         np.testing.assert_array_equal(scene.occluded(sun), fresh.occluded(sun))
         np.testing.assert_array_equal(scene.cast_raw(rays), fresh.cast_raw(rays))
-    total = scene.agent_meshes.triangles.shape[0]
-    assert kept[0] == 0 and 0 < kept[1] < total and kept[3] == total and 0 < kept[4] < total
+    held = engine.instances.agent_of_slot
+    assert (held < 0).sum() > len(agents) // 3  # the agents that left hold no instance
 
 
-def test_an_engine_restored_from_a_checkpoint_splits_the_agents_as_the_engine_that_ran_on(town):
+def test_an_engine_restored_from_a_checkpoint_lays_out_the_agents_as_the_engine_that_ran_on(town):
     import json
 
     static, agents, ego = town
     rays = Lidar(LidarSpec()).rays(ego.map_SE3_ego())
     frames = _moves(agents)
 
-    def split(scene):
-        return scene._still.triangles, scene._instance_of_row[scene._still_row0 : scene._nothing_row].tobytes()
+    def layout(scene):
+        return scene._instances.layout, scene._instances.agent_of_slot.tobytes()
 
     engine = MitsubaEngine()
     ran_on, states = [], []
     for frame in frames:
         scene = engine.scene(static, frame)
-        ran_on.append((split(scene), scene.cast(rays)))
+        ran_on.append((layout(scene), scene.cast(rays)))
         states.append(json.loads(json.dumps(engine.checkpoint())))
     differs = 0
     for k in range(len(frames) - 1):
         restored, fresh = MitsubaEngine(), MitsubaEngine()
         restored.restore(states[k])
-        for frame, (want_split, want_hits) in zip(frames[k + 1 :], ran_on[k + 1 :], strict=True):
+        for frame, (want_layout, want_hits) in zip(frames[k + 1 :], ran_on[k + 1 :], strict=True):
             scene = restored.scene(static, frame)
-            assert split(scene) == want_split
+            assert layout(scene) == want_layout
             _same_hits(scene.cast(rays), want_hits)
-            differs += split(fresh.scene(static, frame)) != want_split
-    assert differs > 0  # without the checkpoint the split is another
-    assert MitsubaEngine().checkpoint() == {"agents": {}, "kept": []}
-
-
-def test_an_agents_digest_kept_from_the_last_frame_is_the_digest_of_its_bytes(town):
-    import hashlib
-
-    from sensors.mitsuba_engine import _AgentDigests
-    from sensors.scene import own_mesh
-
-    static, agents, _ = town
-    engine = MitsubaEngine()
-    for frame in _moves(agents):
-        meshes = engine.scene(static, frame).agent_meshes
-        a, b = 0, int(np.sum(meshes.triangle_instance == meshes.triangle_instance[0]))
-        vertices, faces = own_mesh(meshes.vertices_m, meshes.triangles[a:b])
-        digest = hashlib.sha256()
-        for part in (vertices, faces, meshes.triangle_class[a:b], meshes.triangle_part[a:b]):
-            digest.update(part.tobytes())
-        fresh, _ = _AgentDigests()(meshes)  # every agent hashed
-        assert fresh[int(meshes.triangle_instance[0])] == digest.digest()[:16]
-        assert engine.checkpoint()["agents"] == {str(i): k.hex() for i, k in fresh.items()}
+            differs += layout(fresh.scene(static, frame)) != want_layout
+    assert differs > 0  # without the checkpoint the layout is another
+    assert MitsubaEngine().checkpoint() == {"slots": []}
