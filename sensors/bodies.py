@@ -169,11 +169,18 @@ def wheel(
     return [tyre, rim, cap]
 
 
-def ring_wheel(x: float, r: float, half_width: float, sides: int = 16) -> list[Piece]:
-    """A thin bicycle wheel: a tyre ring on a rim ring, open spokes, a hub."""
-    tyre = prism(circle(x, r, r, sides), half_width, Part.TYRE, Part.TYRE, hole=circle(x, r, 0.9 * r, sides))
-    rim = prism(circle(x, r, 0.89 * r, sides), half_width * 0.6, Part.RIM, Part.RIM, hole=circle(x, r, 0.84 * r, sides))
-    hub = prism(circle(x, r, 0.06, 6), half_width * 1.5, Part.FRAME, Part.FRAME)
+BICYCLE_TYRE_M = 0.045
+"""A bicycle tyre's depth from tread to rim (a city or trekking tyre: 40-50 mm)."""
+
+
+def ring_wheel(x: float, r: float, half_width: float, sides: int = 20) -> list[Piece]:
+    """A bicycle wheel: a black tyre :data:`BICYCLE_TYRE_M` deep on a silver rim, open
+    spokes, a hub."""
+    inner = r - BICYCLE_TYRE_M
+    tyre = prism(circle(x, r, r, sides), half_width, Part.TYRE, Part.TYRE, hole=circle(x, r, inner, sides))
+    rim = prism(circle(x, r, inner + 0.004, sides), half_width * 0.6, Part.CHROME, Part.CHROME,
+                hole=circle(x, r, inner - 0.025, sides))  # fmt: skip
+    hub = prism(circle(x, r, 0.03, 6), half_width * 1.5, Part.CHROME, Part.CHROME)
     return [tyre, rim, hub]
 
 
@@ -646,14 +653,23 @@ def foot_pose(u: float, step: float, s: float) -> tuple[float, float, float]:
     return x0 + (x1 - x0) * ease, z0 + (z1 - z0) * ease + lift, off_pitch + (strike_pitch - off_pitch) * ease
 
 
+RIDER_LEAN_RAD = {"bicycle": math.radians(24.0), "motorcycle": math.radians(34.0)}
+"""How far a rider's trunk leans forward from the hips (its length kept)."""
+CRANK_M = 0.17
+"""A bicycle's crank length (the pedals' circle's radius)."""
+
+
 def person(
     phase: float | None, height: float = 1.75, build: float = 1.0, seated: str | None = None, pedal_phase: float = 0.0,
-    pace: float = PREFERRED_PACE_MPS,
+    pace: float = PREFERRED_PACE_MPS, helmet: bool = False,
 ) -> list[Piece]:  # fmt: skip
     """A person standing (``phase`` None) or walking at gait ``phase`` (radians: the left foot's
     heel strikes at 0, the right's at pi) at ``pace`` (m/s), centred at the hips in x-y, feet on
     z = 0; ``seated``: 'bicycle' or 'motorcycle' for a rider (hips at the seat, x = 0 at the
-    seat, hands forward)."""
+    seat, trunk leaning forward, hands forward): a cyclist's feet on the pedals (the crank's
+    axle 0.18 m ahead of the hips, 0.3 m up, at ``pedal_phase``), in everyday clothes and with a
+    cycling helmet where ``helmet``; a motorcyclist's feet on the footrests, in a riding jacket,
+    gloves and a full-face helmet with a dark visor."""
     s = height / 1.75
     hip_z = 0.92 * s
     shoulder_z = 1.45 * s
@@ -661,6 +677,9 @@ def person(
     sh_w = 0.19 * s * build
     pieces: list[Piece] = []
     leg_len_thigh, leg_len_shin = 0.45 * s, 0.45 * s
+    moto = seated == "motorcycle"
+    top = Part.JACKET if moto else Part.TOP
+    hand_part = Part.SHOES if moto else Part.SKIN  # riding gloves
     if seated is None:
         legs = _legs(phase, pace, s, build, hip_z, hip_w)
         pieces += legs[0]
@@ -671,9 +690,9 @@ def person(
         for side in (1.0, -1.0):
             if seated == "bicycle":
                 ph = pedal_phase + (0 if side > 0 else math.pi)
-                foot = np.array([0.28 + 0.17 * math.cos(ph), side * 0.12 * s, 0.3 + 0.17 * math.sin(ph)])
+                foot = np.array([0.18 + CRANK_M * math.cos(ph), side * 0.12 * s, 0.3 + CRANK_M * math.sin(ph)])
             else:
-                foot = np.array([0.35, side * 0.21 * s, hip_z - 0.55 * s])
+                foot = np.array([0.2, side * 0.2 * s, hip_z - 0.5 * s])
             hip = seat + np.array([0.0, side * hip_w, 0.0])
             d = np.linalg.norm(foot - hip)
             reach = leg_len_thigh + leg_len_shin
@@ -689,30 +708,41 @@ def person(
                     foot[1] - 0.04,
                     foot[1] + 0.04,
                     foot[2] - 0.06,
-                    foot[2] + 0.02,
+                    foot[2] + (0.06 if moto else 0.02),  # boots up the ankle
                     Part.SHOES,
                 )
             )
-    lean = 0.0 if seated is None else (0.45 if seated == "bicycle" else 0.35)
-    chest = np.array([lean * (shoulder_z - hip_z), 0.0, shoulder_z])
+    if seated is None:
+        chest = np.array([0.0, 0.0, shoulder_z])
+        waist = np.array([0.0, 0.0, hip_z + 0.2 * s])
+    else:  # the trunk turned forward about the hips
+        lean = RIDER_LEAN_RAD[seated]
+        trunk = shoulder_z - hip_z
+        chest = np.array([math.sin(lean) * trunk, 0.0, hip_z + math.cos(lean) * trunk])
+        waist = np.array([math.sin(lean) * 0.2 * s, 0.0, hip_z + math.cos(lean) * 0.2 * s])
     # the trunk: hips, a narrower waist, a chest wider than deep, rounded shoulders
-    waist = np.array([lean * 0.3 * (shoulder_z - hip_z), 0.0, hip_z + 0.2 * s])
     hips = np.array([0.0, 0.0, hip_z - 0.05 * s])
-    pieces.append(tube(hips, waist, 0.16 * s * build, 0.145 * s * build, Part.TOP, sides=10, flat=0.7))
-    pieces.append(tube(waist, chest - np.array([0, 0, 0.06 * s]), 0.145 * s * build, 0.19 * s * build, Part.TOP,
+    pieces.append(tube(hips, waist, 0.16 * s * build, 0.145 * s * build, top, sides=10, flat=0.7))
+    pieces.append(tube(waist, chest - np.array([0, 0, 0.06 * s]), 0.145 * s * build, 0.19 * s * build, top,
                        sides=10, flat=0.62))  # fmt: skip
     pieces.append(blob(tuple(chest - np.array([0, 0, 0.06 * s])), (0.12 * s * build, 0.19 * s * build, 0.07 * s),
-                       Part.TOP, rings=4, segments=10))  # fmt: skip
+                       top, rings=4, segments=10))  # fmt: skip
     neck = chest + np.array([0.0, 0.0, 0.06 * s])
     head_c = neck + np.array([0.02, 0.0, 0.13 * s])
-    pieces.append(tube(chest, neck, 0.05 * s, 0.05 * s, Part.SKIN))
-    pieces.append(
-        blob(tuple(head_c), (0.1 * s, 0.085 * s, 0.115 * s), Part.SKIN if seated != "motorcycle" else Part.PAINT)
-    )
-    if seated != "motorcycle":
+    pieces.append(tube(chest, neck, 0.05 * s, 0.05 * s, top if moto else Part.SKIN))
+    if moto:  # a full-face helmet over the head, its dark visor across the front
+        centre = head_c + np.array([0.0, 0.0, 0.01 * s])
+        pieces.append(blob(tuple(centre), (0.14 * s, 0.12 * s, 0.135 * s), Part.HELMET, rings=5, segments=10))
+        pieces.append(blob(tuple(centre + np.array([0.08 * s, 0.0, 0.0])), (0.07 * s, 0.1 * s, 0.065 * s),
+                           Part.GLASS, rings=4, segments=10))  # fmt: skip
+    else:
+        pieces.append(blob(tuple(head_c), (0.1 * s, 0.085 * s, 0.115 * s), Part.SKIN))
         pieces.append(
             blob(tuple(head_c + np.array([-0.015, 0.0, 0.035 * s])), (0.1 * s, 0.09 * s, 0.09 * s), Part.HAIR)
         )
+        if helmet:  # a cycling helmet's shell over the hair
+            pieces.append(blob(tuple(head_c + np.array([-0.01, 0.0, 0.05 * s])), (0.13 * s, 0.105 * s, 0.09 * s),
+                               Part.HELMET, rings=4, segments=10))  # fmt: skip
     for side in (1.0, -1.0):
         shoulder = chest + np.array([0.0, side * sh_w, -0.07 * s])
         if seated is None:  # arms hang clear of the waist, swinging against the legs
@@ -725,12 +755,12 @@ def person(
             hand = (
                 np.array([0.68, side * 0.27, hip_z + 0.06 * s])  # on the bicycle's bars
                 if seated == "bicycle"
-                else np.array([0.7, side * 0.32, hip_z + 0.18 * s])  # on the motorcycle's bars
+                else np.array([0.72, side * 0.31, hip_z + 0.22 * s])  # on the motorcycle's bars
             )
             elbow = (shoulder + hand) / 2 + np.array([0.0, side * 0.04, -0.08])
-        pieces.append(tube(shoulder, elbow, 0.05 * s * build, 0.042 * s * build, Part.TOP))
-        pieces.append(tube(elbow, hand, 0.042 * s * build, 0.035 * s, Part.TOP))
-        pieces.append(blob(tuple(hand), (0.04 * s, 0.03 * s, 0.045 * s), Part.SKIN, rings=3, segments=6))
+        pieces.append(tube(shoulder, elbow, 0.05 * s * build, 0.042 * s * build, top))
+        pieces.append(tube(elbow, hand, 0.042 * s * build, 0.035 * s, top))
+        pieces.append(blob(tuple(hand), (0.04 * s, 0.03 * s, 0.045 * s), hand_part, rings=3, segments=6))
     return pieces
 
 
@@ -779,36 +809,64 @@ def pedestrian(phase: float | None, build: float = 1.0, pace: float = PREFERRED_
     return merge(person(phase, 1.75, build, pace=pace))
 
 
-def bicycle(pedal_phase: float) -> Piece:
-    wheel_r = 0.34
+def _arc(cx: float, cz: float, r0: float, r1: float, a0: float, a1: float, n: int = 8) -> list[tuple[float, float]]:
+    """The outline of a ring's sector in x-z (angles in radians from +x, counter-clockwise)."""
+    angles = [a0 + (a1 - a0) * i / n for i in range(n + 1)]
+    outer = [(cx + r1 * math.cos(t), cz + r1 * math.sin(t)) for t in angles]
+    inner = [(cx + r0 * math.cos(t), cz + r0 * math.sin(t)) for t in reversed(angles)]
+    return outer + inner
+
+
+def bicycle(pedal_phase: float, helmet: bool = False) -> Piece:
+    """A city bicycle (28-inch wheels, 4.5 cm tyres on silver rims, a diamond frame of 3.6 cm
+    tubes painted in the frame's colour, saddle, bars, cranks and pedals) with its rider
+    pedalling at ``pedal_phase`` (radians), in a cycling helmet where ``helmet``."""
+    wheel_r = 0.35
     rear, front = -0.5, 0.55
-    bb = np.array([0.0, 0.0, 0.3])  # bottom bracket
-    seat = np.array([-0.18, 0.0, 0.9])
-    head = np.array([0.42, 0.0, 0.85])
-    pieces = ring_wheel(rear, wheel_r, 0.02) + ring_wheel(front, wheel_r, 0.02)
+    rider_h = 1.72
+    seat = np.array([-0.18, 0.0, 0.9])  # the saddle's top, under the rider's hips
+    lift = seat[2] + 0.03 - 0.92 * rider_h / 1.75  # the rider's z in the bicycle's
+    bb = np.array([0.0, 0.0, 0.3 + lift - 0.075])  # the crank's axle under the pedalling feet
+    pieces = ring_wheel(rear, wheel_r, 0.022) + ring_wheel(front, wheel_r, 0.022)
     axle_r = np.array([rear, 0.0, wheel_r])
     axle_f = np.array([front, 0.0, wheel_r])
-    for a, b in (
-        (bb, seat),
-        (bb, head),
-        (seat + np.array([0, 0, -0.1]), head),
-        (bb, axle_r),
-        (seat + np.array([0, 0, -0.08]), axle_r),
-        (head, axle_f),
-    ):
-        pieces.append(tube(np.asarray(a, float), np.asarray(b, float), 0.02, 0.02, Part.FRAME, sides=4))
-    pieces.append(tube(head, head + np.array([0.0, 0.0, 0.12]), 0.02, 0.02, Part.FRAME, sides=4))
-    pieces.append(
-        tube(
-            head + np.array([0.08, -0.28, 0.12]), head + np.array([0.08, 0.28, 0.12]), 0.015, 0.015, Part.FRAME, sides=4
-        )
-    )
-    pieces.append(box(seat[0] - 0.1, seat[0] + 0.12, -0.06, 0.06, seat[2], seat[2] + 0.04, Part.TRIM))
-    rider = person(None, 1.72, 1.0, "bicycle", pedal_phase)
-    rider = [
-        Piece(p.vertices + np.array([seat[0], 0.0, seat[2] + 0.03 - 0.92 * 1.72 / 1.75]), p.triangles, p.parts)
-        for p in rider
-    ]
+    seat_top = bb + 0.8 * (seat - bb)  # the seat tube's top
+    head_top, head_bottom = np.array([0.4, 0.0, 0.78]), np.array([0.46, 0.0, 0.62])
+
+    def rod(p: F64, q: F64, r: float, part: int = Part.FRAME) -> None:
+        pieces.append(tube(np.asarray(p, float), np.asarray(q, float), r, r, part, sides=6))
+
+    rod(bb, seat_top, 0.017)  # seat tube
+    rod(seat_top, head_top + np.array([0.0, 0.0, -0.02]), 0.017)  # top tube
+    rod(bb, head_bottom + np.array([-0.01, 0.0, 0.03]), 0.02)  # down tube
+    rod(head_bottom, head_top, 0.02)  # head tube
+    for side in (1.0, -1.0):
+        y = np.array([0.0, side * 0.055, 0.0])
+        rod(bb + y * 0.6, axle_r + y, 0.011)  # chainstays
+        rod(seat_top + y * 0.3, axle_r + y, 0.01)  # seatstays
+        rod(head_bottom + y * 0.6, axle_f + y * 0.8, 0.012)  # fork legs
+    rod(seat_top, seat + np.array([0.0, 0.0, -0.01]), 0.012, Part.CHROME)  # seat post
+    stem = np.array([0.43, 0.0, 0.93])
+    bar = np.array([0.5, 0.0, 0.97])
+    rod(head_top, stem, 0.014, Part.CHROME)
+    rod(stem, bar, 0.013, Part.CHROME)
+    pieces.append(tube(bar + np.array([0.0, -0.2, 0.0]), bar + np.array([0.0, 0.2, 0.0]), 0.012, 0.012, Part.CHROME))
+    for side in (1.0, -1.0):  # grips
+        pieces.append(tube(bar + np.array([0.0, side * 0.19, 0.0]), bar + np.array([0.0, side * 0.3, 0.0]), 0.017,
+                           0.017, Part.TRIM))  # fmt: skip
+    pieces.append(prism([(seat[0] - 0.11, seat[2] - 0.045), (seat[0] + 0.13, seat[2] - 0.03),
+                         (seat[0] + 0.13, seat[2] - 0.005), (seat[0] - 0.1, seat[2] + 0.005)], 0.075, Part.TRIM,
+                        Part.TRIM))  # saddle  # fmt: skip
+    pieces.append(prism(circle(bb[0], bb[2], 0.1, 16), 0.004, Part.CHROME, Part.CHROME, -0.075,
+                        hole=circle(bb[0], bb[2], 0.07, 16)))  # chainring  # fmt: skip
+    for side in (1.0, -1.0):  # cranks and pedals, under the shoes
+        ph = pedal_phase + (0 if side > 0 else math.pi)
+        pedal = bb + np.array([CRANK_M * math.cos(ph), 0.0, CRANK_M * math.sin(ph)])
+        rod(bb + np.array([0.0, side * 0.085, 0.0]), pedal + np.array([0.0, side * 0.085, 0.0]), 0.012, Part.CHROME)
+        y0, y1 = sorted((side * 0.09, side * 0.15))
+        pieces.append(box(pedal[0] - 0.05, pedal[0] + 0.05, y0, y1, pedal[2] - 0.01, pedal[2] + 0.005, Part.TRIM))
+    rider = person(None, rider_h, 1.0, "bicycle", pedal_phase, helmet=helmet)
+    rider = [Piece(p.vertices + np.array([seat[0], 0.0, lift]), p.triangles, p.parts) for p in rider]
     return merge(pieces + rider)
 
 
@@ -817,7 +875,7 @@ def spoked_wheel(x: float, r: float, half_width: float, spokes: int = 5) -> list
     road behind shows through), a hub and a brake disc."""
     tyre = prism(circle(x, r, r, 18), half_width, Part.TYRE, Part.TYRE, hole=circle(x, r, 0.7 * r, 18))
     rim = prism(circle(x, r, 0.705 * r, 18), 0.55 * half_width, Part.RIM, Part.RIM, hole=circle(x, r, 0.62 * r, 18))
-    hub = prism(circle(x, r, 0.14 * r, 8), 0.8 * half_width, Part.FRAME, Part.FRAME)
+    hub = prism(circle(x, r, 0.14 * r, 8), 0.8 * half_width, Part.ENGINE, Part.ENGINE)
     disc = prism(circle(x, r, 0.45 * r, 12), 0.008, Part.CHROME, Part.CHROME, 0.9 * half_width,
                  hole=circle(x, r, 0.3 * r, 12))  # fmt: skip
     pieces = [tyre, rim, hub, disc]
@@ -830,36 +888,63 @@ def spoked_wheel(x: float, r: float, half_width: float, spokes: int = 5) -> list
 
 
 def motorcycle() -> Piece:
+    """A naked road motorcycle with its rider: a dark engine (crankcase and a forward-leaning
+    cylinder block) with its exhaust, a painted tank, seat and tail, front fender, round
+    headlamp, forks, bars and mirrors, the frame and swingarm in the frame's colour; the rider
+    leaning to the bars, feet on the footrests."""
     r = 0.31
-    pieces = spoked_wheel(-0.72, r, 0.08) + spoked_wheel(0.75, r, 0.06)
-    # the exhaust along the right side, from the engine to beside the rear wheel
-    pieces.append(tube(np.array([0.05, -0.17, 0.3]), np.array([-0.55, -0.2, 0.42]), 0.04, 0.05, Part.CHROME, sides=6))
-    pieces.append(
-        prism([(-0.45, 0.3), (0.3, 0.3), (0.45, 0.55), (0.2, 0.7), (-0.35, 0.62)], 0.16, Part.FRAME, Part.FRAME)
-    )
-    pieces.append(prism([(-0.05, 0.72), (0.5, 0.72), (0.45, 0.92), (0.05, 0.95)], 0.17, Part.PAINT, Part.PAINT))  # tank
-    pieces.append(
-        prism([(-0.75, 0.75), (-0.05, 0.78), (-0.05, 0.86), (-0.7, 0.88)], 0.14, Part.TRIM, Part.TRIM)
-    )  # seat
-    pieces.append(prism([(-0.95, 0.62), (-0.7, 0.7), (-0.7, 0.85), (-0.92, 0.8)], 0.12, Part.PAINT, Part.PAINT))  # tail
-    pieces.append(box(-0.96, -0.92, -0.08, 0.08, 0.68, 0.76, Part.TAIL_LAMP))
-    for side in (-1.0, 1.0):  # the fork's two legs, the mirrors on stalks over the bar's ends
-        pieces.append(
-            tube(
-                np.array([0.75, side * 0.085, r]), np.array([0.5, side * 0.085, 1.0]), 0.03, 0.03, Part.CHROME, sides=4
-            )
-        )
-        stalk = np.array([0.4, side * 0.27, 1.07])
-        pieces.append(tube(stalk, stalk + np.array([0.02, side * 0.05, 0.2]), 0.01, 0.01, Part.FRAME, sides=4))
-        pieces.append(blob((0.43, side * 0.32, 1.29), (0.025, 0.05, 0.035), Part.TRIM, rings=3, segments=6))
-    pieces.append(
-        prism([(0.55, 0.85), (0.72, 0.85), (0.7, 1.05), (0.55, 1.05)], 0.12, Part.PAINT, Part.PAINT)
-    )  # fairing
-    pieces.append(box(0.7, 0.74, -0.06, 0.06, 0.88, 0.98, Part.HEADLAMP))
-    pieces.append(box(-0.985, -0.955, -0.09, 0.09, 0.5, 0.62, Part.PLATE))
-    pieces.append(tube(np.array([0.42, -0.34, 1.06]), np.array([0.42, 0.34, 1.06]), 0.018, 0.018, Part.TRIM, sides=4))
+    rear, front = -0.72, 0.75
+    pieces = spoked_wheel(rear, r, 0.08) + spoked_wheel(front, r, 0.06)
+
+    def rod(p: tuple[float, float, float], q: tuple[float, float, float], rad: float, part: int,
+            sides: int = 6) -> None:  # fmt: skip
+        pieces.append(tube(np.array(p), np.array(q), rad, rad, part, sides=sides))
+
+    pieces.append(prism([(-0.3, 0.26), (0.28, 0.24), (0.36, 0.4), (0.3, 0.52), (-0.22, 0.6), (-0.32, 0.45)], 0.13,
+                        Part.ENGINE, Part.ENGINE))  # crankcase  # fmt: skip
+    pieces.append(prism([(0.02, 0.5), (0.28, 0.46), (0.42, 0.66), (0.16, 0.74)], 0.165, Part.ENGINE, Part.ENGINE))
+    for dz in (0.53, 0.58, 0.63):  # the cylinders' cooling fins
+        pieces.append(prism([(0.05 + 0.5 * (dz - 0.5), dz), (0.33 + 0.5 * (dz - 0.5), dz - 0.02),
+                             (0.34 + 0.5 * (dz - 0.5), dz), (0.06 + 0.5 * (dz - 0.5), dz + 0.015)], 0.175,
+                            Part.CHROME, Part.CHROME))  # fmt: skip
+    for side in (1.0, -1.0):  # exhaust headers from the cylinders' front down under the engine
+        rod((0.4, side * 0.07, 0.6), (0.38, side * 0.09, 0.26), 0.024, Part.CHROME)
+        rod((0.38, side * 0.09, 0.26), (0.0, -0.14, 0.22), 0.024, Part.CHROME)
+    rod((0.0, -0.14, 0.22), (-0.2, -0.17, 0.3), 0.035, Part.CHROME)
+    pieces.append(tube(np.array([-0.2, -0.17, 0.3]), np.array([-0.7, -0.21, 0.46]), 0.05, 0.058, Part.CHROME, sides=8))
+    # the frame: steering head to swingarm pivot, rails under the seat, the swingarm and shocks
+    rod((0.52, 0.0, 0.96), (-0.2, 0.0, 0.74), 0.035, Part.FRAME)
+    for side in (1.0, -1.0):
+        rod((0.52, side * 0.04, 0.93), (0.36, side * 0.1, 0.42), 0.022, Part.FRAME)
+        rod((-0.2, side * 0.11, 0.7), (-0.82, side * 0.1, 0.78), 0.016, Part.FRAME)
+        rod((-0.2, side * 0.11, 0.7), (-0.22, side * 0.12, 0.36), 0.025, Part.FRAME)
+        rod((-0.22, side * 0.125, 0.36), (rear, side * 0.125, r), 0.03, Part.FRAME)
+        rod((-0.55, side * 0.15, 0.33), (-0.4, side * 0.15, 0.74), 0.022, Part.CHROME, sides=8)  # shock
+        rod((-0.1, side * 0.14, 0.265), (-0.1, side * 0.25, 0.265), 0.012, Part.TRIM)  # footrest
+    pieces.append(blob((0.2, 0.0, 0.83), (0.29, 0.17, 0.13), Part.PAINT, rings=5, segments=12))  # tank
+    pieces.append(prism([(-0.8, 0.74), (-0.1, 0.72), (-0.02, 0.8), (-0.3, 0.83), (-0.78, 0.87)], 0.13, Part.TRIM,
+                        Part.TRIM))  # seat  # fmt: skip
+    pieces.append(prism([(-1.0, 0.72), (-0.25, 0.6), (-0.12, 0.74), (-0.8, 0.79), (-1.0, 0.82)], 0.1, Part.PAINT,
+                        Part.PAINT))  # tail  # fmt: skip
+    pieces.append(box(-1.02, -0.99, -0.07, 0.07, 0.73, 0.79, Part.TAIL_LAMP))
+    pieces.append(box(-1.005, -0.985, -0.09, 0.09, 0.5, 0.62, Part.PLATE))
+    rod((-0.99, 0.0, 0.62), (-0.93, 0.0, 0.72), 0.012, Part.TRIM)  # the plate's bracket
+    pieces.append(prism(_arc(rear, r, r + 0.02, r + 0.045, math.radians(70), math.radians(150)), 0.075, Part.TRIM,
+                        Part.TRIM))  # rear hugger  # fmt: skip
+    pieces.append(prism(_arc(front, r, r + 0.025, r + 0.05, math.radians(25), math.radians(150)), 0.068, Part.PAINT,
+                        Part.PAINT))  # front fender  # fmt: skip
+    for side in (1.0, -1.0):  # forks, risers, mirrors on stalks over the bar's ends, indicators
+        rod((front, side * 0.085, r), (0.52, side * 0.085, 1.0), 0.03, Part.CHROME)
+        rod((0.52, side * 0.07, 1.0), (0.44, side * 0.07, 1.04), 0.015, Part.CHROME)
+        rod((0.4, side * 0.27, 1.05), (0.42, side * 0.32, 1.24), 0.01, Part.TRIM, sides=4)
+        pieces.append(blob((0.43, side * 0.33, 1.27), (0.025, 0.055, 0.035), Part.TRIM, rings=3, segments=6))
+        pieces.append(box(0.62, 0.66, side * 0.14 - 0.02, side * 0.14 + 0.02, 0.9, 0.93, Part.INDICATOR))
+        pieces.append(box(-0.96, -0.92, side * 0.13 - 0.02, side * 0.13 + 0.02, 0.7, 0.725, Part.INDICATOR))
+    rod((0.44, -0.36, 1.04), (0.44, 0.36, 1.04), 0.014, Part.TRIM)  # handlebar
+    rod((0.58, 0.0, 0.93), (0.7, 0.0, 0.93), 0.095, Part.TRIM, sides=12)  # headlamp shell
+    rod((0.69, 0.0, 0.93), (0.72, 0.0, 0.93), 0.08, Part.HEADLAMP, sides=12)
     rider = person(None, 1.75, 1.1, "motorcycle")
-    rider = [Piece(p.vertices + np.array([-0.3, 0.0, 0.86 - 0.92]), p.triangles, p.parts) for p in rider]
+    rider = [Piece(p.vertices + np.array([-0.32, 0.0, 0.81 - 0.92]), p.triangles, p.parts) for p in rider]
     return merge(pieces + rider)
 
 

@@ -35,8 +35,8 @@ class Part(IntEnum):
     HAIR = 11
     TOP = 12  # upper clothes, colour per instance
     TROUSERS = 13  # lower clothes, colour per instance
-    SHOES = 14
-    FRAME = 15  # bicycle and motorcycle frames, dark metal
+    SHOES = 14  # shoes, boots and riding gloves: dark leather
+    FRAME = 15  # bicycle and motorcycle frames, painted: colour per instance (dark most)
     CARGO = 16  # box bodies of trucks, light colours per instance
     UNDERBODY = 17  # the dark underside and arch linings
     INDICATOR = 18  # amber direction indicators, front and rear corners
@@ -46,6 +46,9 @@ class Part(IntEnum):
     LIVERY = 22  # white paint: emergency vehicles, box trucks' rear doors
     BEACON = 23  # emergency vehicles' blue light bars (not lit: SUMO drives them as cars)
     CAB = 24  # trucks' cab paint, colour per instance from trucks' colours (white most)
+    ENGINE = 25  # motorcycles' engine blocks and cylinders: dark cast metal
+    JACKET = 26  # motorcyclists' riding jackets, colour per instance (black and dark most)
+    HELMET = 27  # riders' helmets, colour per instance (black and white most)
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,7 +88,7 @@ MATERIALS: dict[Part, PartMaterial] = {
     Part.TOP: PartMaterial(None, 0.05, 5.0, 0.0, 0.0, 0.4, 0.15),
     Part.TROUSERS: PartMaterial(None, 0.05, 5.0, 0.0, 0.0, 0.3, 0.15),
     Part.SHOES: PartMaterial((0.08, 0.08, 0.09), 0.2, 20.0, 0.0, 0.0, 0.15, 0.1),
-    Part.FRAME: PartMaterial((0.18, 0.18, 0.2), 0.5, 40.0, 0.05, 0.0, 0.5, 0.8),
+    Part.FRAME: PartMaterial(None, 0.5, 40.0, 0.05, 0.0, 0.5, 0.8),
     Part.CARGO: PartMaterial(None, 0.2, 20.0, 0.0, 0.0, 0.55, 1.0),
     Part.UNDERBODY: PartMaterial((0.04, 0.04, 0.04), 0.0, 1.0, 0.0, 0.0, 0.05, 0.8),
     # Cones and barriers: orange PVC and polyethylene, bright at 905 nm but a weak radar target;
@@ -97,6 +100,9 @@ MATERIALS: dict[Part, PartMaterial] = {
     Part.LIVERY: PartMaterial((0.9, 0.9, 0.9), 0.6, 60.0, 0.08, 0.0, 0.68, 1.0),  # as white body paint
     Part.BEACON: PartMaterial((0.75, 0.3, 0.05), 0.8, 120.0, 0.15, 0.0, 0.5, 0.5),  # blue polycarbonate
     Part.CAB: PartMaterial(None, 0.6, 60.0, 0.08, 0.0, 0.45, 1.0),  # as body paint
+    Part.ENGINE: PartMaterial((0.07, 0.07, 0.075), 0.4, 30.0, 0.03, 0.0, 0.3, 1.0),
+    Part.JACKET: PartMaterial(None, 0.08, 10.0, 0.0, 0.0, 0.3, 0.15),  # textile and leather
+    Part.HELMET: PartMaterial(None, 0.7, 80.0, 0.08, 0.0, 0.45, 0.3),  # glossy shell
 }
 
 # Car paint by real-world frequency (BASF/Axalta global colour popularity reports, 2020-2024:
@@ -137,6 +143,24 @@ TROUSERS_PALETTE = (((0.35, 0.2, 0.1), 0.4), ((0.08, 0.08, 0.08), 0.3), ((0.3, 0
                     ((0.45, 0.55, 0.6), 0.15))  # fmt: skip
 
 
+# Bicycle frames: black and dark colours most, then silver and white, some bright ones.
+FRAME_PALETTE = (
+    ((0.05, 0.05, 0.055), 0.3), ((0.22, 0.22, 0.23), 0.12), ((0.6, 0.6, 0.62), 0.1), ((0.85, 0.85, 0.85), 0.1),
+    ((0.3, 0.12, 0.04), 0.1), ((0.06, 0.06, 0.5), 0.1), ((0.12, 0.25, 0.08), 0.06), ((0.6, 0.35, 0.08), 0.05),
+    ((0.05, 0.5, 0.85), 0.04), ((0.1, 0.75, 0.85), 0.03),
+)  # fmt: skip
+# Riding jackets: black most, dark grey and dark blue, some in colours (red, white, hi-vis yellow).
+JACKET_PALETTE = (
+    ((0.04, 0.04, 0.045), 0.5), ((0.15, 0.15, 0.16), 0.15), ((0.22, 0.1, 0.04), 0.1), ((0.08, 0.08, 0.5), 0.08),
+    ((0.7, 0.7, 0.7), 0.07), ((0.1, 0.75, 0.8), 0.05), ((0.3, 0.3, 0.3), 0.05),
+)  # fmt: skip
+# Helmets: black and white most, then silver and colours.
+HELMET_PALETTE = (
+    ((0.04, 0.04, 0.045), 0.38), ((0.88, 0.88, 0.88), 0.27), ((0.55, 0.55, 0.57), 0.12), ((0.08, 0.08, 0.6), 0.08),
+    ((0.5, 0.22, 0.06), 0.08), ((0.05, 0.6, 0.85), 0.07),
+)  # fmt: skip
+
+
 def _palette(entries: tuple[tuple[tuple[float, float, float], float], ...], size: int = 64) -> npt.NDArray[np.float32]:
     """``(size, 3)`` colours in proportion to their weights: index by ``instance % size``."""
     weights = np.asarray([w for _, w in entries], np.float64)
@@ -155,11 +179,15 @@ PALETTES: dict[Part, npt.NDArray[np.float32]] = {
     Part.HAIR: _palette(HAIR_PALETTE),
     Part.TOP: _palette(TOP_PALETTE),
     Part.TROUSERS: _palette(TROUSERS_PALETTE),
+    Part.FRAME: _palette(FRAME_PALETTE),
+    Part.JACKET: _palette(JACKET_PALETTE),
+    Part.HELMET: _palette(HELMET_PALETTE),
 }
 """Colours of the parts coloured per instance; each part hashes the id differently."""
 
 PALETTE_SALT = {
-    Part.PAINT: 0, Part.CARGO: 11, Part.SKIN: 23, Part.HAIR: 31, Part.TOP: 41, Part.TROUSERS: 53, Part.CAB: 61
+    Part.PAINT: 0, Part.CARGO: 11, Part.SKIN: 23, Part.HAIR: 31, Part.TOP: 41, Part.TROUSERS: 53, Part.CAB: 61,
+    Part.FRAME: 5, Part.JACKET: 17, Part.HELMET: 37,
 }  # fmt: skip
 
 
