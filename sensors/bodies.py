@@ -653,7 +653,7 @@ def foot_pose(u: float, step: float, s: float) -> tuple[float, float, float]:
     return x0 + (x1 - x0) * ease, z0 + (z1 - z0) * ease + lift, off_pitch + (strike_pitch - off_pitch) * ease
 
 
-RIDER_LEAN_RAD = {"bicycle": math.radians(24.0), "motorcycle": math.radians(34.0)}
+RIDER_LEAN_RAD = {"bicycle": math.radians(36.0), "motorcycle": math.radians(38.0)}
 """How far a rider's trunk leans forward from the hips (its length kept)."""
 CRANK_M = 0.17
 """A bicycle's crank length (the pedals' circle's radius)."""
@@ -755,7 +755,7 @@ def person(
             hand = (
                 np.array([0.68, side * 0.27, hip_z + 0.06 * s])  # on the bicycle's bars
                 if seated == "bicycle"
-                else np.array([0.72, side * 0.31, hip_z + 0.22 * s])  # on the motorcycle's bars
+                else np.array([0.76, side * 0.31, hip_z + 0.25 * s])  # on the motorcycle's bars
             )
             elbow = (shoulder + hand) / 2 + np.array([0.0, side * 0.04, -0.08])
         pieces.append(tube(shoulder, elbow, 0.05 * s * build, 0.042 * s * build, top))
@@ -823,8 +823,8 @@ def bicycle(pedal_phase: float, helmet: bool = False) -> Piece:
     pedalling at ``pedal_phase`` (radians), in a cycling helmet where ``helmet``."""
     wheel_r = 0.35
     rear, front = -0.5, 0.55
-    rider_h = 1.72
-    seat = np.array([-0.18, 0.0, 0.9])  # the saddle's top, under the rider's hips
+    rider_h = 1.78
+    seat = np.array([-0.18, 0.0, 0.93])  # the saddle's top, under the rider's hips
     lift = seat[2] + 0.03 - 0.92 * rider_h / 1.75  # the rider's z in the bicycle's
     bb = np.array([0.0, 0.0, 0.3 + lift - 0.075])  # the crank's axle under the pedalling feet
     pieces = ring_wheel(rear, wheel_r, 0.022) + ring_wheel(front, wheel_r, 0.022)
@@ -847,7 +847,7 @@ def bicycle(pedal_phase: float, helmet: bool = False) -> Piece:
         rod(head_bottom + y * 0.6, axle_f + y * 0.8, 0.012)  # fork legs
     rod(seat_top, seat + np.array([0.0, 0.0, -0.01]), 0.012, Part.CHROME)  # seat post
     stem = np.array([0.43, 0.0, 0.93])
-    bar = np.array([0.5, 0.0, 0.97])
+    bar = np.array([0.5, 0.0, 0.985])
     rod(head_top, stem, 0.014, Part.CHROME)
     rod(stem, bar, 0.013, Part.CHROME)
     pieces.append(tube(bar + np.array([0.0, -0.2, 0.0]), bar + np.array([0.0, 0.2, 0.0]), 0.012, 0.012, Part.CHROME))
@@ -864,7 +864,7 @@ def bicycle(pedal_phase: float, helmet: bool = False) -> Piece:
         pedal = bb + np.array([CRANK_M * math.cos(ph), 0.0, CRANK_M * math.sin(ph)])
         rod(bb + np.array([0.0, side * 0.085, 0.0]), pedal + np.array([0.0, side * 0.085, 0.0]), 0.012, Part.CHROME)
         y0, y1 = sorted((side * 0.09, side * 0.15))
-        pieces.append(box(pedal[0] - 0.05, pedal[0] + 0.05, y0, y1, pedal[2] - 0.01, pedal[2] + 0.005, Part.TRIM))
+        pieces.append(box(pedal[0] - 0.05, pedal[0] + 0.05, y0, y1, pedal[2] - 0.014, pedal[2] + 0.004, Part.TRIM))
     rider = person(None, rider_h, 1.0, "bicycle", pedal_phase, helmet=helmet)
     rider = [Piece(p.vertices + np.array([seat[0], 0.0, lift]), p.triangles, p.parts) for p in rider]
     return merge(pieces + rider)
@@ -922,7 +922,7 @@ def motorcycle() -> Piece:
         rod((-0.55, side * 0.15, 0.33), (-0.4, side * 0.15, 0.74), 0.022, Part.CHROME, sides=8)  # shock
         rod((-0.1, side * 0.14, 0.265), (-0.1, side * 0.25, 0.265), 0.012, Part.TRIM)  # footrest
     pieces.append(blob((0.2, 0.0, 0.83), (0.29, 0.17, 0.13), Part.PAINT, rings=5, segments=12))  # tank
-    pieces.append(prism([(-0.8, 0.74), (-0.1, 0.72), (-0.02, 0.8), (-0.3, 0.83), (-0.78, 0.87)], 0.13, Part.TRIM,
+    pieces.append(prism([(-0.8, 0.73), (-0.1, 0.71), (-0.02, 0.79), (-0.3, 0.81), (-0.78, 0.86)], 0.13, Part.TRIM,
                         Part.TRIM))  # seat  # fmt: skip
     pieces.append(prism([(-1.0, 0.72), (-0.25, 0.6), (-0.12, 0.74), (-0.8, 0.79), (-1.0, 0.82)], 0.1, Part.PAINT,
                         Part.PAINT))  # tail  # fmt: skip
@@ -944,7 +944,7 @@ def motorcycle() -> Piece:
     rod((0.58, 0.0, 0.93), (0.7, 0.0, 0.93), 0.095, Part.TRIM, sides=12)  # headlamp shell
     rod((0.69, 0.0, 0.93), (0.72, 0.0, 0.93), 0.08, Part.HEADLAMP, sides=12)
     rider = person(None, 1.75, 1.1, "motorcycle")
-    rider = [Piece(p.vertices + np.array([-0.32, 0.0, 0.81 - 0.92]), p.triangles, p.parts) for p in rider]
+    rider = [Piece(p.vertices + np.array([-0.32, 0.0, 0.79 - 0.92]), p.triangles, p.parts) for p in rider]
     return merge(pieces + rider)
 
 

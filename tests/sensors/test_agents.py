@@ -477,3 +477,59 @@ def test_truck_cabs_are_mostly_white_as_on_the_road() -> None:
     assert (cabs > 0.8).mean() > (cars > 0.8).mean() and (cabs < 0.1).mean() < (cars < 0.1).mean()
     for body in BODIES[int(SemanticClass.TRUCK)]:
         assert Part.CAB in set(body.build(0).parts.tolist()), body.name
+
+
+def test_riders_wheels_stay_round_in_their_kinds_nominal_box() -> None:
+    # each body fills its box: a body drawn taller than its kind's box would be squashed, its
+    # wheels into ovals lying on their side
+    from cosim.demand import KINDS
+
+    for kind, cls in (("motorcycle", SemanticClass.MOTORCYCLE), ("bicycle", SemanticClass.BICYCLE)):
+        lwh = KINDS[kind].mean_lwh_m
+        for tyre in _wheels_m(int(cls), lwh, 1):
+            across, tall = np.ptp(tyre[:, 0]), np.ptp(tyre[:, 2])
+            assert 0.94 < across / tall < 1.06, (kind, across / tall)
+
+
+def test_bicycle_tyres_are_as_thick_as_real_ones() -> None:
+    # city and trekking tyres are 40-50 mm: a thinner ring vanishes at 15 m
+    cls = int(SemanticClass.BICYCLE)
+    for tyre in _wheels_m(cls, (1.76, 0.60, 1.74), 1):
+        centre = (tyre.min(axis=0) + tyre.max(axis=0)) / 2
+        radius = np.hypot(tyre[:, 0] - centre[0], tyre[:, 2] - centre[2])
+        assert np.ptp(radius) >= 0.04 and np.ptp(tyre[:, 1]) >= 0.04, (np.ptp(radius), np.ptp(tyre[:, 1]))
+
+
+def test_a_cyclists_feet_stay_on_the_pedals_at_every_crank_phase() -> None:
+    from sensors.bodies import bicycle
+
+    for k in range(GAIT_PHASES):
+        piece = bicycle(2 * np.pi * k / GAIT_PHASES)
+        shoes = piece.vertices[np.unique(piece.triangles[piece.parts == Part.SHOES])]
+        pedals = piece.vertices[np.unique(piece.triangles[piece.parts == Part.TRIM])]
+        pedals = pedals[pedals[:, 2] < 0.6]  # not the saddle or the grips
+        for side in (1.0, -1.0):
+            shoe, pedal = shoes[side * shoes[:, 1] > 0], pedals[side * pedals[:, 1] > 0]
+            assert 0.0 < shoe[:, 2].min() - pedal[:, 2].max() < 0.02, (k, side)  # the sole just above the pedal
+            assert shoe[:, 0].min() < pedal[:, 0].mean() < shoe[:, 0].max(), (k, side)
+
+
+def test_motorcyclists_wear_riding_gear_in_their_own_colours() -> None:
+    from sensors.bodies import motorcycle
+    from sensors.parts import part_albedo
+
+    parts = set(motorcycle().parts.tolist())
+    assert {Part.HELMET, Part.GLASS, Part.JACKET, Part.SHOES, Part.ENGINE, Part.HEADLAMP} <= parts
+    assert not {Part.SKIN, Part.HAIR, Part.TOP} & parts  # a full-face helmet, a jacket, gloves
+    ids = np.arange(1, 401, dtype=np.uint32)
+
+    def colour(part: Part) -> np.ndarray:
+        return part_albedo(np.full(len(ids), int(part), np.uint8), ids)
+
+    helmet, paint, jacket = colour(Part.HELMET), colour(Part.PAINT), colour(Part.JACKET)
+    shade = helmet.mean(axis=1)
+    assert ((shade < 0.1) | (shade > 0.8)).mean() > 0.55  # black and white most
+    assert (np.abs(helmet - paint).max(axis=1) < 0.05).mean() < 0.3  # not the machine's paint
+    assert (jacket.mean(axis=1) < 0.2).mean() > 0.6  # dark jackets most
+    frames = colour(Part.FRAME).mean(axis=1)
+    assert (frames < 0.25).mean() > 0.4 and (frames > 0.5).mean() > 0.1  # bicycle frames: dark most, some bright
