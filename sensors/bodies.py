@@ -661,15 +661,15 @@ CRANK_M = 0.17
 
 def person(
     phase: float | None, height: float = 1.75, build: float = 1.0, seated: str | None = None, pedal_phase: float = 0.0,
-    pace: float = PREFERRED_PACE_MPS, helmet: bool = False,
+    pace: float = PREFERRED_PACE_MPS,
 ) -> list[Piece]:  # fmt: skip
     """A person standing (``phase`` None) or walking at gait ``phase`` (radians: the left foot's
     heel strikes at 0, the right's at pi) at ``pace`` (m/s), centred at the hips in x-y, feet on
     z = 0; ``seated``: 'bicycle' or 'motorcycle' for a rider (hips at the seat, x = 0 at the
     seat, trunk leaning forward, hands forward): a cyclist's feet on the pedals (the crank's
-    axle 0.18 m ahead of the hips, 0.3 m up, at ``pedal_phase``), in everyday clothes and with a
-    cycling helmet where ``helmet``; a motorcyclist's feet on the footrests, in a riding jacket,
-    gloves and a full-face helmet with a dark visor."""
+    axle 0.18 m ahead of the hips, 0.3 m up, at ``pedal_phase``), in everyday clothes; a
+    motorcyclist's feet on the footrests, in a riding jacket, gloves, boots and a full-face helmet
+    with a dark visor."""
     s = height / 1.75
     hip_z = 0.92 * s
     shoulder_z = 1.45 * s
@@ -740,9 +740,6 @@ def person(
         pieces.append(
             blob(tuple(head_c + np.array([-0.015, 0.0, 0.035 * s])), (0.1 * s, 0.09 * s, 0.09 * s), Part.HAIR)
         )
-        if helmet:  # a cycling helmet's shell over the hair
-            pieces.append(blob(tuple(head_c + np.array([-0.01, 0.0, 0.05 * s])), (0.13 * s, 0.105 * s, 0.09 * s),
-                               Part.HELMET, rings=4, segments=10))  # fmt: skip
     for side in (1.0, -1.0):
         shoulder = chest + np.array([0.0, side * sh_w, -0.07 * s])
         if seated is None:  # arms hang clear of the waist, swinging against the legs
@@ -817,10 +814,10 @@ def _arc(cx: float, cz: float, r0: float, r1: float, a0: float, a1: float, n: in
     return outer + inner
 
 
-def bicycle(pedal_phase: float, helmet: bool = False) -> Piece:
+def bicycle(pedal_phase: float) -> Piece:
     """A city bicycle (28-inch wheels, 4.5 cm tyres on silver rims, a diamond frame of 3.6 cm
     tubes painted in the frame's colour, saddle, bars, cranks and pedals) with its rider
-    pedalling at ``pedal_phase`` (radians), in a cycling helmet where ``helmet``."""
+    pedalling at ``pedal_phase`` (radians)."""
     wheel_r = 0.35
     rear, front = -0.5, 0.55
     rider_h = 1.78
@@ -865,7 +862,7 @@ def bicycle(pedal_phase: float, helmet: bool = False) -> Piece:
         rod(bb + np.array([0.0, side * 0.085, 0.0]), pedal + np.array([0.0, side * 0.085, 0.0]), 0.012, Part.CHROME)
         y0, y1 = sorted((side * 0.09, side * 0.15))
         pieces.append(box(pedal[0] - 0.05, pedal[0] + 0.05, y0, y1, pedal[2] - 0.014, pedal[2] + 0.004, Part.TRIM))
-    rider = person(None, rider_h, 1.0, "bicycle", pedal_phase, helmet=helmet)
+    rider = person(None, rider_h, 1.0, "bicycle", pedal_phase)
     rider = [Piece(p.vertices + np.array([seat[0], 0.0, lift]), p.triangles, p.parts) for p in rider]
     return merge(pieces + rider)
 

@@ -48,7 +48,7 @@ class Part(IntEnum):
     CAB = 24  # trucks' cab paint, colour per instance from trucks' colours (white most)
     ENGINE = 25  # motorcycles' engine blocks and cylinders: dark cast metal
     JACKET = 26  # motorcyclists' riding jackets, colour per instance (black and dark most)
-    HELMET = 27  # riders' helmets, colour per instance (black and white most)
+    HELMET = 27  # motorcyclists' helmets, colour per instance (black and white most)
 
 
 @dataclass(frozen=True, slots=True)
