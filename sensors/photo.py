@@ -328,9 +328,16 @@ LAMP_BGR[Part.GLASS] = (0.75, 0.9, 1.0)  # a bus's lit interior seen through its
 HEADLAMP_DAY, HEADLAMP_NIGHT = np.float32(0.5), np.float32(5.0)  # daytime running lamps; dipped beams
 TAIL_NIGHT, BRAKE_DAY, BRAKE_NIGHT = np.float32(0.6), np.float32(1.8), np.float32(2.5)
 INDICATOR_DAY, INDICATOR_NIGHT = np.float32(1.8), np.float32(2.5)
-CABIN_NIGHT = np.float32(0.3)
+CABIN_NIGHT = np.float32(0.15)
 """A bus in service keeps its interior lit after dark: its windows glow (buses only; cars'
-and trucks' cabins stay dark)."""
+and trucks' cabins stay dark), the interior's layout in them (:func:`bus_cabin`)."""
+CABIN_DRAWN_H_M = 3.1
+"""The bus height the interior's layout is drawn for (a city bus's); taller or lower buses
+have it scaled with their height."""
+SEAT_PITCH_M, SEAT_TOP_M = 0.8, 1.32
+"""Seat rows' spacing along the bus and the height of the seat backs' tops."""
+SEATED_SHARE, STANDING_SHARE = 0.45, 0.12
+"""Shares of window seats with a passenger and of standing places along the aisle with one."""
 
 
 _EMITS_BY_PART = EMISSIVE_BY_PART > 0
@@ -370,7 +377,9 @@ def lamp_light(
     gain[at[head]] += HEADLAMP_DAY + nt * HEADLAMP_NIGHT
     tail = pt == Part.TAIL_LAMP
     gain[at[tail & on]] += nt * TAIL_NIGHT
-    gain[at[(pt == Part.GLASS) & on]] += nt * CABIN_NIGHT
+    cabin = at[(pt == Part.GLASS) & on]
+    if len(cabin):
+        gain[cabin] += nt * CABIN_NIGHT * bus_cabin(points[cabin], instance[cabin], boxes)
     gain[at[tail & ((lamps & Lamp.BRAKE) > 0)]] += BRAKE_DAY + nt * BRAKE_NIGHT
     ind = np.flatnonzero((pt == Part.INDICATOR) & ((lamps & Lamp.FLASH) > 0))
     if len(ind):
@@ -381,6 +390,42 @@ def lamp_light(
         lit = ind[(lamps[ind] & side) > 0]
         gain[at[lit]] += INDICATOR_DAY + nt * INDICATOR_NIGHT
     return gain
+
+
+def bus_cabin(points: F32, instance: npt.NDArray[np.uint32], boxes: AgentBoxes) -> F32:
+    """``(N,)`` how bright a lit bus's interior shows through its windows at each hit (map frame,
+    on the buses ``instance``): brighter towards the ceiling's lights, the seat backs' rows dark
+    below :data:`SEAT_TOP_M` with the lit aisle between them, seated passengers' heads and
+    shoulders and standing passengers dark against the light. Drawn in the bus's own frame
+    (along its side; across its front and rear windows), so the same passengers ride in the same
+    seats in every frame, and a different set in each bus. 1 for hits off any known bus."""
+    out = np.ones(len(points), np.float32)
+    rows = boxes.rows_of(instance)
+    known = rows >= 0
+    if not known.any():
+        return out
+    r = rows[known]
+    yaw, lwh = boxes.yaw_rad[r], boxes.lwh_m[r]
+    rel = points[known].astype(np.float64) - boxes.centre_m[r]
+    along = rel[:, 0] * np.cos(yaw) + rel[:, 1] * np.sin(yaw)
+    across = -rel[:, 0] * np.sin(yaw) + rel[:, 1] * np.cos(yaw)
+    z = (rel[:, 2] + lwh[:, 2] / 2) * (CABIN_DRAWN_H_M / lwh[:, 2])  # up from the box's floor
+    end = np.abs(across) < 0.4 * lwh[:, 1]  # the windscreen and the rear window
+    s = np.where(end, across, along)
+    side = np.where(end, np.where(along > 0, 2, 3), np.where(across > 0, 0, 1)).astype(np.int64)
+    bus_id = instance[known].astype(np.int64)
+    seat_row = np.floor(s / SEAT_PITCH_M).astype(np.int64)
+    u = (s / SEAT_PITCH_M - seat_row - 0.3) * SEAT_PITCH_M  # from the seat's middle, m
+    glow = np.clip(0.75 + 0.5 * (z - SEAT_TOP_M), 0.6, 1.35)
+    light = np.where(z < SEAT_TOP_M, np.where(np.abs(u) < 0.25, 0.2, 0.55), glow)
+    seated = textures.hash01(bus_id * 8 + side, seat_row, 41) < SEATED_SHARE
+    head = ((u / 0.11) ** 2 + ((z - 1.52) / 0.13) ** 2 < 1.0) | ((np.abs(u) < 0.2) & (z >= 1.28) & (z < 1.42))
+    place = np.floor(s / 0.6).astype(np.int64)
+    v = (s / 0.6 - place - 0.5) * 0.6
+    standing = ~end & (textures.hash01(bus_id * 8 + side, place, 43) < STANDING_SHARE)
+    stood = ((np.abs(v) < 0.18) & (z < 1.9)) | ((v / 0.1) ** 2 + ((z - 2.0) / 0.12) ** 2 < 1.0)
+    out[known] = np.where((seated & head) | (standing & stood), 0.12, light)
+    return out
 
 
 def lamp_rays(

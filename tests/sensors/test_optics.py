@@ -234,3 +234,37 @@ def test_number_plates_keep_their_characters_as_their_vehicle_moves_and_differ_b
     assert (ink(8, (10.0, 5.0, 0.75), 0.3) != here).mean() > 0.2  # another vehicle, other characters
     columns = here.reshape(23, 105).any(axis=0)
     assert not columns.all()  # spaces between the characters
+
+
+def _bus_window_points(centre: np.ndarray, yaw: float) -> np.ndarray:
+    """Points over the left side windows (1.05-2.65 m up) of a 12 x 2.55 x 3.1 m bus standing at
+    ``centre`` (box centre, map frame) heading ``yaw``."""
+    along, up = np.meshgrid(np.linspace(-5.4, 5.2, 400), np.linspace(1.05, 2.65, 60))
+    local = np.stack([along.ravel(), np.full(along.size, 1.27), up.ravel() - 1.55], axis=1)
+    c, s = math.cos(yaw), math.sin(yaw)
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return (local @ turn.T + centre).astype(np.float32)
+
+
+def test_a_lit_bus_shows_seat_backs_and_passengers_that_ride_with_it():
+    from sensors.photo import AgentBoxes, bus_cabin
+
+    def cabin(instance: int, centre: tuple[float, float, float], yaw: float) -> np.ndarray:
+        boxes = AgentBoxes(
+            np.array([instance], np.uint32), np.array([centre]), np.array([[12.0, 2.55, 3.1]]),
+            np.array([yaw]), np.zeros(1, np.uint8), np.zeros((1, 3)),
+        )  # fmt: skip
+        points = _bus_window_points(np.array(centre), yaw)
+        return bus_cabin(points, np.full(len(points), instance, np.uint32), boxes).reshape(60, 400)
+
+    here = cabin(5, (20.0, -3.0, 1.55), 0.4)
+    low, high = here[:8], here[-15:]  # at the seat backs, under the ceiling
+    assert low.mean() < 0.6 < high.mean()  # darker seat rows below the glow
+    dark = here < 0.15
+    assert 0.03 < dark.mean() < 0.3  # passengers' silhouettes, not an empty or a blacked-out bus
+    assert dark[20:50].any(axis=0).mean() > 0.1  # heads and bodies above the seat backs
+    for centre, yaw in [((-60.0, 14.0, 1.55), 2.5), ((5.0, 80.0, 1.7), -1.0)]:
+        moved = cabin(5, centre, yaw)
+        assert (np.abs(moved - here) > 0.01).mean() < 0.01, (centre, yaw)  # the same people in their seats
+    other = cabin(6, (20.0, -3.0, 1.55), 0.4)
+    assert ((other < 0.15) != dark).mean() > 0.02  # another bus, other passengers
