@@ -395,6 +395,23 @@ def _rear_doors(x: float, hw: float, z0: float, z1: float) -> list[Piece]:
     return pieces
 
 
+def _contour_marking(x0: float, x1: float, hw: float, z0: float, h: float) -> list[Piece]:
+    """Yellow retro-reflective tape along the outline of a box body's rear face (at ``x0``) and
+    of its sides (``x0`` to ``x1``, bottom ``z0``, top ``h``), a few millimetres proud of them."""
+    rear = (x0 + 0.002, x0 + 0.006)
+    pieces = [box(*rear, -hw + 0.03, hw - 0.03, z0 + 0.03, z0 + 0.09, Part.RETRO_YELLOW),
+              box(*rear, -hw + 0.03, hw - 0.03, h - 0.085, h - 0.035, Part.RETRO_YELLOW)]  # fmt: skip
+    for side in (-1.0, 1.0):
+        y0, y1 = sorted((side * (hw - 0.075), side * (hw - 0.025)))
+        pieces.append(box(*rear, y0, y1, z0 + 0.09, h - 0.085, Part.RETRO_YELLOW))
+        y0, y1 = sorted((side * (hw + 0.002), side * (hw + 0.006)))
+        pieces.append(box(x0 + 0.03, x1 - 0.03, y0, y1, z0 + 0.02, z0 + 0.08, Part.RETRO_YELLOW))
+        pieces.append(box(x0 + 0.03, x1 - 0.03, y0, y1, h - 0.085, h - 0.035, Part.RETRO_YELLOW))
+        for xa, xb in ((x0 + 0.03, x0 + 0.08), (x1 - 0.08, x1 - 0.03)):
+            pieces.append(box(xa, xb, y0, y1, z0 + 0.08, h - 0.085, Part.RETRO_YELLOW))
+    return pieces
+
+
 def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: bool = False) -> Piece:
     """A rigid box truck, or a tractor with a box semi-trailer."""
     hl, hw = length / 2, width / 2 - 0.01
@@ -459,6 +476,11 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
             y0, y1 = sorted((side * (hw - 0.07), side * hw))
             pieces.append(box(x0, x1, y0, y1, box_z0 + 0.16, h - 0.1, Part.CHROME))
     pieces.append(box(-hl + 0.2, hl - 0.3, -0.45, 0.45, 0.5, box_z0 - 0.03, Part.UNDERBODY))  # chassis
+    pieces += _contour_marking(-hl, box_x1, hw, box_z0, h)
+    if h - 0.06 - cab_top > 0.15:  # a deflector on the cab's roof, rising to the box's front
+        ramp = [(face - 0.5, cab_top - 0.02), (cab_x0 + 0.02, cab_top - 0.02), (cab_x0 + 0.02, h - 0.11),
+                (cab_x0 + 0.45, h - 0.11)]  # fmt: skip
+        pieces.append(prism(ramp, hw - 0.16, Part.CAB, Part.CAB))
     rear_axle = -hl + (1.3 if trailer else 1.8)
     rear_axles = [-hl + 1.3, -hl + 2.6, -hl + 3.9] if trailer else [rear_axle]
     drive_axle = front_axle - 3.6  # a tractor's wheelbase: its drive axle under the trailer's front
@@ -500,8 +522,49 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
     return merge(pieces)
 
 
+BUS_MIRROR_REACH_M = 0.32
+"""A bus's mirrors hang on arms this far ahead of its front face (inside its box)."""
+
+
+def _bus_front(face: float, hw: float, floor: float, top: float, coach: bool) -> list[Piece]:
+    """A bus's front at ``face`` (facing +x): a windscreen down to the bumper, above it the
+    destination display (orange LED text on black), wipers, lamp clusters in dark housings,
+    and the mirrors hanging on arms from the roof's front corners ("rabbit ears")."""
+    pieces = []
+    win0, win1 = (0.95, top - 0.52) if not coach else (1.3, top - 0.45)
+    pieces.append(box(face + 0.002, face + 0.01, -hw + 0.07, hw - 0.07, win0, win1, Part.GLASS))
+    d0, d1 = win1 + 0.05, top - 0.1  # the display's glass band over the windscreen
+    pieces.append(box(face + 0.002, face + 0.01, -hw + 0.12, hw - 0.12, d0, d1, Part.GLASS))
+    zc, tall = (d0 + d1) / 2, min(0.2, 0.6 * (d1 - d0))
+    # the route number on the left (seen from ahead), the destination's letters to its right
+    blocks = [(0.62, 0.72), (0.76, 0.86)] + [(0.47 - 0.1 * k, 0.54 - 0.1 * k) for k in range(10) if k != 4]
+    for y0, y1 in blocks:
+        t = tall if y0 > 0.6 else 0.7 * tall
+        pieces.append(box(face + 0.011, face + 0.015, -y1, -y0, zc - t / 2, zc + t / 2, Part.DISPLAY))
+    for y in (-0.55, 0.25):  # wipers resting along the windscreen's base, tilted up
+        a, b = np.array([face + 0.016, y, win0 + 0.06]), np.array([face + 0.016, y + 0.75, win0 + 0.2])
+        pieces.append(tube(a, b, 0.014, 0.01, Part.TRIM, sides=4))
+    for side in (-1.0, 1.0):
+        h0, h1 = sorted((side * (hw - 0.04), side * (hw - 0.52)))  # the lamps' dark housing
+        pieces.append(box(face + 0.002, face + 0.012, h0, h1, floor + 0.28, floor + 0.58, Part.TRIM))
+        for yc in (hw - 0.34, hw - 0.18):
+            l0, l1 = sorted((side * (yc - 0.065), side * (yc + 0.065)))
+            pieces.append(box(face + 0.013, face + 0.02, l0, l1, floor + 0.36, floor + 0.5, Part.HEADLAMP))
+        i0, i1 = sorted((side * (hw - 0.1), side * (hw - 0.05)))
+        pieces.append(box(face + 0.013, face + 0.02, i0, i1, floor + 0.32, floor + 0.54, Part.INDICATOR))
+        # the mirror's arm from the roof's corner, forward and down; its head in front of the
+        # windscreen's upper corner
+        root = np.array([face - 0.1, side * (hw - 0.12), top - 0.08])
+        elbow = np.array([face + BUS_MIRROR_REACH_M - 0.04, side * (hw - 0.1), top - 0.2])
+        pieces.append(tube(root, elbow, 0.025, 0.025, Part.TRIM, sides=4))
+        m0, m1 = sorted((side * (hw - 0.3), side * hw))
+        x0 = face + BUS_MIRROR_REACH_M - 0.09
+        pieces.append(box(x0, x0 + 0.09, m0, m1, top - 0.75, top - 0.2, Part.TRIM))
+    return pieces
+
+
 def bus(length: float = 12.0, width: float = 2.55, h: float = 3.2, coach: bool = False) -> Piece:
-    hl, hw = length / 2, width / 2 - 0.01
+    hl, hw = (length - BUS_MIRROR_REACH_M) / 2, width / 2 - 0.01  # the body; the mirrors reach ahead of it
     floor = 0.35 if not coach else 0.45
     r = 0.5
     axles = (hl - 2.6, -hl + 3.2) if not coach else (hl - 2.6, -hl + 2.6, -hl + 3.9)
@@ -510,7 +573,7 @@ def bus(length: float = 12.0, width: float = 2.55, h: float = 3.2, coach: bool =
     for x in sorted(axles):
         bottom += [(x - r - 0.06, floor), *_arch(x, r)[1:-1], (x + r + 0.06, floor)]
     top = h - 0.16 if not coach else h  # a city bus carries its air conditioning on the roof
-    body = [*bottom, (bl, floor), (bl, top - 0.4), (bl - 0.15, top), (-bl + 0.1, top), (-bl, top - 0.2)]
+    body = [*bottom, (bl, floor), (bl, top - 0.12), (bl - 0.08, top), (-bl + 0.1, top), (-bl, top - 0.2)]
 
     def livery(nx: float, nz: float) -> int:
         return int(Part.UNDERBODY) if nz < -0.6 else int(Part.CARGO)
@@ -531,17 +594,13 @@ def bus(length: float = 12.0, width: float = 2.55, h: float = 3.2, coach: bool =
                     p1,
                     win0 + 0.002,
                     win1 - 0.002,
-                    Part.PAINT,
+                    Part.TRIM,
                 )
             )
-        t0, t1 = sorted((side * 0.75 * hw, side * 0.95 * hw))
-        pieces.append(box(hl - 0.03, hl, t0, t1, floor + 0.27, floor + 0.45, Part.HEADLAMP))
-        pieces.append(box(hl - 0.03, hl, t0, t1, floor + 0.47, floor + 0.57, Part.INDICATOR))
         r0, r1 = sorted((side * 0.8 * hw, side * 0.97 * hw))  # tall lamp clusters at the rear corners
         pieces.append(box(-hl, -hl + 0.03, r0, r1, floor + 0.3, floor + 0.9, Part.TAIL_LAMP))
         pieces.append(box(-hl, -hl + 0.03, r0, r1, floor + 0.92, floor + 1.15, Part.INDICATOR))
-    pieces.append(box(bl + 0.002, hl, -hw + 0.1, hw - 0.1, 1.0 if not coach else 1.3, top - 0.75, Part.GLASS))
-    pieces.append(box(bl + 0.002, hl, -0.8, 0.8, top - 0.68, top - 0.45, Part.TRIM))  # destination display
+    pieces += _bus_front(bl, hw, floor, top, coach)
     pieces.append(box(-hl, -bl - 0.002, -hw + 0.22, hw - 0.22, top - 1.25, top - 0.55, Part.GLASS))
     pieces.append(box(-hl, -bl - 0.002, -0.6, 0.6, top - 0.48, top - 0.3, Part.TRIM))  # route number
     for k in range(5):  # the engine hatch's grille

@@ -533,7 +533,7 @@ INTENSITY_RESPONSES: dict[str, IntensityResponse] = {
                                sheeting_echo=RETRO_GAIN, top=0.99, step=0.01),
 }  # fmt: skip
 GLOSSY_PARTS = np.array([Part.PAINT, Part.CAB, Part.LIVERY, Part.SAFETY_YELLOW], np.uint8)
-SHEETING_PARTS = np.array([Part.PLATE, Part.RETRO_WHITE], np.uint8)
+SHEETING_PARTS = np.array([Part.PLATE, Part.RETRO_WHITE, Part.RETRO_YELLOW], np.uint8)
 ASPHALT = np.array([SemanticClass.ROAD, SemanticClass.PARKING], np.uint8)  # the classes whose surface is asphalt
 LASER_GAIN_SEED = 64
 GLASS_LAYERS = 4  # panes a ray passes through at most (a car's windscreen and rear window, and back)

@@ -49,6 +49,8 @@ class Part(IntEnum):
     ENGINE = 25  # motorcycles' engine blocks and cylinders: dark cast metal
     JACKET = 26  # motorcyclists' riding jackets, colour per instance (black and dark most)
     HELMET = 27  # motorcyclists' helmets, colour per instance (black and white most)
+    RETRO_YELLOW = 28  # yellow retro-reflective contour marking on heavy vehicles (UN ECE R48, R104)
+    DISPLAY = 29  # a bus's amber LED destination display
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,6 +105,8 @@ MATERIALS: dict[Part, PartMaterial] = {
     Part.ENGINE: PartMaterial((0.07, 0.07, 0.075), 0.4, 30.0, 0.03, 0.0, 0.3, 1.0),
     Part.JACKET: PartMaterial(None, 0.08, 10.0, 0.0, 0.0, 0.3, 0.15),  # textile and leather
     Part.HELMET: PartMaterial(None, 0.7, 80.0, 0.08, 0.0, 0.45, 0.3),  # glossy shell
+    Part.RETRO_YELLOW: PartMaterial((0.08, 0.72, 0.92), 0.3, 30.0, 0.0, 0.0, 0.95, 0.1),  # as the white sheeting
+    Part.DISPLAY: PartMaterial((0.05, 0.45, 0.95), 0.3, 40.0, 0.0, 1.0, 0.3, 0.5),  # LEDs behind glass
 }
 
 # Car paint by real-world frequency (BASF/Axalta global colour popularity reports, 2020-2024:
@@ -227,7 +231,7 @@ def lidar_reflectivity(semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[
 PAINT_REFLECTIVITY_FLOOR = 0.05
 PAINT_REFLECTIVITY_PER_ALBEDO = 0.7
 COLOURED_BY_PAINT = (Part.PAINT, Part.CARGO, Part.CAB)
-RETRO_PARTS = (Part.PLATE, Part.RETRO_WHITE)
+RETRO_PARTS = (Part.PLATE, Part.RETRO_WHITE, Part.RETRO_YELLOW)
 
 
 def lidar_reflectance(

@@ -533,3 +533,38 @@ def test_motorcyclists_wear_riding_gear_in_their_own_colours() -> None:
     assert (jacket.mean(axis=1) < 0.2).mean() > 0.6  # dark jackets most
     frames = colour(Part.FRAME).mean(axis=1)
     assert (frames < 0.25).mean() > 0.4 and (frames > 0.5).mean() > 0.1  # bicycle frames: dark most, some bright
+
+
+def test_a_bus_hangs_its_mirrors_ahead_of_its_windscreen_and_shows_its_destination_above_it() -> None:
+    # a city bus or coach seen from ahead: "rabbit-ear" mirrors on arms at both front corners,
+    # ahead of the windscreen's upper half, and the destination display over the windscreen
+    for body in BODIES[int(SemanticClass.BUS)]:
+        piece = body.build(0)
+        glass, trim, display = (piece.vertices[np.unique(piece.triangles[piece.parts == p])]
+                                for p in (Part.GLASS, Part.TRIM, Part.DISPLAY))  # fmt: skip
+        front = glass[glass[:, 0] > glass[:, 0].max() - 0.05]  # the windscreen and the display's glass
+        for side in (-1.0, 1.0):
+            mirror = trim[(trim[:, 0] > front[:, 0].max() + 0.2) & (side * trim[:, 1] > 0.8)]
+            assert len(mirror), (body.name, side)
+            assert mirror[:, 2].min() > 0.6 * body.lwh_m[2], (body.name, side)
+        assert display[:, 0].min() > front[:, 0].max() - 0.05, body.name
+        screen = front[front[:, 2] < display[:, 2].min()]
+        assert np.ptp(screen[:, 2]) > 1.2 and np.ptp(screen[:, 1]) > 0.9 * body.lwh_m[1], body.name  # a big windscreen
+        assert display[:, 2].min() > screen[:, 2].max(), body.name
+
+
+def test_a_trucks_box_is_outlined_in_contour_marking_at_its_rear_and_along_its_sides() -> None:
+    # UN ECE R48: heavy vehicles carry retro-reflective tape along the outline of their body's
+    # rear and along its sides; it stays inside the box on every proportion
+    for body in BODIES[int(SemanticClass.TRUCK)]:
+        for pose in range(body.poses):
+            piece = body.build(pose)
+            v = piece.vertices
+            tape = v[np.unique(piece.triangles[piece.parts == Part.RETRO_YELLOW])]
+            rear = tape[tape[:, 0] < v[:, 0].min() + 0.05]
+            assert np.ptp(rear[:, 1]) > 0.9 * np.ptp(v[:, 1]), (body.name, pose)
+            assert np.ptp(rear[:, 2]) > 0.5 * np.ptp(v[:, 2]), (body.name, pose)
+            for side in (-1.0, 1.0):
+                along = tape[side * tape[:, 1] > 0.5 * np.ptp(v[:, 1]) - 0.02]
+                assert np.ptp(along[:, 0]) > 0.5 * np.ptp(v[:, 0]), (body.name, pose, side)
+            assert np.abs(tape[:, 1]).max() <= np.abs(v[:, 1]).max(), (body.name, pose)

@@ -264,6 +264,30 @@ def test_a_bus_in_service_shows_lit_windows_at_night_and_a_parked_one_dark(synth
     np.testing.assert_allclose(day_on[glass].mean(), day_off[glass].mean(), atol=1.0)  # by day nothing shows
 
 
+def test_a_bus_in_service_lights_its_destination_display_and_a_parked_one_does_not(synth: SimpleNamespace) -> None:
+    from sensors.agents import Lamp
+    from sensors.parts import Part
+
+    def render(weather: str, lamps: int) -> tuple[np.ndarray, np.ndarray]:
+        bus = synth.agents([(5, SemanticClass.BUS, 14.0, 0.0, 1.55, 12.0, 2.55, 3.1, np.pi)])  # facing the camera
+        bus = replace(bus, lamps=np.array([lamps], np.uint8))
+        frame = (
+            Camera(CameraSpec(width_px=320, height_px=180))
+            .sense(synth.scene([synth.ground()], bus), synth.EGO, weather_preset(weather), np.random.default_rng(0))
+            .frame
+        )
+        assert frame.shading.part is not None
+        return shade_frame(frame).reshape(-1, 3).astype(np.float64), frame.shading.part
+
+    for weather, gain in (("night", 40), ("day", 10)):
+        lit, part = render(weather, int(Lamp.LIGHTS))
+        display = part == Part.DISPLAY
+        assert display.sum() > 20  # the display is in view
+        parked, _ = render(weather, 0)
+        assert lit[display, 2].mean() > parked[display, 2].mean() + gain, weather  # amber: red channel most
+        assert lit[display, 2].mean() > lit[display, 0].mean() + 40, weather
+
+
 def test_street_faces_handed_over_in_the_map_frame_are_drawn_in_the_cameras_frame() -> None:
     from networks.vocabulary import Lamp, SignKind
     from sensors.shading import SIGN_KINDS, street_faces
