@@ -239,20 +239,28 @@ def test_lamps_light_as_the_traffic_sets_them(synth: SimpleNamespace, weather: s
     np.testing.assert_allclose(dimmed[indicator].mean(), off[indicator].mean(), atol=2.0)
 
 
+def _bus_shaded(
+    synth: SimpleNamespace, weather: str, lamps: int, ahead_m: float, yaw: float
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """A 12 m bus ``ahead_m`` ahead of the ego heading ``yaw`` with ``lamps`` lit, shaded at 320x180:
+    each pixel's BGR and part."""
+    bus = synth.agents([(5, SemanticClass.BUS, ahead_m, 0.0, 1.55, 12.0, 2.55, 3.1, yaw)])
+    bus = replace(bus, lamps=np.array([lamps], np.uint8))
+    frame = (
+        Camera(CameraSpec(width_px=320, height_px=180))
+        .sense(synth.scene([synth.ground()], bus), synth.EGO, weather_preset(weather), np.random.default_rng(0))
+        .frame
+    )
+    assert frame.shading.part is not None
+    return shade_frame(frame).reshape(-1, 3).astype(np.float64), frame.shading.part
+
+
 def test_a_bus_in_service_shows_lit_windows_at_night_and_a_parked_one_dark(synth: SimpleNamespace) -> None:
     from sensors.agents import Lamp
     from sensors.parts import Part
 
-    def render(weather: str, lamps: int, cls: SemanticClass = SemanticClass.BUS) -> tuple[np.ndarray, np.ndarray]:
-        bus = synth.agents([(5, cls, 8.0, 0.0, 1.55, 12.0, 2.55, 3.1, np.pi / 2)])  # side on, across the view
-        bus = replace(bus, lamps=np.array([lamps], np.uint8))
-        frame = (
-            Camera(CameraSpec(width_px=320, height_px=180))
-            .sense(synth.scene([synth.ground()], bus), synth.EGO, weather_preset(weather), np.random.default_rng(0))
-            .frame
-        )
-        assert frame.shading.part is not None
-        return shade_frame(frame).reshape(-1, 3).astype(np.float64), frame.shading.part
+    def render(weather: str, lamps: int) -> tuple[np.ndarray, np.ndarray]:
+        return _bus_shaded(synth, weather, lamps, 8.0, np.pi / 2)  # side on, across the view
 
     lit, part = render("night", int(Lamp.LIGHTS))
     glass = part == Part.GLASS
@@ -269,15 +277,7 @@ def test_a_bus_in_service_lights_its_destination_display_and_a_parked_one_does_n
     from sensors.parts import Part
 
     def render(weather: str, lamps: int) -> tuple[np.ndarray, np.ndarray]:
-        bus = synth.agents([(5, SemanticClass.BUS, 14.0, 0.0, 1.55, 12.0, 2.55, 3.1, np.pi)])  # facing the camera
-        bus = replace(bus, lamps=np.array([lamps], np.uint8))
-        frame = (
-            Camera(CameraSpec(width_px=320, height_px=180))
-            .sense(synth.scene([synth.ground()], bus), synth.EGO, weather_preset(weather), np.random.default_rng(0))
-            .frame
-        )
-        assert frame.shading.part is not None
-        return shade_frame(frame).reshape(-1, 3).astype(np.float64), frame.shading.part
+        return _bus_shaded(synth, weather, lamps, 14.0, np.pi)  # facing the camera
 
     for weather, gain in (("night", 40), ("day", 10)):
         lit, part = render(weather, int(Lamp.LIGHTS))

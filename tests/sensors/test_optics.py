@@ -5,6 +5,7 @@ blur over the shutter's time."""
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -13,6 +14,9 @@ import pytest
 from gtgen.objects import ObjectBoxes
 from gtgen.projection import camera_boxes
 from networks.classes import SemanticClass
+
+if TYPE_CHECKING:
+    from sensors.photo import AgentBoxes
 from networks.geometry import SE3
 from networks.mesh import box_mesh, merge
 from sensors.agents import Agents
@@ -205,24 +209,39 @@ def test_contact_shadow_pairs_are_the_points_within_each_boxs_reach() -> None:
     np.testing.assert_array_equal(ay, np.abs(-sn[box] * dx + cs[box] * dy))
 
 
-def _plate_points(centre: np.ndarray, yaw: float) -> np.ndarray:
-    """Points over a rear number plate (520 x 110 mm, 0.5 m up) of a 4.5 x 1.8 x 1.5 m car
-    standing at ``centre`` (box centre, map frame) heading ``yaw``."""
-    across, up = np.meshgrid(np.linspace(-0.26, 0.26, 105), np.linspace(0.45, 0.56, 23))
-    local = np.stack([np.full(across.size, -2.25), across.ravel(), up.ravel() - 0.75], axis=1)
+def _placed(local: np.ndarray, centre: np.ndarray, yaw: float) -> np.ndarray:
+    """Points in a box's own frame (x along, y left, z up from its centre) placed in the map frame
+    for the box at ``centre`` heading ``yaw``."""
     c, s = math.cos(yaw), math.sin(yaw)
     turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     return (local @ turn.T + centre).astype(np.float32)
 
 
+def _one_box(
+    instance: int, centre: tuple[float, float, float], lwh: tuple[float, float, float], yaw: float
+) -> AgentBoxes:
+    """The camera's boxes of one standing agent with no lamps lit."""
+    from sensors.photo import AgentBoxes
+
+    return AgentBoxes(
+        np.array([instance], np.uint32), np.array([centre]), np.array([lwh]), np.array([yaw]),
+        np.zeros(1, np.uint8), np.zeros((1, 3)),
+    )  # fmt: skip
+
+
+def _plate_points(centre: np.ndarray, yaw: float) -> np.ndarray:
+    """Points over a rear number plate (520 x 110 mm, 0.5 m up) of a 4.5 x 1.8 x 1.5 m car
+    standing at ``centre`` (box centre, map frame) heading ``yaw``."""
+    across, up = np.meshgrid(np.linspace(-0.26, 0.26, 105), np.linspace(0.45, 0.56, 23))
+    local = np.stack([np.full(across.size, -2.25), across.ravel(), up.ravel() - 0.75], axis=1)
+    return _placed(local, centre, yaw)
+
+
 def test_number_plates_keep_their_characters_as_their_vehicle_moves_and_differ_between_vehicles():
-    from sensors.photo import AgentBoxes, plate_ink
+    from sensors.photo import plate_ink
 
     def ink(instance: int, centre: tuple[float, float, float], yaw: float) -> np.ndarray:
-        boxes = AgentBoxes(
-            np.array([instance], np.uint32), np.array([centre]), np.array([[4.5, 1.8, 1.5]]),
-            np.array([yaw]), np.zeros(1, np.uint8), np.zeros((1, 3)),
-        )  # fmt: skip
+        boxes = _one_box(instance, centre, (4.5, 1.8, 1.5), yaw)
         points = _plate_points(np.array(centre), yaw)
         return plate_ink(points, np.full(len(points), instance, np.uint32), boxes)
 
@@ -241,19 +260,14 @@ def _bus_window_points(centre: np.ndarray, yaw: float) -> np.ndarray:
     ``centre`` (box centre, map frame) heading ``yaw``."""
     along, up = np.meshgrid(np.linspace(-5.4, 5.2, 400), np.linspace(1.05, 2.65, 60))
     local = np.stack([along.ravel(), np.full(along.size, 1.27), up.ravel() - 1.55], axis=1)
-    c, s = math.cos(yaw), math.sin(yaw)
-    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    return (local @ turn.T + centre).astype(np.float32)
+    return _placed(local, centre, yaw)
 
 
 def test_a_lit_bus_shows_seat_backs_and_passengers_that_ride_with_it():
-    from sensors.photo import AgentBoxes, bus_cabin
+    from sensors.photo import bus_cabin
 
     def cabin(instance: int, centre: tuple[float, float, float], yaw: float) -> np.ndarray:
-        boxes = AgentBoxes(
-            np.array([instance], np.uint32), np.array([centre]), np.array([[12.0, 2.55, 3.1]]),
-            np.array([yaw]), np.zeros(1, np.uint8), np.zeros((1, 3)),
-        )  # fmt: skip
+        boxes = _one_box(instance, centre, (12.0, 2.55, 3.1), yaw)
         points = _bus_window_points(np.array(centre), yaw)
         return bus_cabin(points, np.full(len(points), instance, np.uint32), boxes).reshape(60, 400)
 
