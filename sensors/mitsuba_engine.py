@@ -299,10 +299,11 @@ class _Instances:
         slot_of_id[ids] = np.arange(len(names), dtype=np.uint32)
         self._slot_of_id = mi.UInt32(slot_of_id)  # a hit's instance (its registry id) -> its slot
         self._last = to_world.astype(np.float32)
-        rows = [self._templates[k] for k, c in self.layout for _ in range(c)]
-        self.slot_first = np.cumsum([0] + [t.part.shape[0] for t in rows])[:-1].astype(np.int64)
-        self.part = np.concatenate([t.part for t in rows]).astype(np.uint8)
-        self.normal = np.concatenate([t.normal for t in rows])
+        templates = [self._templates[k] for k, _ in self.layout]  # each template's tables once
+        first = np.cumsum([0] + [t.part.shape[0] for t in templates])[:-1]
+        self.slot_first = np.repeat(first, [c for _, c in self.layout]).astype(np.int64)
+        self.part = np.concatenate([t.part for t in templates]).astype(np.uint8)
+        self.normal = np.concatenate([t.normal for t in templates])
 
     def _move(self, to_world: npt.NDArray[np.float64]) -> None:
         """Give the instances whose transform changed their new one; Embree's trees are built again."""
