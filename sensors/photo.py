@@ -47,6 +47,7 @@ from sensors.pinhole import Pinhole
 from sensors.weather import Weather
 
 F32 = npt.NDArray[np.float32]
+F64 = npt.NDArray[np.float64]
 GAMMA = np.float32(2.2)
 EXPOSURE_SCALE = np.float32(1.8)
 """Linear scene light to the tone curve's input: a sunlit mid-grey road lands near 105 of 255."""
@@ -396,6 +397,22 @@ def lamp_light(
     return gain
 
 
+def _own_frame(
+    points: F32, instance: npt.NDArray[np.uint32], boxes: AgentBoxes
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.intp], F64, F64, F64]:  # fmt: skip
+    """Hits (map frame, on the agents ``instance``) in their agent's own frame: which have a box
+    (``known``), its row, and per known hit its distance along the box's heading and across it
+    (left) from the box's centre and its height above the box's bottom (m, float64)."""
+    rows = boxes.rows_of(instance)
+    known = rows >= 0
+    r = rows[known]
+    yaw = boxes.yaw_rad[r]
+    rel = points[known].astype(np.float64) - boxes.centre_m[r]
+    along = rel[:, 0] * np.cos(yaw) + rel[:, 1] * np.sin(yaw)
+    across = -rel[:, 0] * np.sin(yaw) + rel[:, 1] * np.cos(yaw)
+    return known, r, along, across, rel[:, 2] + boxes.lwh_m[r, 2] / 2
+
+
 def bus_cabin(points: F32, instance: npt.NDArray[np.uint32], boxes: AgentBoxes) -> F32:
     """``(N,)`` how bright a lit bus's interior shows through its windows at each hit (map frame,
     on the buses ``instance``): brighter towards the ceiling's lights, the seat backs' rows dark
@@ -404,16 +421,11 @@ def bus_cabin(points: F32, instance: npt.NDArray[np.uint32], boxes: AgentBoxes) 
     (along its side; across its front and rear windows), so the same passengers ride in the same
     seats in every frame, and a different set in each bus. 1 for hits off any known bus."""
     out = np.ones(len(points), np.float32)
-    rows = boxes.rows_of(instance)
-    known = rows >= 0
+    known, r, along, across, up = _own_frame(points, instance, boxes)
     if not known.any():
         return out
-    r = rows[known]
-    yaw, lwh = boxes.yaw_rad[r], boxes.lwh_m[r]
-    rel = points[known].astype(np.float64) - boxes.centre_m[r]
-    along = rel[:, 0] * np.cos(yaw) + rel[:, 1] * np.sin(yaw)
-    across = -rel[:, 0] * np.sin(yaw) + rel[:, 1] * np.cos(yaw)
-    z = (rel[:, 2] + lwh[:, 2] / 2) * (CABIN_DRAWN_H_M / lwh[:, 2])  # up from the box's floor
+    lwh = boxes.lwh_m[r]
+    z = up * (CABIN_DRAWN_H_M / lwh[:, 2])  # up from the box's floor, on the drawn bus
     end = np.abs(across) < 0.4 * lwh[:, 1]  # the windscreen and the rear window
     s = np.where(end, across, along)
     side = np.where(end, np.where(along > 0, 2, 3), np.where(across > 0, 0, 1)).astype(np.int64)
@@ -463,15 +475,10 @@ def plate_ink(points: F32, instance: npt.NDArray[np.uint32], boxes: AgentBoxes) 
     a character's dark ink: marks inside character cells across the plate, spaces between them,
     fixed to the vehicle (placed in its own frame, across and up) and different from one vehicle
     to the next, so a plate reads the same in every frame of its track."""
-    rows = boxes.rows_of(instance)
-    known = rows >= 0
     out = np.zeros(len(points), np.bool_)
+    known, _, _, across, up = _own_frame(points, instance, boxes)
     if not known.any():
         return out
-    r = rows[known]
-    rel = points[known].astype(np.float64) - boxes.centre_m[r]
-    across = -rel[:, 0] * np.sin(boxes.yaw_rad[r]) + rel[:, 1] * np.cos(boxes.yaw_rad[r])
-    up = rel[:, 2] + boxes.lwh_m[r, 2] / 2
     cell = (across / PLATE_CHAR_M) % 1.0
     shift = (instance[known] % 251).astype(np.float64) * 3.7  # each vehicle's own characters
     marks = textures.value_noise(
@@ -776,7 +783,7 @@ def leafy_normals(
     at = np.flatnonzero(cls == SemanticClass.VEGETATION)
     if at.size == 0:
         return normal
-    points = np.asarray(origin_map_m, np.float32) + dirs_map[at] * range_m[at, None]
+    points = kernels.hit_points(at, dirs_map, range_m, np.asarray(origin_map_m, np.float32))
     kernels.bent_rows(normal, at, textures.leaf_tilt(points, 67), dirs_map, LEAF_TILT)
     return normal
 
