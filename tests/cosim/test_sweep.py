@@ -69,25 +69,29 @@ def wait_for_frames(out: Path, frames: int, proc: subprocess.Popen) -> None:
 
 @pytest.mark.slow
 def test_a_sweep_stopped_in_its_second_run_and_started_again_redoes_only_the_second(tmp_path):
-    """The run before is complete and skipped, the stopped one continued, the one after made."""
+    """The run before is complete and skipped, the stopped one continued, the one after made.
+    Each run long enough (160 frames) that the stop, sent once 10 frames are recorded, lands
+    before the loop's end (with 40 a fast machine had finished them all by then)."""
     import signal
 
-    proc = subprocess.Popen(sweep_cmd(tmp_path, [1, 2, 3]), cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    frames = 160
+    cmd = sweep_cmd(tmp_path, [1, 2, 3], frames)
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     wait_for_frames(tmp_path / "tiny-s2", 10, proc)
     proc.send_signal(signal.SIGINT)
     proc.communicate(timeout=120)
     assert proc.returncode == 130
     first = (tmp_path / "tiny-s1" / "labels.csv").stat().st_mtime_ns
-    again = subprocess.run(sweep_cmd(tmp_path, [1, 2, 3]), cwd=ROOT, capture_output=True, text=True, check=False)
+    again = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, check=False)
     assert again.returncode == 0, again.stderr
     rows = {r["name"]: r for r in csv.DictReader((tmp_path / "sweep.csv").open())}
     assert [rows[f"tiny-s{s}"]["error"] for s in (1, 2, 3)] == [""] * 3
-    assert rows["tiny-s1"]["kept_frames"] == "40"  # complete: skipped
-    assert 0 < int(rows["tiny-s2"]["kept_frames"]) < 40 and rows["tiny-s3"]["kept_frames"] == "0"
+    assert rows["tiny-s1"]["kept_frames"] == str(frames)  # complete: skipped
+    assert 0 < int(rows["tiny-s2"]["kept_frames"]) < frames and rows["tiny-s3"]["kept_frames"] == "0"
     assert (tmp_path / "tiny-s1" / "labels.csv").stat().st_mtime_ns == first
     for s in (1, 2, 3):
         manifest = json.loads((tmp_path / f"tiny-s{s}" / "manifest.json").read_text())
-        assert manifest["complete"] is True and manifest["frames"] == 40
+        assert manifest["complete"] is True and manifest["frames"] == frames
 
 
 @pytest.mark.slow
