@@ -405,10 +405,15 @@ def _agent_voxels(
     """``(flat, agent row)``: each agent's voxels. An agent with a mesh fills the voxels of its
     box (:func:`~gtgen.voxels.box_voxels`) that its surface meets or that its surface encloses
     (no path of face-neighbouring voxels free of its surface leads out of its box); one without
-    fills its box."""
+    fills its box. Only the boxes whose bounding sphere (a voxel wider) reaches the grid's box are
+    voxelised: the others meet none of its voxels."""
     center = ego_SE3_map.transform_from(agents.center_map_m)
-    rotations = ego_SE3_map.rotation @ box_rotations(agents.yaw_map_rad, agents.pitch_rad)
-    flat, row = box_voxels(grid, center, rotations, agents.lwh_m)
+    lo, hi = np.asarray(grid.lower_m), np.asarray(grid.upper_m)
+    radius = np.linalg.norm(agents.lwh_m, axis=1)[:, None] / 2.0 + grid.voxel_m
+    near = np.flatnonzero(np.all((center + radius >= lo) & (center - radius <= hi), axis=1))
+    rotations = ego_SE3_map.rotation @ box_rotations(agents.yaw_map_rad[near], agents.pitch_rad[near])
+    flat, row = box_voxels(grid, center[near], rotations, agents.lwh_m[near])
+    row = near[row]
     if meshes is None or meshes.triangles.shape[0] == 0 or flat.size == 0:
         return flat, row
     triangle_id = meshes.triangle_instance
