@@ -25,7 +25,7 @@ from sensors.hits import RayHits
 from sensors.photo import SUBPIXEL_OFFSETS, AgentBoxes, Supersamples
 from sensors.pinhole import EGO_AXES_R_OPTICAL, NO_DISTORTION, Pinhole
 from sensors.rays import map_directions, sensor_rays
-from sensors.shade_kernels import edges, ids_seen, shadow_rays, subpixel_directions
+from sensors.shade_kernels import depth_units, edges, ids_seen, shadow_rays, subpixel_directions
 from sensors.shading import CameraFrame, Shading
 from sensors.view import spheres_in_view
 from sensors.weather import Weather
@@ -252,13 +252,10 @@ def depth_to_uint16(depth_m: npt.NDArray[np.floating], units_per_m: float = 1000
     there is no depth or it does not fit (beyond 65.535 m in millimetres)."""
     depth = np.asarray(depth_m)
     exact_in_float32 = depth.dtype == np.float32 and math.frexp(units_per_m)[0] == 0.5  # a power of two
-    units = (
-        np.rint(depth * np.float32(units_per_m))
-        if exact_in_float32
-        else np.rint(depth.astype(np.float64) * units_per_m)
-    )
-    valid = np.isfinite(units) & (units > 0) & (units <= DEPTH_PNG_MAX_UNITS)
-    return np.where(valid, units, 0).astype(np.uint16)
+    if depth.dtype not in (np.float32, np.float64):
+        depth = depth.astype(np.float64)
+    flat = np.ascontiguousarray(depth).ravel()
+    return depth_units(flat, float(units_per_m), exact_in_float32, float(DEPTH_PNG_MAX_UNITS)).reshape(depth.shape)
 
 
 def encode_depth_png(depth_m: npt.NDArray[np.floating], units_per_m: float = 1000.0, filter_up: bool = False) -> bytes:

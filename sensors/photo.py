@@ -223,7 +223,7 @@ _IS_PAVED[int(SemanticClass.TERRAIN)] = False
 def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple[F32, F32, F32]:
     """Linear albedo ``(N, 3)`` of static-world surfaces with their textures, their mirror
     strength ``(N,)`` and emission at night ``(N,)`` (lit windows)."""
-    albedo = np.take(ALBEDO_BGR_BY_CLASS, cls, axis=0)  # a new array
+    albedo = kernels.rows_taken(ALBEDO_BGR_BY_CLASS, cls)  # a new array, np.take(ALBEDO_BGR_BY_CLASS, cls, axis=0)
     mirror = np.zeros(len(cls), np.float32)
     glow = np.zeros(len(cls), np.float32)
     order, end = kernels.class_order(cls)  # each class's rows in order, as np.flatnonzero(cls == c)
@@ -710,12 +710,17 @@ def soft_blur(image: F32, sigma_px: float) -> F32:
 def tone_map(linear: F32, exposure: float, keep: F32 | None = None) -> F32:
     """Filmic tone curve (Narkowicz's fit of ACES) and display gamma of ``(N, 3)`` ``linear``
     times ``keep (N,)`` (the light kept through the lens, :func:`vignette`; None: all): 0..255 floats."""
+    return tone_map_grey(linear, exposure, keep)[0]
+
+
+def tone_map_grey(linear: F32, exposure: float, keep: F32 | None = None) -> tuple[F32, F32]:
+    """:func:`tone_map` and each pixel's grey (:func:`black_level`'s, the mean of its three
+    values) from the same pass."""
     linear = np.ascontiguousarray(linear, np.float32).reshape(-1, 3)
     keep = np.ones(len(linear), np.float32) if keep is None else np.ascontiguousarray(keep, np.float32)
     y = kernels.filmic(linear, keep, np.float32(EXPOSURE_SCALE * np.float32(exposure)))
     np.power(y, np.float32(1.0) / GAMMA, out=y)
-    y *= np.float32(255.0)
-    return y
+    return y, kernels.scaled_grey(y, np.float32(255.0))
 
 
 def auto_levels(image: F32, saturation: float) -> F32:
@@ -731,10 +736,10 @@ def auto_levels(image: F32, saturation: float) -> F32:
     return image
 
 
-def black_level(image: F32) -> tuple[F32, np.float32, np.float32]:
-    """:func:`auto_levels`' measure of ``(N, 3)`` ``image``: each pixel's grey, the frame's black
-    level and the stretch of the greys above it."""
-    grey = kernels.grey_of(image)
+def black_level(image: F32, grey: F32 | None = None) -> tuple[F32, np.float32, np.float32]:
+    """:func:`auto_levels`' measure of ``(N, 3)`` ``image``: each pixel's grey (given, or the mean
+    of its three values), the frame's black level and the stretch of the greys above it."""
+    grey = kernels.grey_of(image) if grey is None else grey
     black = np.float32(np.percentile(grey[::7], BLACK_PERCENTILE))
     toe = np.float32(BLACK_TOE)
     scale = (np.float32(255.0) - toe) / (np.float32(255.0) - black) if black > 0 else np.float32(1.0)

@@ -293,6 +293,32 @@ def grey_of(image: F32) -> F32:  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def scaled_grey(image: F32, k: np.float32) -> F32:  # pragma: no cover - compiled
+    """``image (N, 3)`` times ``k`` in place, and :func:`grey_of` the result, in one pass."""
+    out = np.empty(image.shape[0], np.float32)
+    for i in range(image.shape[0]):
+        a, b, c = image[i, 0] * k, image[i, 1] * k, image[i, 2] * k
+        image[i, 0], image[i, 1], image[i, 2] = a, b, c
+        out[i] = (a + b + c) / np.float32(3.0)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def depth_units(
+    depth: npt.NDArray[np.floating], units: float, in_float32: bool, most: float
+) -> npt.NDArray[np.uint16]:  # pragma: no cover - compiled
+    """``(N,) uint16`` :func:`sensors.camera.depth_to_uint16` of 1-D ``depth``: ``rint(depth *
+    units)`` (``in_float32``: the product in float32, else in float64), 0 where that is not
+    finite, not above 0 or above ``most``."""
+    out = np.empty(depth.shape[0], np.uint16)
+    u32 = np.float32(units)
+    for i in range(depth.shape[0]):
+        u = np.float64(np.rint(np.float32(depth[i]) * u32)) if in_float32 else np.rint(np.float64(depth[i]) * units)
+        out[i] = np.uint16(u) if (np.isfinite(u) and u > 0 and u <= most) else np.uint16(0)
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _levelled(g: np.float32, black: np.float32, scale: np.float32, toe: np.float32) -> np.float32:  # pragma: no cover
     """A grey after :func:`levels`' stretch (unchanged when ``black <= 0``)."""
     if black <= 0:
@@ -858,8 +884,9 @@ def class_order(
 
 
 @njit(cache=True, nogil=True)
-def rows_taken(table: F32, rows: npt.NDArray[np.int64]) -> F32:  # pragma: no cover - compiled
-    """``(K, C)`` the ``rows`` of ``(N, C)`` ``table`` (``table[rows]``), contiguous."""
+def rows_taken(table: F32, rows: npt.NDArray[np.integer]) -> F32:  # pragma: no cover - compiled
+    """``(K, C)`` the ``rows`` of ``(N, C)`` ``table`` (``table[rows]``; rows of any integer type,
+    a class per row too), contiguous."""
     out = np.empty((rows.shape[0], table.shape[1]), table.dtype)
     for j in range(rows.shape[0]):
         i = rows[j]

@@ -44,7 +44,7 @@ from sensors.photo import (
     rounded_normals,
     sky_light,
     standard_normals,
-    tone_map,
+    tone_map_grey,
     vignette,
 )
 from sensors.pinhole import Pinhole
@@ -269,8 +269,8 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         )
         linear = motion_blur(linear.reshape(h, w, 3), motion.reshape(h, w, 2)).reshape(-1, 3)
     lens = np.asarray(cv2.GaussianBlur(linear.reshape(h, w, 3), (0, 0), LENS_BLUR_PX), np.float32)
-    image = tone_map(bloom(lens).reshape(-1, 3), sh.weather.exposure, vignette(h, w))
-    grey, black, scale = black_level(image)  # auto_levels and the noise in one pass
+    image, grey = tone_map_grey(bloom(lens).reshape(-1, 3), sh.weather.exposure, vignette(h, w))
+    grey, black, scale = black_level(image, grey)  # auto_levels and the noise in one pass
     seed = sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w)
     sigma = np.float32(np.hypot(READ_NOISE, sh.weather.noise_sigma))
     noise = standard_normals(seed, h * w).reshape(-1, 1)  # numpy's default_rng(seed).standard_normal, float32

@@ -139,6 +139,9 @@ def test_rows_taken_are_numpys_fancy_index() -> None:
     rows = np.concatenate([rng.integers(0, 5000, 3000), np.argsort(rng.random(5000))]).astype(np.int64)
     np.testing.assert_array_equal(kernels.rows_taken(table, rows).view(np.uint32), table[rows].view(np.uint32))
     assert kernels.rows_taken(table, np.zeros(0, np.int64)).shape == (0, 3)
+    classes = rng.integers(0, 256, 4000).astype(np.uint8)  # a table's row per class, as np.take
+    want = np.take(table[:256], classes, axis=0)
+    np.testing.assert_array_equal(kernels.rows_taken(table[:256].copy(), classes).view(np.uint32), want.view(np.uint32))
 
 
 def test_bright_span_is_numpys() -> None:
@@ -420,3 +423,26 @@ def test_agent_weighted_windows_are_numpys_products() -> None:
     np.testing.assert_array_equal(weighted.view(np.uint32), want.view(np.uint32))
     np.testing.assert_array_equal(near, agent[0:22, 5:40])
     assert weighted.flags.c_contiguous and near.flags.c_contiguous
+
+
+def test_scaled_grey_is_the_product_in_place_then_grey_of() -> None:
+    rng = np.random.default_rng(21)
+    image = rng.uniform(0.0, 1.0, (30_000, 3)).astype(np.float32)
+    image[:3] = [[0.0, 1.0, 0.5], [np.nan, 0.2, 0.3], [1e-40, 0.999999, 0.7]]
+    want = image * np.float32(255.0)
+    grey = kernels.scaled_grey(image, np.float32(255.0))
+    np.testing.assert_array_equal(image.view(np.uint32), want.view(np.uint32))
+    np.testing.assert_array_equal(grey.view(np.uint32), kernels.grey_of(want).view(np.uint32))
+
+
+def test_depth_units_are_numpys_rounding_and_range() -> None:
+    rng = np.random.default_rng(22)
+    depth = rng.uniform(-1.0, 80.0, 50_000).astype(np.float32)
+    special = [np.nan, np.inf, -np.inf, 0.0, -0.0, 65.535, 65.5355, 65.5345, 0.0005, 0.0015, 255.99, 256.0, 3e38]
+    depth[: len(special)] = special
+    with np.errstate(over="ignore", invalid="ignore"):
+        cases = ((depth, 1000.0, False), (depth, 256.0, True), (depth.astype(np.float64), 100.0, False))
+        for d, units, in_float32 in cases:
+            units_m = np.rint(d * np.float32(units)) if in_float32 else np.rint(d.astype(np.float64) * units)
+            want = np.where(np.isfinite(units_m) & (units_m > 0) & (units_m <= 65535), units_m, 0).astype(np.uint16)
+            np.testing.assert_array_equal(kernels.depth_units(d, units, in_float32, 65535.0), want)
