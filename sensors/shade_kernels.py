@@ -759,19 +759,16 @@ def filmic(linear: F32, keep: F32, gain: np.float32) -> F32:  # pragma: no cover
     instructions.)"""
     flat = linear.ravel()
     out = np.empty(flat.shape[0], np.float32)
-    for i in range(keep.shape[0]):
-        k = keep[i]
-        out[3 * i] = (flat[3 * i] * k) * gain
-        out[3 * i + 1] = (flat[3 * i + 1] * k) * gain
-        out[3 * i + 2] = (flat[3 * i + 2] * k) * gain
     a, b, c, d, e = np.float32(2.51), np.float32(0.03), np.float32(2.43), np.float32(0.59), np.float32(0.14)
     zero, one = np.float32(0.0), np.float32(1.0)
-    for j in range(out.shape[0]):
-        x = out[j]
-        y = (x * (a * x + b)) / (x * (c * x + d) + e)
-        y = zero if y < zero else y
-        y = one if y > one else y
-        out[j] = y
+    for i in range(keep.shape[0]):  # the product and the curve in one pass over the values
+        k = keep[i]
+        for ch in range(3):
+            x = (flat[3 * i + ch] * k) * gain
+            y = (x * (a * x + b)) / (x * (c * x + d) + e)
+            y = zero if y < zero else y
+            y = one if y > one else y
+            out[3 * i + ch] = y
     return out.reshape(linear.shape)
 
 
