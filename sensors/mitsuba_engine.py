@@ -51,7 +51,7 @@ from sensors.agents import (  # noqa: E402
 )
 from sensors.hits import PairHits, RayHits  # noqa: E402
 from sensors.rays import map_directions  # noqa: E402
-from sensors.scene import AloneScenes, _hits_alone, cast_agents_moving  # noqa: E402
+from sensors.scene import cast_agents_moving, hits_alone_in_templates  # noqa: E402
 
 
 def _face_normals(
@@ -224,6 +224,7 @@ class _Instances:
         self.count = 0  # agents of the frame (0: the scene is not cast)
         self._slot_props: list[tuple[Any, Any, Any]] = []
         self._last = np.zeros((0, 4, 4), np.float32)
+        self.keys: list[tuple[int, int, int]] = []
 
     def set_layout(self, layout: list[tuple[tuple[int, int, int], int]]) -> None:
         self.layout, self.scene = layout, None
@@ -247,6 +248,7 @@ class _Instances:
             grown.update({k: c + SPARE_SLOTS for k, c in sorted(need.items()) if k not in have})
             self.set_layout(list(grown.items()))
         self.count = n
+        self.keys = keys  # each agent's template
         if not self.layout:
             return
         first: dict[tuple[int, int, int], int] = {}
@@ -283,12 +285,13 @@ class _Instances:
         """The scene of the layout, its instances placed at ``to_world``."""
         scene: dict[str, Any] = {"type": "scene"}
         names: list[str] = []
+        placed = to_world.astype(np.float32)  # the same transforms (kept in float32), made faster from float32
         for g, (k, c) in enumerate(self.layout):
             scene[f"group{g}"] = self._template(k).group
             for _ in range(c):
                 names.append(f"slot{len(names)}")
                 scene[names[-1]] = {"type": "instance", "shapegroup": self._template(k).group,
-                                    "to_world": mi.ScalarTransform4f(to_world[len(names) - 1])}  # fmt: skip
+                                    "to_world": mi.ScalarTransform4f(placed[len(names) - 1])}  # fmt: skip
         self.scene = mi.load_dict(scene)
         params = mi.traverse(self.scene)
         self._slot_props = [params.properties[f"{name}.to_world"][:3] for name in names]
@@ -298,7 +301,7 @@ class _Instances:
         slot_of_id = np.full(int(ids.max()) + 1, NO_SLOT, np.uint32)
         slot_of_id[ids] = np.arange(len(names), dtype=np.uint32)
         self._slot_of_id = mi.UInt32(slot_of_id)  # a hit's instance (its registry id) -> its slot
-        self._last = to_world.astype(np.float32)
+        self._last = placed
         templates = [self._templates[k] for k, _ in self.layout]  # each template's tables once
         first = np.cumsum([0] + [t.part.shape[0] for t in templates])[:-1]
         self.slot_first = np.repeat(first, [c for _, c in self.layout]).astype(np.int64)
@@ -311,7 +314,8 @@ class _Instances:
         changed = np.flatnonzero(np.any(new != self._last, axis=(1, 2)))
         for s in changed.tolist():
             value, value_type, node = self._slot_props[s]
-            mi.set_property(value, value_type, mi.AffineTransform4f(to_world[s]))
+            # from float32: the same transform (Mitsuba keeps it in float32) in a quarter of the time
+            mi.set_property(value, value_type, mi.AffineTransform4f(new[s]))
             node.parameters_changed(["to_world"])
         if changed.size:
             self.scene.parameters_changed([f"slot{s}" for s in changed.tolist()])
@@ -329,10 +333,10 @@ class _Instances:
 
 
 class MitsubaEngine:
-    """Keeps the static scene (made again when the static mesh changes), the agents' scene of
-    instanced body templates (:class:`_Instances`), and each agent's own Open3D scene for the
-    labels' silhouettes, kept while its triangles stay the same (which answers as a fresh one:
-    not part of the checkpoint).
+    """Keeps the static scene (made again when the static mesh changes) and the agents' scene of
+    instanced body templates (:class:`_Instances`). The labels' silhouettes are cast in the
+    templates' unit meshes, each agent's rays taken into its template's frame
+    (:func:`sensors.scene.hits_alone_in_templates`).
 
     A hit on an agent depends on its template and transform alone, but which of two agents'
     surfaces at the very same distance a ray reports follows the order of the instances in the
@@ -346,7 +350,6 @@ class MitsubaEngine:
         self._static: _Part | None = None
         self._static_normals = np.zeros((0, 3), np.float32)
         self.instances = _Instances()
-        self._alone = AloneScenes()  # each agent's own scene, for the labels' silhouettes
 
     def scene(self, static: ClassedMesh, agents: Agents) -> MitsubaScene:
         if static is not self._static_mesh:
@@ -355,7 +358,6 @@ class MitsubaEngine:
         if self._static is None:
             raise RuntimeError("MitsubaEngine: no static scene")
         self.instances.update(agents)
-        self._alone.keep_only(agents.instance_id)
         return MitsubaScene(self, static, self._static, agents)
 
     def checkpoint(self) -> dict[str, Any]:
@@ -378,6 +380,7 @@ class MitsubaScene:
         self._engine, self._static = engine, part
         self.agents = agents
         self._instances = engine.instances
+        self._keys = engine.instances.keys  # each agent's template, for its silhouette
         self._nothing_row = static.triangle_class.shape[0]
         self._class_of_row = np.concatenate([static.triangle_class, [0]]).astype(np.uint8)
         normals = [engine._static_normals, np.zeros((1, 3), np.float32)]
@@ -386,7 +389,7 @@ class MitsubaScene:
 
     @property
     def agent_meshes(self) -> AgentMeshes:
-        """The agents' posed meshes (made when first asked: the labels' silhouettes, the occupancy)."""
+        """The agents' posed meshes (made when first asked: the occupancy)."""
         if self._agent_meshes is None:
             self._agent_meshes = agent_meshes(self.agents)
         return self._agent_meshes
@@ -470,7 +473,9 @@ class MitsubaScene:
         return cast_agents_moving(self.agents, rays, dt_s, ray_index, agent_index)
 
     def hits_alone(self, rays: npt.NDArray[np.float32], instance_id: npt.NDArray[np.uint32]) -> npt.NDArray[np.bool_]:
-        return _hits_alone(self.agent_meshes, rays, instance_id, self._engine._alone)
+        """Each agent's silhouette cast in its template's unit mesh, as this engine casts its
+        instances (:func:`sensors.scene.hits_alone_in_templates`)."""
+        return hits_alone_in_templates(self.agents, self._keys, rays, instance_id)
 
 
 _NO_AGENTS = (np.zeros(0, np.uint8), np.zeros(0, np.uint32), np.zeros(0, np.int64), np.zeros((0, 3, 3)),

@@ -310,6 +310,37 @@ def _unit_scene(key: tuple[int, int, int]) -> tuple[Any, npt.NDArray[np.uint8]]:
     return _UNIT_SCENES[key]
 
 
+def hits_alone_in_templates(
+    agents: Agents, keys: list[tuple[int, int, int]], rays: npt.NDArray[np.float32],
+    instance_id: npt.NDArray[np.uint32],
+) -> npt.NDArray[np.bool_]:  # fmt: skip
+    """Whether ray ``i`` hits agent ``instance_id[i]`` with everything else taken away (as
+    :meth:`FrameScene.hits_alone`; ``False`` for agents not among ``agents``), each agent cast in
+    its body template's unit mesh (``keys``: each agent's class, body and pose), the ray taken
+    into that mesh's frame as the fast engine's instances take it: no mesh is posed and no scene
+    is built per frame (a template's scene is made once a process)."""
+    hit = np.zeros(rays.shape[0], np.bool_)
+    if rays.shape[0] == 0 or len(agents) == 0:
+        return hit
+    row_of = {instance: k for k, instance in enumerate(agents.instance_id.tolist())}
+    rotations = agents.rotations()
+    centre = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
+    lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
+    order = np.argsort(instance_id, kind="stable")
+    ids = instance_id[order]
+    bounds = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1], True])
+    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+        k = row_of.get(int(ids[a]))
+        if k is None:
+            continue
+        mine = order[a:b]
+        unit = np.empty((b - a, 6), np.float32)
+        unit[:, :3] = ((rays[mine, :3] - centre[k]) @ rotations[k]) / lwh[k]  # x @ R is R^T x
+        unit[:, 3:] = (rays[mine, 3:6].astype(np.float64) @ rotations[k]) / lwh[k]
+        hit[mine] = _cast_one(_unit_scene(keys[k])[0], unit)
+    return hit
+
+
 def cast_agents_moving(
     agents: Agents, rays: npt.NDArray[np.float32], dt_s: npt.NDArray[np.float64],
     ray_index: npt.NDArray[np.intp], agent_index: npt.NDArray[np.intp],

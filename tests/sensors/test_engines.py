@@ -249,3 +249,22 @@ def test_an_engine_restored_from_a_checkpoint_lays_out_the_agents_as_the_engine_
             differs += layout(fresh.scene(static, frame)) != want_layout
     assert differs > 0  # without the checkpoint the layout is another
     assert MitsubaEngine().checkpoint() == {"slots": []}
+
+
+def test_silhouettes_cast_in_the_templates_agree_with_the_posed_meshes(town):
+    """The fast engine casts each agent's silhouette in its template's unit mesh; the reference
+    casts the agent's posed mesh: the same rays hit (a ray grazing an edge may differ)."""
+    static, agents, ego = town
+    reference, fast = open_engine("open3d")[0].scene(static, agents), MitsubaEngine().scene(static, agents)
+    rng = np.random.default_rng(0)
+    origin = ego.map_SE3_ego().translation + np.array([0.0, 0.0, 1.6])
+    per = 400  # rays aimed at points in and around each agent's box
+    target = agents.center_map_m[:, None, :] + rng.uniform(-0.7, 0.7, (len(agents), per, 3)) * agents.lwh_m[:, None, :]
+    d = target.reshape(-1, 3) - origin
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    rays = np.hstack([np.broadcast_to(origin, d.shape), d]).astype(np.float32)
+    owner = np.repeat(agents.instance_id, per).astype(np.uint32)
+    owner[::97] = 10_000  # no such agent: never hit
+    expected, alone = reference.hits_alone(rays, owner), fast.hits_alone(rays, owner)
+    assert expected.sum() > 10_000 and not alone[owner == 10_000].any()
+    assert (alone != expected).mean() <= 1e-4
