@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, ClassVar
 import cv2
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
 from networks.geometry import SE3
 from networks.vocabulary import SensorKind
@@ -153,20 +154,18 @@ class Camera:
         map_SE3_ego = ego.map_SE3_ego()
         map_SE3_cam = map_SE3_ego.compose(self.spec.ego_SE3_sensor)
         hits = scene.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, self._dirs_cam)
-        far = hits.range_m > np.float32(self.spec.range_m)  # nothing hit within range
-        depth = hits.range_m * self._forward
-        depth[far] = 0.0
-        hits.instance_id[far] = 0  # the frame's own arrays; shading paints sky over these pixels
-        hits.semantic_class[far] = 0
+        realistic = self.spec.shading != "flat"
+        # the frame's own arrays: nothing hit within range is depth 0, class and instance 0 (and,
+        # shaded realistically, part 0 and range inf); shading paints sky over these pixels
+        depth = _within_range(hits.range_m, hits.instance_id, hits.semantic_class, hits.part, self._forward,
+                              np.float32(self.spec.range_m), realistic)  # fmt: skip
         map_R_cam = map_SE3_cam.rotation.astype(np.float32)
         h, w = self.shape
-        if self.spec.shading == "flat":
+        if not realistic:
             seed = int(rng.integers(0, 2**63)) if weather.noise_sigma > 0 else None
             shading = Shading(self.spec.pinhole, self.spec.range_m, map_R_cam, hits.normal, weather, seed)
         else:
             seed = int(rng.integers(0, 2**63))
-            hits.part[far] = 0
-            hits.range_m[far] = np.inf
             origin = map_SE3_cam.translation
             dirs_map = map_directions(map_SE3_cam.rotation, self._dirs_cam)  # those of the cast
             sun_lit = sun_visibility(scene, origin, dirs_map, hits.range_m, hits.normal, weather)
@@ -233,8 +232,40 @@ def sun_visibility(scene: Scene, origin_map_m: F64, dirs_map: npt.NDArray[np.flo
         np.float32(SHADOW_RANGE_M), np.float32(SHADOW_LIFT_M),
     )  # fmt: skip
     if len(at):
-        lit[at] = ~scene.occluded(columns.T)  # (K, 6), each column contiguous
+        _set_lit(lit, at, scene.occluded(columns.T))  # (K, 6), each column contiguous
     return lit
+
+
+@njit(cache=True, nogil=True)
+def _within_range(
+    range_m: npt.NDArray[np.float32], instance: npt.NDArray[np.uint32], cls: npt.NDArray[np.uint8],
+    part: npt.NDArray[np.uint8], forward: npt.NDArray[np.float32], max_range_m: np.float32, realistic: bool,
+) -> npt.NDArray[np.float32]:  # fmt: skip  # pragma: no cover - compiled
+    """``(N,)`` z-depth of each ray's hit (its range times its cosine to the optical axis, float32);
+    a ray with nothing within ``max_range_m`` gets depth 0, instance and class 0 and, with
+    ``realistic``, part 0 and range inf (written into the arrays given)."""
+    depth = np.empty(range_m.shape[0], np.float32)
+    for i in range(range_m.shape[0]):
+        r = range_m[i]
+        if r > max_range_m:
+            depth[i] = 0.0
+            instance[i] = 0
+            cls[i] = 0
+            if realistic:
+                part[i] = 0
+                range_m[i] = np.inf
+        else:
+            depth[i] = r * forward[i]
+    return depth
+
+
+@njit(cache=True, nogil=True)
+def _set_lit(
+    lit: npt.NDArray[np.bool_], at: npt.NDArray[np.int64], occluded: npt.NDArray[np.bool_]
+) -> None:  # pragma: no cover - compiled
+    """``lit[at] = ~occluded``."""
+    for j in range(at.shape[0]):
+        lit[at[j]] = not occluded[j]
 
 
 def boxes_in_view(agents: Agents, instance_id: npt.NDArray[np.uint32]) -> AgentBoxes:
