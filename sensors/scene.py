@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
 from networks.geometry import SE3
 from networks.mesh import ClassedMesh
@@ -317,28 +318,60 @@ def hits_alone_in_templates(
     """Whether ray ``i`` hits agent ``instance_id[i]`` with everything else taken away (as
     :meth:`FrameScene.hits_alone`; ``False`` for agents not among ``agents``), each agent cast in
     its body template's unit mesh (``keys``: each agent's class, body and pose), the ray taken
-    into that mesh's frame as the fast engine's instances take it: no mesh is posed and no scene
-    is built per frame (a template's scene is made once a process)."""
+    into that mesh's frame as the fast engine's instances take it (:func:`_into_units`): no mesh
+    is posed and no scene is built per frame (a template's scene is made once a process)."""
     hit = np.zeros(rays.shape[0], np.bool_)
     if rays.shape[0] == 0 or len(agents) == 0:
         return hit
-    row_of = {instance: k for k, instance in enumerate(agents.instance_id.tolist())}
+    ids = agents.instance_id
+    sorter = np.argsort(ids, kind="stable")
+    agent = sorter[np.minimum(np.searchsorted(ids, instance_id, sorter=sorter), len(ids) - 1)].astype(np.int64)
+    agent[ids[agent] != instance_id] = -1  # each ray's agent (-1: none)
     rotations = agents.rotations()
     centre = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
     lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
-    order = np.argsort(instance_id, kind="stable")
-    ids = instance_id[order]
-    bounds = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1], True])
+    unit = _into_units(np.ascontiguousarray(rays, np.float32), agent, rotations, centre, lwh)
+    agents_of: dict[tuple[int, int, int], list[int]] = {}  # per template, its agents
+    for k, key in enumerate(keys):
+        agents_of.setdefault(key, []).append(k)
+    templates = list(agents_of)
+    group = np.full(len(agents) + 1, -1, np.int64)  # each agent's template's number (the last, -1: none)
+    for g, key in enumerate(templates):
+        group[agents_of[key]] = g
+    ray_group = group[agent]
+    order = np.argsort(ray_group, kind="stable")
+    ordered = ray_group[order]
+    bounds = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1], True])
     for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
-        k = row_of.get(int(ids[a]))
-        if k is None:
-            continue
-        mine = order[a:b]
-        unit = np.empty((b - a, 6), np.float32)
-        unit[:, :3] = ((rays[mine, :3] - centre[k]) @ rotations[k]) / lwh[k]  # x @ R is R^T x
-        unit[:, 3:] = (rays[mine, 3:6].astype(np.float64) @ rotations[k]) / lwh[k]
-        hit[mine] = _cast_one(_unit_scene(keys[k])[0], unit)
+        if ordered[a] >= 0:
+            mine = order[a:b]  # one cast per template
+            hit[mine] = _cast_one(_unit_scene(templates[int(ordered[a])])[0], unit[mine])
     return hit
+
+
+@njit(cache=True, nogil=True)
+def _into_units(
+    rays: npt.NDArray[np.float32], agent: npt.NDArray[np.int64], rotations: npt.NDArray[np.float64],
+    centre: npt.NDArray[np.float64], lwh: npt.NDArray[np.float64],
+) -> npt.NDArray[np.float32]:  # fmt: skip  # pragma: no cover - compiled
+    """``(N, 6)`` each ray (origin, direction) in the unit frame of its ``agent``'s mesh (-1: none,
+    the ray left as it is): ``R^T (o - c) / lwh`` and ``R^T d / lwh`` in float64, each product's
+    terms summed in order, then rounded to float32."""
+    out = np.empty((rays.shape[0], 6), np.float32)
+    for i in range(rays.shape[0]):
+        k = agent[i]
+        if k < 0:
+            out[i] = rays[i]
+            continue
+        x0 = np.float64(rays[i, 0]) - centre[k, 0]
+        x1 = np.float64(rays[i, 1]) - centre[k, 1]
+        x2 = np.float64(rays[i, 2]) - centre[k, 2]
+        d0, d1, d2 = np.float64(rays[i, 3]), np.float64(rays[i, 4]), np.float64(rays[i, 5])
+        for j in range(3):
+            r0, r1, r2 = rotations[k, 0, j], rotations[k, 1, j], rotations[k, 2, j]
+            out[i, j] = np.float32((x0 * r0 + x1 * r1 + x2 * r2) / lwh[k, j])
+            out[i, 3 + j] = np.float32((d0 * r0 + d1 * r1 + d2 * r2) / lwh[k, j])
+    return out
 
 
 def cast_agents_moving(
