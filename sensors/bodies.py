@@ -412,6 +412,37 @@ def _contour_marking(x0: float, x1: float, hw: float, z0: float, h: float) -> li
     return pieces
 
 
+SIDE_MARKER_SPACING_M = 3.0
+"""Side marker lamps along a heavy vehicle's side at most this far apart (UN ECE R48: 3 m)."""
+
+
+def _side_markers(x0: float, x1: float, y: float, z: float, clear: list[tuple[float, float]]) -> list[Piece]:
+    """Amber side marker lamps (10 x 5 cm, 1.5 cm proud of the side at ``|y|``) from ``x0`` to
+    ``x1`` at height ``z``, at most :data:`SIDE_MARKER_SPACING_M` apart, none in the ``clear``
+    spans along the body (wheel arches, doors)."""
+    steps = np.linspace(x0, x1, round((x1 - x0) / 0.1) + 1)
+    free = [x for x in steps if not any(a - 0.1 < x < b + 0.1 for a, b in clear)]
+    xs = free[:1]
+    while free and free[-1] > xs[-1]:  # each next lamp as far on as the spacing allows, or past a clear span
+        near = [x for x in free if xs[-1] < x <= xs[-1] + SIDE_MARKER_SPACING_M]
+        xs.append(near[-1] if near else next(x for x in free if x > xs[-1]))
+    pieces = []
+    for side in (-1.0, 1.0):
+        y0, y1 = sorted((side * (y - 0.015), side * y))
+        pieces += [box(x - 0.05, x + 0.05, y0, y1, z - 0.025, z + 0.025, Part.SIDE_MARKER) for x in xs]
+    return pieces
+
+
+def _outline_lamps(x0: float, x1: float, hw: float, z: float, part: int) -> list[Piece]:
+    """A pair of end-outline marker lamps (white ahead, red behind) at a body's top corners: from
+    ``x0`` to ``x1`` along it, 10 cm wide, 5 cm inside ``hw`` of its centre line, 5 cm tall under ``z``."""
+    pieces = []
+    for side in (-1.0, 1.0):
+        y0, y1 = sorted((side * (hw - 0.15), side * (hw - 0.05)))
+        pieces.append(box(x0, x1, y0, y1, z - 0.05, z, part))
+    return pieces
+
+
 def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: bool = False) -> Piece:
     """A rigid box truck, or a tractor with a box semi-trailer."""
     hl, hw = length / 2, width / 2 - 0.01
@@ -477,6 +508,8 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
             pieces.append(box(x0, x1, y0, y1, box_z0 + 0.16, h - 0.1, Part.CHROME))
     pieces.append(box(-hl + 0.2, hl - 0.3, -0.45, 0.45, 0.5, box_z0 - 0.03, Part.UNDERBODY))  # chassis
     pieces += _contour_marking(-hl, box_x1, hw, box_z0, h)
+    pieces += _outline_lamps(-hl - 0.002, -hl + 0.03, hw, h - 0.12, Part.REAR_OUTLINE)  # under the roof's tape
+    pieces += _outline_lamps(face - 0.12, face - 0.09, hw, cab_top - 0.07, Part.FRONT_OUTLINE)  # on the sun visor
     if h - 0.06 - cab_top > 0.15:  # a deflector on the cab's roof, rising to the box's front
         ramp = [(face - 0.5, cab_top - 0.02), (cab_x0 + 0.02, cab_top - 0.02), (cab_x0 + 0.02, h - 0.11),
                 (cab_x0 + 0.45, h - 0.11)]  # fmt: skip
@@ -516,6 +549,8 @@ def box_truck(length: float = 8.0, width: float = 2.5, h: float = 3.5, trailer: 
     axles = [front_axle, *rear_axles]
     if trailer:
         axles.append(drive_axle)
+    # under the box's bottom rail, over the rear wheels' guards, from the rear to behind the cab's wheel
+    pieces += _side_markers(-hl + 0.3, front_axle - r - 0.3, hw, box_z0 - 0.05, [])
     for x in axles:
         for side in (-1.0, 1.0):
             pieces += wheel(x, r, side * (hw - 0.32), side * (hw - 0.04), rim_share=0.62, hub=Part.CHROME)
@@ -601,6 +636,11 @@ def bus(length: float = 12.0, width: float = 2.55, h: float = 3.2, coach: bool =
         pieces.append(box(-hl, -hl + 0.03, r0, r1, floor + 0.3, floor + 0.9, Part.TAIL_LAMP))
         pieces.append(box(-hl, -hl + 0.03, r0, r1, floor + 0.92, floor + 1.15, Part.INDICATOR))
     pieces += _bus_front(bl, hw, floor, top, coach)
+    pieces += _outline_lamps(bl - 0.06, bl + 0.012, hw, top, Part.FRONT_OUTLINE)  # over the mirrors' arms
+    pieces += _outline_lamps(-hl, -bl + 0.02, hw, top - 0.22, Part.REAR_OUTLINE)
+    doors = [(x - 0.6, x + 0.6) for x in (hl - 1.4, 0.3)] if not coach else []
+    arches = [(x - r - 0.1, x + r + 0.1) for x in axles]
+    pieces += _side_markers(-hl + 0.5, hl - 0.6, hw + 0.008, floor + 0.2, arches + doors)
     pieces.append(box(-hl, -bl - 0.002, -hw + 0.22, hw - 0.22, top - 1.25, top - 0.55, Part.GLASS))
     pieces.append(box(-hl, -bl - 0.002, -0.6, 0.6, top - 0.48, top - 0.3, Part.TRIM))  # route number
     for k in range(5):  # the engine hatch's grille
@@ -1049,6 +1089,8 @@ def centre_axle_trailer(length: float = 7.0, width: float = 2.5, h: float = 3.4)
     pieces.append(box(-hl, -hl + 0.04, -0.26, 0.26, z0 - 0.48, z0 - 0.36, Part.PLATE))
     pieces += _rear_doors(-hl + 0.02, hw, z0, h)
     pieces.append(box(-hl + 0.12, -hl + 0.24, -hw + 0.2, hw - 0.2, 0.42, 0.56, Part.TRIM))  # underrun guard
+    pieces += _outline_lamps(-hl - 0.002, -hl + 0.03, hw, h - 0.12, Part.REAR_OUTLINE)
+    pieces += _side_markers(-hl + 0.3, hl - 0.3, hw + 0.008, z0 + 0.12, [(-1.2, 1.2)])  # clear of the wheels
     for x in (-0.65, 0.65):
         for side in (-1.0, 1.0):
             pieces += wheel(x, 0.45, side * (hw - 0.32), side * (hw - 0.04))

@@ -51,6 +51,9 @@ class Part(IntEnum):
     HELMET = 27  # motorcyclists' helmets, colour per instance (black and white most)
     RETRO_YELLOW = 28  # yellow retro-reflective contour marking on heavy vehicles (UN ECE R48, R104)
     DISPLAY = 29  # a bus's amber LED destination display
+    SIDE_MARKER = 30  # amber side marker lamps along buses and trucks (UN ECE R48: over 6 m long)
+    FRONT_OUTLINE = 31  # white end-outline marker lamps at the top of a bus's or truck's front (R48: over 2.1 m wide)
+    REAR_OUTLINE = 32  # red end-outline marker lamps at the top of its rear
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,6 +110,9 @@ MATERIALS: dict[Part, PartMaterial] = {
     Part.HELMET: PartMaterial(None, 0.7, 80.0, 0.08, 0.0, 0.45, 0.3),  # glossy shell
     Part.RETRO_YELLOW: PartMaterial((0.08, 0.72, 0.92), 0.3, 30.0, 0.0, 0.0, 0.95, 0.1),  # as the white sheeting
     Part.DISPLAY: PartMaterial((0.05, 0.45, 0.95), 0.3, 40.0, 0.0, 1.0, 0.3, 0.5),  # LEDs behind glass
+    Part.SIDE_MARKER: PartMaterial((0.1, 0.35, 0.6), 0.8, 120.0, 0.15, 1.0, 0.6, 0.5),  # lenses as the lamps'
+    Part.FRONT_OUTLINE: PartMaterial((0.8, 0.8, 0.78), 0.8, 120.0, 0.15, 1.0, 0.6, 0.5),
+    Part.REAR_OUTLINE: PartMaterial((0.05, 0.04, 0.38), 0.8, 120.0, 0.15, 1.0, 0.6, 0.5),
 }
 
 # Car paint by real-world frequency (BASF/Axalta global colour popularity reports, 2020-2024:

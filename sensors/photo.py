@@ -327,6 +327,9 @@ LAMP_BGR[Part.TAIL_LAMP] = (0.02, 0.02, 1.0)
 LAMP_BGR[Part.INDICATOR] = (0.0, 0.32, 1.0)
 LAMP_BGR[Part.GLASS] = (0.75, 0.9, 1.0)  # a bus's lit interior seen through its windows
 LAMP_BGR[Part.DISPLAY] = (0.0, 0.45, 1.0)
+LAMP_BGR[Part.SIDE_MARKER] = (0.0, 0.4, 1.0)
+LAMP_BGR[Part.FRONT_OUTLINE] = (0.85, 0.93, 1.0)
+LAMP_BGR[Part.REAR_OUTLINE] = (0.02, 0.02, 1.0)
 HEADLAMP_DAY, HEADLAMP_NIGHT = np.float32(0.5), np.float32(5.0)  # daytime running lamps; dipped beams
 TAIL_NIGHT, BRAKE_DAY, BRAKE_NIGHT = np.float32(0.6), np.float32(1.8), np.float32(2.5)
 INDICATOR_DAY, INDICATOR_NIGHT = np.float32(1.8), np.float32(2.5)
@@ -342,6 +345,10 @@ SEATED_SHARE, STANDING_SHARE = 0.45, 0.12
 """Shares of window seats with a passenger and of standing places along the aisle with one."""
 DISPLAY_DAY, DISPLAY_NIGHT = np.float32(0.6), np.float32(1.2)
 """A bus's destination display shines while its lights are on, bright enough to read by day."""
+MARKER_NIGHT = np.float32(1.2)
+"""Buses' and trucks' marker lamps (side markers, end-outline lamps) glow while their lights are
+on: position lamps, dimmer than the tail lamps' brake light."""
+_MARKERS = (Part.SIDE_MARKER, Part.FRONT_OUTLINE, Part.REAR_OUTLINE)
 
 
 _EMITS_BY_PART = EMISSIVE_BY_PART > 0
@@ -361,8 +368,9 @@ def lamp_light(
 ) -> F32:  # fmt: skip
     """``(N,)`` light each hit on a vehicle's lamp sends out (times its colour,
     :data:`LAMP_BGR`), from its vehicle's :class:`sensors.agents.Lamp` bits: head and tail lamps when its lights are on
-    (headlamps dimly by day) and a bus's destination display, brake lamps by day and night, an
-    indicator when its side flashes and is lit (left and right from the hit's side of its box); by night a bus's windows
+    (headlamps dimly by day), a bus's destination display and by night heavy vehicles' marker lamps, brake lamps by
+    day and night, an indicator when its side flashes and is lit (left and right from the hit's side of its box); by
+    night a bus's windows
     (:data:`CABIN_NIGHT`, where ``cls`` gives the hits' classes). Zero elsewhere."""
     from sensors.agents import Lamp
 
@@ -385,6 +393,7 @@ def lamp_light(
     if len(cabin):
         gain[cabin] += nt * CABIN_NIGHT * bus_cabin(points[cabin], instance[cabin], boxes)
     gain[at[(pt == Part.DISPLAY) & on]] += DISPLAY_DAY + nt * DISPLAY_NIGHT
+    gain[at[np.isin(pt, _MARKERS) & on]] += nt * MARKER_NIGHT
     gain[at[tail & ((lamps & Lamp.BRAKE) > 0)]] += BRAKE_DAY + nt * BRAKE_NIGHT
     ind = np.flatnonzero((pt == Part.INDICATOR) & ((lamps & Lamp.FLASH) > 0))
     if len(ind):

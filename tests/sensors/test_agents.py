@@ -568,3 +568,54 @@ def test_a_trucks_box_is_outlined_in_contour_marking_at_its_rear_and_along_its_s
                 along = tape[side * tape[:, 1] > 0.5 * np.ptp(v[:, 1]) - 0.02]
                 assert np.ptp(along[:, 0]) > 0.5 * np.ptp(v[:, 0]), (body.name, pose, side)
             assert np.abs(tape[:, 1]).max() <= np.abs(v[:, 1]).max(), (body.name, pose)
+
+
+def _first_parts(piece, origins: np.ndarray, targets: np.ndarray) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """The part each ray from ``origins`` towards ``targets`` meets first on ``piece`` (-1: none)."""
+    from sensors.o3d import INVALID_ID, RaycastingScene, o3c
+
+    scene = RaycastingScene()
+    scene.add_triangles(
+        o3c.Tensor.from_numpy(piece.vertices.astype(np.float32)),
+        o3c.Tensor.from_numpy(piece.triangles.astype(np.uint32)),
+    )
+    d = targets - origins
+    rays = np.hstack([origins, d / np.linalg.norm(d, axis=1, keepdims=True)]).astype(np.float32)
+    prim = scene.cast_rays(o3c.Tensor.from_numpy(rays))["primitive_ids"].numpy()
+    return np.where(prim == INVALID_ID, -1, piece.parts[np.minimum(prim, len(piece.parts) - 1)].astype(np.int64))
+
+
+def test_buses_and_trucks_carry_marker_lamps_seen_from_outside() -> None:
+    # UN ECE R48: amber side markers along vehicles over 6 m long (at most 3 m apart, the first
+    # within 3 m of the front, the last within 1 m of the rear), end-outline
+    # lamps at the top corners of those over 2.1 m wide (white ahead, red behind); each lamp is
+    # the first thing a ray from outside meets on its way to the lamp's middle
+    heavy = [(b, p) for c in (SemanticClass.BUS, SemanticClass.TRUCK, SemanticClass.TRAILER)
+             for b in BODIES[int(c)] for p in range(b.poses)]  # fmt: skip
+    for body, pose in heavy:
+        piece = body.build(pose)
+        v = piece.vertices
+        width = np.ptp(v[:, 1])
+        for part, axis in ((Part.SIDE_MARKER, 1), (Part.FRONT_OUTLINE, 0), (Part.REAR_OUTLINE, 0)):
+            tri = piece.triangles[piece.parts == part]
+            if part == Part.FRONT_OUTLINE and body.name == "box_trailer":
+                assert len(tri) == 0  # a trailer's front faces its truck
+                continue
+            centres = v[tri.reshape(-1, 12, 3)].reshape(-1, 36, 3).mean(axis=1)  # each lamp is a box: 12 triangles
+            origins = centres.copy()
+            origins[:, axis] = np.sign(centres[:, axis]) * 30.0  # from outside, square to the lamp
+            assert (_first_parts(piece, origins, centres) == part).all(), (body.name, pose, part.name)
+            if part == Part.SIDE_MARKER:
+                for side in (-1.0, 1.0):
+                    xs = np.sort(centres[side * centres[:, 1] > 0, 0])
+                    assert len(xs) >= 2 and xs[0] < v[:, 0].min() + 1.0, (body.name, pose)
+                    assert xs[-1] > v[:, 0].max() - 3.0 and np.diff(xs).max() <= 3.0 + 1e-6, (body.name, pose)
+                    assert centres[:, 2].max() < 1.5, (body.name, pose)  # R48: 0.25-1.5 m high
+            else:
+                ahead = part == Part.FRONT_OUTLINE
+                assert len(centres) == 2, (body.name, part.name)
+                assert (np.sign(centres[:, 0]) == (1 if ahead else -1)).all(), (body.name, part.name)
+                assert np.ptp(centres[:, 1]) > 0.8 * width, (body.name, part.name)  # at the corners
+                end = v[:, 0] > v[:, 0].max() - 0.5 if ahead else v[:, 0] < v[:, 0].min() + 0.5
+                top = v[end, 2].max()  # the top of its end of the body
+                assert centres[:, 2].min() > top - 0.35, (body.name, part.name)

@@ -282,3 +282,22 @@ def test_a_lit_bus_shows_seat_backs_and_passengers_that_ride_with_it():
         assert (np.abs(moved - here) > 0.01).mean() < 0.01, (centre, yaw)  # the same people in their seats
     other = cabin(6, (20.0, -3.0, 1.55), 0.4)
     assert ((other < 0.15) != dark).mean() > 0.02  # another bus, other passengers
+
+
+def test_heavy_vehicles_marker_lamps_glow_at_night_while_their_lights_are_on():
+    from dataclasses import replace
+
+    from sensors.agents import Lamp
+    from sensors.parts import Part
+    from sensors.photo import LAMP_BGR, lamp_light
+
+    markers = np.array([Part.SIDE_MARKER, Part.FRONT_OUTLINE, Part.REAR_OUTLINE], np.uint8)
+    points = np.array([[0.0, 1.27, -1.0], [6.0, 1.1, 1.5], [-6.0, 1.1, 1.3]], np.float32)  # a 12 m bus at the origin
+    instance = np.full(3, 5, np.uint32)
+    off = _one_box(5, (0.0, 0.0, 0.0), (12.0, 2.55, 3.1), 0.0)
+    on = replace(off, lamps=np.array([Lamp.LIGHTS], np.uint8))
+    assert (lamp_light(points, instance, markers, on, 1.0) > 0.5).all()
+    assert not lamp_light(points, instance, markers, off, 1.0).any()  # parked, lights off
+    assert not lamp_light(points, instance, markers, on, 0.0).any()  # by day they do not show
+    side, front, rear = LAMP_BGR[markers]
+    assert side[2] > side[1] > side[0] and rear[2] > 10 * rear[1] and front.min() > 0.8  # amber, red, white
