@@ -101,10 +101,13 @@ PRESETS: dict[str, Weather] = {
     # day: haze_m 2500 m puts the 5 % contrast visibility near 7.5 km, a clear day's in a town
     # (clean air 20 km and more): a car 40 m away keeps 98 % of its own light
     "day": Weather("day"),
+    # night: a town's sky glows with its own light scattered back by the air and the clouds'
+    # undersides (overcast city skies several times brighter than clear ones: Kyba et al. 2011,
+    # PLoS ONE 6(3) e17307), a warm brownish grey brightest at the horizon, not a dark blue
     "night": Weather(
         "night", sun_gain=0.0, lamp_key_gain=0.5, sun_dir_map=(-0.3, 0.24, 0.92325),
         ambient=0.05, headlight_gain=0.6, headlight_range_m=18.0, haze_m=400.0,
-        haze_bgr=(40.0, 25.0, 20.0), sky_horizon_bgr=(45.0, 30.0, 25.0), sky_zenith_bgr=(20.0, 8.0, 5.0),
+        haze_bgr=(28.0, 33.0, 40.0), sky_horizon_bgr=(38.0, 44.0, 52.0), sky_zenith_bgr=(14.0, 14.0, 17.0),
         exposure=1.0, noise_sigma=6.0, saturation=1.0,
     ),
     # rain: haze_m 300 m puts the 5 % contrast visibility near 900 m, moderate rain's (WMO: 1-5 km
