@@ -333,6 +333,27 @@ def body_keys(agents: Agents) -> npt.NDArray[np.int64]:
     return keys
 
 
+def rows_of_ids(ids: npt.NDArray[np.uint32], wanted: npt.NDArray[np.uint32]) -> npt.NDArray[np.intp]:
+    """Each ``wanted`` instance id's row in ``ids`` (ids unique; -1 where it has none)."""
+    if len(ids) == 0:
+        return np.full(len(wanted), -1, np.intp)
+    order = np.argsort(ids, kind="stable")
+    pos = np.minimum(np.searchsorted(ids[order], wanted), len(order) - 1)
+    return np.where(ids[order[pos]] == wanted, order[pos], -1)
+
+
+def mesh_frames(
+    agents: Agents,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:  # fmt: skip
+    """Where each agent's body template is drawn: its rotation ``(K, 3, 3)``, the centre
+    ``(K, 3)`` and size ``(K, 3)`` of its box less :data:`AGENT_LIFT_M` at the bottom (the unit
+    mesh is scaled by the size, turned and moved to the centre)."""
+    rotations = agents.rotations()
+    centre = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
+    lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
+    return rotations, centre, lwh
+
+
 def agent_meshes(agents: Agents) -> AgentMeshes:
     """All agents' body meshes, scaled to their l/w/h (less :data:`AGENT_LIFT_M` at the
     bottom) and posed. The vertices come grouped by body type and pose (the groups in order of
@@ -340,9 +361,7 @@ def agent_meshes(agents: Agents) -> AgentMeshes:
     if len(agents) == 0:
         return AgentMeshes(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros(0, np.uint32),
                            np.zeros(0, np.uint8), np.zeros(0, np.uint8))  # fmt: skip
-    rotations = agents.rotations()
-    mesh_center = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
-    mesh_lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
+    rotations, mesh_center, mesh_lwh = mesh_frames(agents)
     groups, group_of = np.unique(body_keys(agents), axis=0, return_inverse=True)
     group_of = group_of.ravel()
     templates = [template_of(c, body, pose) for c, body, pose in groups.tolist()]

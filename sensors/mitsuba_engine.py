@@ -41,11 +41,11 @@ dr.set_thread_count(CAST_THREADS)
 
 from networks.mesh import ClassedMesh  # noqa: E402
 from sensors.agents import (  # noqa: E402
-    AGENT_LIFT_M,
     AgentMeshes,
     Agents,
     agent_meshes,
     body_keys,
+    mesh_frames,
     template_of,
     template_poses,
 )
@@ -261,9 +261,7 @@ class _Instances:
         for a, k in enumerate(keys):
             agent_of_slot[first[k] + taken[k]] = a
             taken[k] += 1
-        rotations = agents.rotations()
-        centre = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
-        lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
+        rotations, centre, lwh = mesh_frames(agents)
         to_world = np.repeat(PARKED[None], slot, axis=0)
         held = agent_of_slot >= 0
         mine = agent_of_slot[held]

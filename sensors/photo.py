@@ -32,6 +32,7 @@ from networks.classes import SemanticClass
 from networks.records import check_arrays
 from sensors import shade_kernels as kernels
 from sensors import textures
+from sensors.agents import rows_of_ids
 from sensors.materials import ALBEDO_BGR_BY_CLASS
 from sensors.parts import (
     ALBEDO_BGR_BY_PART,
@@ -113,11 +114,7 @@ class AgentBoxes:
 
     def rows_of(self, instance: npt.NDArray[np.uint32]) -> npt.NDArray[np.intp]:
         """Each given instance's row here (-1 where it has none)."""
-        if len(self.instance_id) == 0:
-            return np.full(len(instance), -1, np.intp)
-        order = np.argsort(self.instance_id, kind="stable")
-        pos = np.minimum(np.searchsorted(self.instance_id[order], instance), len(order) - 1)
-        return np.where(self.instance_id[order[pos]] == instance, order[pos], -1)
+        return rows_of_ids(self.instance_id, instance)
 
 
 @dataclass(frozen=True, slots=True)
@@ -397,10 +394,8 @@ def lamp_light(
     gain[at[tail & ((lamps & Lamp.BRAKE) > 0)]] += BRAKE_DAY + nt * BRAKE_NIGHT
     ind = np.flatnonzero((pt == Part.INDICATOR) & ((lamps & Lamp.FLASH) > 0))
     if len(ind):
-        yaw = boxes.yaw_rad[rows[ind]]
-        rel = points[at[ind], :2].astype(np.float64) - boxes.centre_m[rows[ind], :2]
-        left = rel[:, 0] * -np.sin(yaw) + rel[:, 1] * np.cos(yaw) > 0
-        side = np.where(left, int(Lamp.LEFT), int(Lamp.RIGHT))
+        across = _own_frame(points[at[ind]], instance[at[ind]], boxes)[3]  # every one has its box
+        side = np.where(across > 0, int(Lamp.LEFT), int(Lamp.RIGHT))
         lit = ind[(lamps[ind] & side) > 0]
         gain[at[lit]] += INDICATOR_DAY + nt * INDICATOR_NIGHT
     return gain

@@ -18,12 +18,13 @@ from numba import njit
 from networks.geometry import SE3
 from networks.mesh import ClassedMesh
 from sensors.agents import (
-    AGENT_LIFT_M,
     AgentMeshes,
     Agents,
     agent_meshes,
     body_keys,
+    mesh_frames,
     motion_over,
+    rows_of_ids,
     template_of,
     turn_rate_at,
     turned_about_z,
@@ -323,13 +324,8 @@ def hits_alone_in_templates(
     hit = np.zeros(rays.shape[0], np.bool_)
     if rays.shape[0] == 0 or len(agents) == 0:
         return hit
-    ids = agents.instance_id
-    sorter = np.argsort(ids, kind="stable")
-    agent = sorter[np.minimum(np.searchsorted(ids, instance_id, sorter=sorter), len(ids) - 1)].astype(np.int64)
-    agent[ids[agent] != instance_id] = -1  # each ray's agent (-1: none)
-    rotations = agents.rotations()
-    centre = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
-    lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
+    agent = rows_of_ids(agents.instance_id, instance_id).astype(np.int64)  # each ray's agent (-1: none)
+    rotations, centre, lwh = mesh_frames(agents)
     unit = _into_units(np.ascontiguousarray(rays, np.float32), agent, rotations, centre, lwh)
     agents_of: dict[tuple[int, int, int], list[int]] = {}  # per template, its agents
     for k, key in enumerate(keys):
@@ -388,9 +384,7 @@ def cast_agents_moving(
     out = PairHits(np.full(m, np.inf, np.float32), np.zeros((m, 3), np.float32), np.zeros(m, np.uint8))
     if m == 0:
         return out
-    rotations = agents.rotations()
-    centre = agents.center_map_m + rotations[:, :, 2] * (AGENT_LIFT_M / 2.0)
-    lwh = agents.lwh_m - np.array([0.0, 0.0, AGENT_LIFT_M])
+    rotations, centre, lwh = mesh_frames(agents)
     starts = np.searchsorted(agent_index, np.arange(len(agents) + 1))
     present = np.flatnonzero(np.diff(starts))
     unit = np.empty((m, 6), np.float32)  # each pair's ray in its agent's unit mesh frame
