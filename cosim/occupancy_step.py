@@ -1,13 +1,11 @@
 """The frame loop's occupancy step: the frame's occupancy from the static world near the ego, every
-agent of the frame, the LiDAR sweeps and the cameras' rays (cast at the grid's resolution into
-the frame's scene)."""
+agent of the frame, the LiDAR sweeps and the cameras' rays (each camera's own
+depth image read at the grid's resolution)."""
 
 from __future__ import annotations
 
-import numpy as np
-
 from cosim.state import WorldState
-from gtgen.occupancy import OccupancyFrame, camera_rays, occupancy_frame, prepare_camera
+from gtgen.occupancy import OccupancyFrame, camera_distances_m, occupancy_frame, prepare_camera
 from gtgen.voxels import OccupancyGrid
 from networks.mesh import ClassedMesh
 from sensors.camera import CameraOutput, CameraSpec
@@ -32,11 +30,12 @@ class OccupancyStep:
         self, static: ClassedMesh, scene: Scene, state: WorldState, outputs: tuple[SensorOutput, ...]
     ) -> OccupancyFrame:
         map_SE3_ego = state.ego.map_SE3_ego()
-        cameras = []
-        for camera in (o for o in outputs if isinstance(o, CameraOutput)):
-            hits = scene.cast(camera_rays(self.grid, camera.spec, map_SE3_ego))
-            cameras.append((camera.spec, hits.range_m.astype(np.float64)))
+        cameras = tuple(
+            (o.spec, camera_distances_m(self.grid, o.spec, o.frame.depth_m))
+            for o in outputs
+            if isinstance(o, CameraOutput)
+        )  # each camera's reach read from its own depth image at the grid's resolution
         lidars = tuple(o for o in outputs if isinstance(o, LidarOutput))
         return occupancy_frame(self.grid, static, self._solids, state.agents, map_SE3_ego, state.ego.velocity_map_mps,
-                               lidars, tuple(cameras), scene.agent_meshes,
+                               lidars, cameras, scene.agent_meshes,
                                state.ego.turn_rates()[1], state.ego)  # fmt: skip

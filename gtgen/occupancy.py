@@ -526,19 +526,42 @@ def point_flow_m(
 
 
 @functools.lru_cache(maxsize=16)
-def camera_directions(spec: OccupancyGrid, camera: CameraSpec) -> npt.NDArray[np.float32]:
-    """``(R, 3) float32`` unit rays of ``camera`` (optical frame) at the grid's resolution: the
-    image sampled so that neighbouring rays lie one voxel apart at the grid's farthest corner."""
+def camera_pixels(spec: OccupancyGrid, camera: CameraSpec) -> npt.NDArray[np.intp]:
+    """``(R,)`` row-major indices of the pixels whose rays sample ``camera`` at the grid's
+    resolution: a column and a row every ``s`` pixels (``s`` need not be whole: the pixel each step's
+    middle falls in), ``s`` such that neighbouring samples lie one voxel apart at the grid's
+    farthest corner from the camera (to a pixel)."""
     lo, hi = np.asarray(spec.range_m[:3]), np.asarray(spec.range_m[3:])
-    far = float(np.max(np.linalg.norm(np.stack([lo, hi]) - np.asarray(camera.mount_xyz_m), axis=1)))
-    pinhole = camera.pinhole
-    step_px = max(1.0, spec.voxel_m / far * pinhole.focal_px)
-    u = np.arange(step_px / 2.0, camera.width_px, step_px) - 0.5
-    v = np.arange(step_px / 2.0, camera.height_px, step_px) - 0.5
-    uu, vv = np.meshgrid(u, v)
-    directions = pinhole.pixel_directions(uu, vv).astype(np.float32)
-    directions.setflags(write=False)  # kept (lru_cache): the same camera's rays every frame
+    corners = np.stack(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij"), -1).reshape(-1, 3)
+    far = float(np.max(np.linalg.norm(corners - np.asarray(camera.mount_xyz_m), axis=1)))
+    step_px = max(1.0, spec.voxel_m / far * camera.pinhole.focal_px)
+    u = np.unique(np.floor(np.arange(step_px / 2.0, camera.width_px, step_px)).astype(np.intp))
+    v = np.unique(np.floor(np.arange(step_px / 2.0, camera.height_px, step_px)).astype(np.intp))
+    pixels = np.asarray(v[:, None] * camera.width_px + u[None, :], np.intp).reshape(-1)
+    pixels.setflags(write=False)  # kept (lru_cache): the same camera's samples every frame
+    return pixels
+
+
+@functools.lru_cache(maxsize=16)
+def camera_directions(spec: OccupancyGrid, camera: CameraSpec) -> npt.NDArray[np.float32]:
+    """``(R, 3) float32`` unit rays (optical frame) of :func:`camera_pixels`: the camera's own rays
+    of those pixels."""
+    directions = np.ascontiguousarray(camera.pinhole.image_directions()[camera_pixels(spec, camera)], np.float32)
+    directions.setflags(write=False)
     return directions
+
+
+def camera_distances_m(
+    spec: OccupancyGrid, camera: CameraSpec, depth_m: npt.NDArray[np.float32]
+) -> npt.NDArray[np.float64]:
+    """How far each ray of :func:`camera_pixels` travelled, read from the camera's depth image
+    ``(H, W)`` (z-depth, 0 where nothing lies within its range: inf): its range is its depth over
+    its cosine to the optical axis. The same as casting :func:`camera_rays` into the frame's scene,
+    without casting them again."""
+    depth = np.asarray(depth_m).reshape(-1)[camera_pixels(spec, camera)].astype(np.float64)
+    cosine = camera_directions(spec, camera)[:, 2].astype(np.float64)
+    with np.errstate(divide="ignore"):
+        return np.where(depth > 0.0, depth / cosine, np.inf)
 
 
 def camera_rays(spec: OccupancyGrid, camera: CameraSpec, map_SE3_ego: SE3) -> npt.NDArray[np.float32]:

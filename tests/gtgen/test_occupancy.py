@@ -9,7 +9,15 @@ from shapely.geometry import box as rect
 from gtgen.frame import FrameRecord
 from gtgen.labels import label_frame
 from gtgen.load import load_occupancy
-from gtgen.occupancy import FREE_NATIVE, OCC3D_CLASSES, OCC3D_LUT, camera_rays, occupancy_frame
+from gtgen.occupancy import (
+    FREE_NATIVE,
+    OCC3D_CLASSES,
+    OCC3D_LUT,
+    camera_distances_m,
+    camera_pixels,
+    camera_rays,
+    occupancy_frame,
+)
 from gtgen.sinks.group import SinkChoice, SinkGroup
 from gtgen.sinks.images import FrameImages
 from gtgen.sinks.mcap_sink import frame_messages, planned_topics
@@ -19,7 +27,7 @@ from networks.geometry import SE3, box_rotations
 from networks.mesh import flat_polygon, merge, prism
 from networks.vocabulary import SensorKind
 from sensors.agents import Agents, EgoState, motion_over
-from sensors.camera import CameraSpec
+from sensors.camera import Camera, CameraSpec
 from sensors.lidar import Lidar, LidarSpec
 from sensors.scene import FrameScene
 from sensors.solids import Solids
@@ -46,8 +54,8 @@ def frame(static, agents, lidar=True, camera=True, with_meshes=False):
     cameras = ()
     if camera:
         spec = CameraSpec(shading="flat")
-        hits = scene.cast(camera_rays(SPEC, spec, EGO.map_SE3_ego()))
-        cameras = ((spec, hits.range_m.astype(np.float64)),)
+        depth = Camera(spec).sense(scene, EGO, DAY, rng).frame.depth_m
+        cameras = ((spec, camera_distances_m(SPEC, spec, depth)),)  # as the frame loop's step reads them
     meshes = scene.agent_meshes if with_meshes else None
     occupancy = occupancy_frame(
         SPEC, static, Solids(static), agents, EGO.map_SE3_ego(), EGO.velocity_map_mps, lidars, cameras, meshes
@@ -541,6 +549,36 @@ def test_a_timed_sweep_from_a_moving_ego_puts_every_static_return_in_an_occupied
     # the correction matters: the sensor moved up to 15 m/s x 0.025 s = 0.375 m from the frame's place
     raw = spec.ego_SE3_sensor.transform_from(lidar.scan.xyz_lidar_m.astype(float))
     assert np.abs(ends - raw)[:, 0].max() > 0.3
+
+
+@pytest.mark.parametrize("hfov_deg", [85.0, 120.0])
+def test_the_cameras_distances_read_from_its_depth_are_those_of_casting_its_grid_rays(hfov_deg):
+    """The camera mask's rays are the camera's own rays of every few pixels: their distances read
+    from the frame's depth image are those of casting the same rays into the frame's scene
+    (a wall, a car, the road, open sky beyond the camera's range), and they sample the image
+    one voxel apart at the grid's farthest corner, to the nearest pixel."""
+    wall = prism(rect(30, -12, 31, 12), 0.0, 6.0, SemanticClass.BUILDING)
+    static = merge([GROUND, wall])
+    agents = car(12.0, 1.0)
+    scene = FrameScene(static, agents)
+    spec = CameraSpec(shading="flat", hfov_deg=hfov_deg, range_m=60.0)
+    depth = Camera(spec).sense(scene, EGO, DAY, np.random.default_rng(0)).frame.depth_m
+    read = camera_distances_m(SPEC, spec, depth)
+    cast = scene.cast(camera_rays(SPEC, spec, EGO.map_SE3_ego())).range_m.astype(np.float64)
+    cast[cast > spec.range_m] = np.inf  # the camera's depth holds nothing beyond its range
+    assert np.array_equal(np.isinf(read), np.isinf(cast)) and np.isinf(read).sum() > 100
+    hit = np.isfinite(cast)
+    assert np.allclose(read[hit], cast[hit], rtol=1e-5, atol=1e-5)
+    pixels = camera_pixels(SPEC, spec)
+    u = np.unique(pixels % spec.width_px)
+    v = np.unique(pixels // spec.width_px)
+    assert pixels.shape[0] == u.shape[0] * v.shape[0] and len(np.unique(pixels)) == pixels.shape[0]
+    corners = np.stack(np.meshgrid(*zip(SPEC.range_m[:3], SPEC.range_m[3:], strict=True)), -1).reshape(-1, 3)
+    far_m = float(np.linalg.norm(corners - np.asarray(spec.mount_xyz_m), axis=1).max())
+    for gaps in (np.diff(u), np.diff(v)):
+        assert gaps.max() - gaps.min() <= 1
+        pixel_m = far_m / spec.pinhole.focal_px  # a pixel's width there
+        assert (gaps.max() - 1) * pixel_m <= SPEC.voxel_m < (gaps.min() + 1) * pixel_m  # a voxel apart, to a pixel
 
 
 @pytest.mark.parametrize(("preset", "pitch_deg"), [("occ3d", 0.0), ("occ3d", 12.0), ("openoccupancy", 5.0)])
