@@ -788,8 +788,9 @@ def leafy_normals(
 ) -> F32:
     """``normal`` (written in place and returned) with the crowns' (VEGETATION) ones tilted clump
     by clump (:func:`textures.leaf_tilt` times :data:`LEAF_TILT`, unit length again, still facing
-    the camera); the rest as they were."""
-    at = np.flatnonzero(cls == SemanticClass.VEGETATION)
+    the camera); the rest as they were, and so are those with nothing within range (``range_m``
+    inf: they see the sky, whatever class their ray met beyond it)."""
+    at = np.flatnonzero((cls == SemanticClass.VEGETATION) & np.isfinite(range_m))
     if at.size == 0:
         return normal
     points = kernels.hit_points(at, dirs_map, range_m, np.asarray(origin_map_m, np.float32))
