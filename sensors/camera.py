@@ -26,7 +26,7 @@ from sensors.hits import RayHits
 from sensors.photo import SUBPIXEL_OFFSETS, AgentBoxes, Supersamples
 from sensors.pinhole import EGO_AXES_R_OPTICAL, NO_DISTORTION, Pinhole
 from sensors.rays import map_directions, sensor_rays
-from sensors.shade_kernels import depth_units, edges, ids_seen, shadow_rays, subpixel_directions
+from sensors.shade_kernels import depth_units, edges, ids_seen, subpixel_directions
 from sensors.shading import CameraFrame, Shading
 from sensors.view import spheres_in_view
 from sensors.weather import Weather
@@ -127,6 +127,7 @@ class Camera:
         self.spec = spec
         self._dirs_cam = spec.pinhole.image_directions()
         self._forward = np.ascontiguousarray(self._dirs_cam[:, 2])  # each ray's cosine to the optical axis
+        self._shadows = ShadowScratch()
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -168,7 +169,7 @@ class Camera:
             seed = int(rng.integers(0, 2**63))
             origin = map_SE3_cam.translation
             dirs_map = map_directions(map_SE3_cam.rotation, self._dirs_cam)  # those of the cast
-            sun_lit = sun_visibility(scene, origin, dirs_map, hits.range_m, hits.normal, weather)
+            sun_lit = sun_visibility(scene, origin, dirs_map, hits.range_m, hits.normal, weather, self._shadows)
             extra = self._supersamples(scene, map_SE3_cam, hits, weather)
             shading = Shading(self.spec.pinhole, self.spec.range_m, map_R_cam, hits.normal, weather, seed,
                               part=hits.part, origin_map_m=np.asarray(origin, np.float64), sun_lit=sun_lit,
@@ -201,7 +202,7 @@ class Camera:
         far = sub.range_m > np.float32(self.spec.range_m)
         sub.range_m[far] = np.inf
         dirs_map = map_directions(map_SE3_cam.rotation, dirs_cam)
-        lit = sun_visibility(scene, map_SE3_cam.translation, dirs_map, sub.range_m, sub.normal, weather)
+        lit = sun_visibility(scene, map_SE3_cam.translation, dirs_map, sub.range_m, sub.normal, weather, self._shadows)
         return Supersamples(
             pixel, dirs_cam, sub.range_m, sub.semantic_class, sub.instance_id, sub.part, sub.normal, lit
         )
@@ -216,24 +217,77 @@ def edge_pixels(hits: RayHits, h: int, w: int) -> npt.NDArray[np.bool_]:
     )  # fmt: skip
 
 
+class ShadowScratch:
+    """The shadow rays' arrays, kept from call to call (grown when a call has more rays): a
+    camera's 600,000 shadow rays a frame are written into the same memory every frame."""
+
+    def __init__(self) -> None:
+        self.at = np.zeros(0, np.int64)
+        self.columns = np.zeros((6, 0), np.float32)
+
+    def take(self, n: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float32]]:
+        """Room for ``n`` rays: their rows and their ``(6, n)`` columns."""
+        if self.at.shape[0] < n:
+            self.at = np.empty(n, np.int64)
+            self.columns = np.empty((6, n), np.float32)
+        return self.at, self.columns
+
+
 def sun_visibility(scene: Scene, origin_map_m: F64, dirs_map: npt.NDArray[np.float32], range_m: npt.NDArray[np.float32],
-                   normal: npt.NDArray[np.float32], weather: Weather) -> npt.NDArray[np.bool_]:  # fmt: skip
+                   normal: npt.NDArray[np.float32], weather: Weather,
+                   scratch: ShadowScratch | None = None) -> npt.NDArray[np.bool_]:  # fmt: skip
     """``(N,)`` whether the sun reaches each hit point (a shadow ray towards it hits nothing).
     Misses, points beyond :data:`SHADOW_RANGE_M` and surfaces facing away count as lit; with no
-    sun and no street lamps overhead every point is lit and no ray is cast."""
+    sun and no street lamps overhead every point is lit and no ray is cast. The shadow rays are
+    written into ``scratch`` (a fresh one when not given)."""
     lit = np.ones(range_m.shape[0], np.bool_)
     if weather.sun_gain <= 0 and weather.lamp_key_gain <= 0:
         return lit
     sun = np.asarray(weather.sun_dir_map, np.float32)
     sun /= np.linalg.norm(sun)
-    at, columns = shadow_rays(
+    at, columns = (scratch or ShadowScratch()).take(range_m.shape[0])
+    k = _shadow_rays(
         np.asarray(origin_map_m, np.float64).astype(np.float32), np.ascontiguousarray(dirs_map, np.float32),
         np.ascontiguousarray(range_m, np.float32), np.ascontiguousarray(normal, np.float32), sun,
-        np.float32(SHADOW_RANGE_M), np.float32(SHADOW_LIFT_M),
+        np.float32(SHADOW_RANGE_M), np.float32(SHADOW_LIFT_M), at, columns,
     )  # fmt: skip
-    if len(at):
-        _set_lit(lit, at, scene.occluded(columns.T))  # (K, 6), each column contiguous
+    if k:
+        _set_lit(lit, at[:k], scene.occluded(columns[:, :k].T))  # (K, 6), each column contiguous
     return lit
+
+
+@njit(cache=True, nogil=True)
+def _shadow_rays(
+    origin: npt.NDArray[np.float32], dirs: npt.NDArray[np.float32], range_m: npt.NDArray[np.float32],
+    normal: npt.NDArray[np.float32], sun: npt.NDArray[np.float32], max_range_m: np.float32, lift_m: np.float32,
+    at: npt.NDArray[np.int64], rays: npt.NDArray[np.float32],
+) -> int:  # fmt: skip  # pragma: no cover - compiled
+    """The rows that need a shadow ray (a hit nearer than ``max_range_m`` whose side facing the
+    camera faces the ``sun``) written into ``at`` and their rays into the columns of ``rays``
+    ``(6, >= K)``: from the hit, lifted ``lift_m`` off the surface towards the camera's side,
+    along ``sun``, in one pass over the rows; returns their number ``K``."""
+    k = 0
+    s0, s1, s2 = sun[0], sun[1], sun[2]
+    o0, o1, o2 = origin[0], origin[1], origin[2]
+    for i in range(range_m.shape[0]):
+        r = range_m[i]
+        if not (r < max_range_m):  # also inf and nan
+            continue
+        n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
+        d0, d1, d2 = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+        if n0 * d0 + n1 * d1 + n2 * d2 > 0:
+            n0, n1, n2 = -n0, -n1, -n2
+        if n0 * s0 + n1 * s1 + n2 * s2 > 0:
+            at[k] = i
+            rays[0, k] = (o0 + d0 * r) + n0 * lift_m
+            rays[1, k] = (o1 + d1 * r) + n1 * lift_m
+            rays[2, k] = (o2 + d2 * r) + n2 * lift_m
+            k += 1
+    for j in range(k):
+        rays[3, j] = s0
+        rays[4, j] = s1
+        rays[5, j] = s2
+    return k
 
 
 @njit(cache=True, nogil=True)

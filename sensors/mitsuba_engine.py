@@ -129,9 +129,10 @@ def _rows_of(
 
 def _rays(rays: npt.NDArray[np.float32]) -> Any:
     """Dr.Jit's rays of ``(N, 6) float32`` rays (origin, direction); columns that are already
-    contiguous (a transposed ``(6, N)`` array) are handed over as they are, rows are handed
-    over whole and gathered column by column in the kernel that casts them."""
-    if rays.dtype == np.float32 and rays.flags.f_contiguous:
+    contiguous (a transposed ``(6, N)`` array, or the first ``N`` columns of a longer one) are
+    handed over as they are, rows are handed over whole and gathered column by column in the
+    kernel that casts them."""
+    if rays.dtype == np.float32 and (rays.flags.f_contiguous or rays.strides[0] == rays.itemsize):
         columns = rays.T
         floats = [mi.Float(columns[i]) for i in range(6)]
     else:
@@ -326,8 +327,9 @@ class _Instances:
         slot = dr.gather(mi.UInt32, self._slot_of_id, registry, hit.is_valid())
         return hit.t, hit.prim_index, slot
 
-    def test(self, ray: Any) -> Any:
-        return self.scene.ray_test(ray, coherent=True)
+    def test(self, ray: Any, active: Any = True) -> Any:
+        """Whether each ``active`` ray meets an agent (False for the others: not cast)."""
+        return self.scene.ray_test(ray, coherent=True, active=active)
 
 
 class MitsubaEngine:
@@ -411,8 +413,8 @@ class MitsubaScene:
     def occluded(self, rays: npt.NDArray[np.float32]) -> npt.NDArray[np.bool_]:
         ray = _rays(rays)
         hit = self._static.test(ray) if self._static.triangles else dr.zeros(mi.Bool, rays.shape[0])
-        if self._instances.count:
-            hit = hit | self._instances.test(ray)
+        if self._instances.count:  # only the rays the static world lets through
+            hit = hit | self._instances.test(ray, ~hit)
         return np.asarray(hit.numpy(), np.bool_)
 
     def cast_raw(self, rays: npt.NDArray[np.float32]) -> Any:
