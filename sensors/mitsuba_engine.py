@@ -102,7 +102,7 @@ def _rows_of(
     instance = np.zeros(n, np.uint32)
     part = np.zeros(n, np.uint8)
     normal = np.empty((n, 3), np.uint32)
-    turned = np.empty(3, np.float32)
+    turned = normal.view(np.float32)  # an agent's normal written as float32
     for i in range(n):
         r, s = rows[i], slots[i]
         if s == NO_SLOT:
@@ -121,9 +121,7 @@ def _rows_of(
         length = np.sqrt(x * x + y * y + z * z)
         if not length > 0:
             length = 1.0
-        turned[0], turned[1], turned[2] = x / length, y / length, z / length
-        bits = turned.view(np.uint32)
-        normal[i, 0], normal[i, 1], normal[i, 2] = bits[0], bits[1], bits[2]
+        turned[i, 0], turned[i, 1], turned[i, 2] = x / length, y / length, z / length
     return cls, instance, part, normal
 
 
