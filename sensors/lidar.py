@@ -17,10 +17,11 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
 from networks.classes import SemanticClass
 from networks.geometry import SE3
@@ -30,7 +31,17 @@ from sensors.agents import EgoState, turned_about_z
 from sensors.beam import SLICES, BeamEchoes, beam_echoes, edge_shots, spot_directions
 from sensors.errors import SensorConfigError
 from sensors.hits import RayHits
-from sensors.parts import Part, lidar_reflectance
+from sensors.materials import REFLECTIVITY_BY_CLASS, RETRO_BY_CLASS
+from sensors.parts import (
+    COLOURED_BY_PAINT,
+    PAINT_REFLECTIVITY_FLOOR,
+    PAINT_REFLECTIVITY_PER_ALBEDO,
+    PALETTE_SALT,
+    PALETTES,
+    REFLECTIVITY_BY_PART,
+    RETRO_PARTS,
+    Part,
+)
 from sensors.rays import sensor_rays
 from sensors.sweep import deskewed, near_pairs, nearest, ray_times_s, reference_s, sensor_origins
 from sensors.view import spheres_in_view
@@ -244,7 +255,7 @@ class Lidar:
         xyz = self._dirs32[shot] * rng_m[:, None]
         cos_inc = np.abs(np.einsum("ij,ij->i", rays[idx, 3:6], hits.normal[idx]))
         cls = hits.semantic_class[idx]
-        reflectance, retro = lidar_reflectance(cls, hits.part[idx], hits.instance_id[idx])
+        reflectance, retro = reflectance_of(cls, hits.part[idx], hits.instance_id[idx])
         if share is not None:
             reflectance = (reflectance * share[idx]).astype(np.float32)
         intensity: npt.NDArray[np.floating] = self._read_intensity(
@@ -284,7 +295,7 @@ class Lidar:
     def _spot_power(hits: RayHits) -> npt.NDArray[np.float64]:
         """``(N,)`` received power of a whole spot on each hit: reflectance (times RETRO_GAIN on
         retro-reflectors) / range^2; 0 where nothing was met."""
-        reflectance, retro = lidar_reflectance(hits.semantic_class, hits.part, hits.instance_id)
+        reflectance, retro = reflectance_of(hits.semantic_class, hits.part, hits.instance_id)
         r = np.where(hits.hit, hits.range_m, 1.0).astype(np.float64)
         return np.asarray(
             np.where(hits.hit, reflectance * np.where(retro, RETRO_GAIN, 1.0) / np.maximum(r, 0.1) ** 2, 0.0)
@@ -329,7 +340,7 @@ class Lidar:
         (README, "LiDAR against real KITTI scans"). Retro-reflective surfaces
         (plates, signs, road paint) return RETRO_GAIN times brighter; ``share``: each echo's share of
         its beam's power (a beam straddling an edge)."""
-        reflectance, retro = lidar_reflectance(hits.semantic_class, hits.part, hits.instance_id)
+        reflectance, retro = reflectance_of(hits.semantic_class, hits.part, hits.instance_id)
         if share is not None:
             reflectance = (reflectance * share).astype(np.float32)
         return _logistic(self._power_ratio(reflectance, retro, hits.range_m))
@@ -564,3 +575,66 @@ def through_glass(scene: Scene, rays: npt.NDArray[np.float32], hits: RayHits) ->
 
 def _rows(hits: RayHits, at: npt.NDArray[np.intp]) -> RayHits:
     return RayHits(hits.range_m[at], hits.semantic_class[at], hits.instance_id[at], hits.normal[at], hits.part[at])
+
+
+def _reflectance_tables() -> tuple[Any, ...]:
+    """:func:`sensors.parts.lidar_reflectance`'s tables for :func:`_reflectance`: per part whether
+    its colour is its instance's paint and whether it is retro-reflective; the paints' palettes
+    one after another (each part's first row, size and salt)."""
+    painted = np.zeros(256, np.bool_)
+    painted[[int(p) for p in COLOURED_BY_PAINT]] = True
+    retro = np.zeros(256, np.bool_)
+    retro[[int(p) for p in RETRO_PARTS]] = True
+    first, size, salt = np.zeros(256, np.int64), np.zeros(256, np.int64), np.zeros(256, np.uint64)
+    at = 0
+    for p in COLOURED_BY_PAINT:
+        first[int(p)], size[int(p)], salt[int(p)] = at, PALETTES[p].shape[0], PALETTE_SALT[p]
+        at += PALETTES[p].shape[0]
+    palettes = np.concatenate([PALETTES[p] for p in COLOURED_BY_PAINT]).astype(np.float32)
+    return (np.asarray(REFLECTIVITY_BY_PART, np.float32), np.asarray(REFLECTIVITY_BY_CLASS, np.float32),
+            np.asarray(RETRO_BY_CLASS, np.bool_), painted, retro, first, size, salt, palettes)  # fmt: skip
+
+
+_REFLECTANCE_TABLES = _reflectance_tables()
+
+
+def reflectance_of(
+    semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32]
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.bool_]]:
+    """:func:`sensors.parts.lidar_reflectance` (the same values) in one compiled pass."""
+    by_part, by_class, retro_by_class, painted, retro, first, size, salt, palettes = _REFLECTANCE_TABLES
+    return _reflectance(
+        np.ascontiguousarray(semantic_class, np.uint8), np.ascontiguousarray(part, np.uint8),
+        np.ascontiguousarray(instance_id, np.uint32), by_part, by_class, retro_by_class, painted, retro, first, size,
+        salt, palettes, np.float32(PAINT_REFLECTIVITY_FLOOR), np.float32(PAINT_REFLECTIVITY_PER_ALBEDO),
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _reflectance(
+    cls: npt.NDArray[np.uint8], part: npt.NDArray[np.uint8], instance: npt.NDArray[np.uint32],
+    by_part: npt.NDArray[np.float32], by_class: npt.NDArray[np.float32], retro_by_class: npt.NDArray[np.bool_],
+    painted: npt.NDArray[np.bool_], retro_part: npt.NDArray[np.bool_], first: npt.NDArray[np.int64],
+    size: npt.NDArray[np.int64], salt: npt.NDArray[np.uint64], palettes: npt.NDArray[np.float32],
+    floor: np.float32, per_albedo: np.float32,
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.bool_]]:  # fmt: skip  # pragma: no cover - compiled
+    """Per hit its reflectivity (by part on agents, by class on the static world; a painted part
+    ``floor + per_albedo`` times the mean of the colour its instance's key picks from its palette,
+    in float32) and whether it is retro-reflective."""
+    n = part.shape[0]
+    out = np.empty(n, np.float32)
+    retro = np.empty(n, np.bool_)
+    for i in range(n):
+        p = part[i]
+        if p > 0:
+            out[i] = by_part[p]
+            retro[i] = retro_part[p]
+        else:
+            out[i] = by_class[cls[i]]
+            retro[i] = retro_by_class[cls[i]]
+        if painted[p]:
+            key = ((np.uint64(instance[i]) * np.uint64(2654435761)) >> np.uint64(7)) + salt[p]
+            row = first[p] + np.int64(key % np.uint64(size[p]))
+            mean = (palettes[row, 0] + palettes[row, 1] + palettes[row, 2]) / np.float32(3.0)
+            out[i] = floor + per_albedo * mean
+    return out, retro

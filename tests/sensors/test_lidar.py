@@ -62,3 +62,21 @@ def test_rain_drops_and_weakens_returns_and_adds_near_spurious_ones(synth: Simpl
     assert spurious.sum() > 0
     assert np.all(np.linalg.norm(rain.xyz_lidar_m[spurious], axis=1) <= 6.2)
     assert np.all(rain.instance_id[spurious] == 0)
+
+
+def test_compiled_reflectance_is_the_parts_table_bit_for_bit() -> None:
+    from sensors.lidar import reflectance_of
+    from sensors.parts import lidar_reflectance
+
+    rng = np.random.default_rng(4)
+    n = 200_000
+    part = rng.integers(0, 40, n).astype(np.uint8)
+    part[rng.random(n) < 0.5] = 0  # the static world, by class
+    cls = rng.integers(0, 40, n).astype(np.uint8)
+    instance = rng.integers(0, 2**32, n, dtype=np.uint64).astype(np.uint32)
+    want, want_retro = lidar_reflectance(cls, part, instance)
+    got, got_retro = reflectance_of(cls, part, instance)
+    assert got.dtype == want.dtype == np.float32
+    np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
+    np.testing.assert_array_equal(got_retro, want_retro)
+    assert reflectance_of(cls[:0], part[:0], instance[:0])[0].shape == (0,)
