@@ -720,11 +720,30 @@ def tone_map(linear: F32, exposure: float, keep: F32 | None = None) -> F32:
 def tone_map_grey(linear: F32, exposure: float, keep: F32 | None = None) -> tuple[F32, F32]:
     """:func:`tone_map` and each pixel's grey (:func:`black_level`'s, the mean of its three
     values) from the same pass."""
+    y = tone_curve(linear, exposure, keep)
+    return y, kernels.scaled_grey(y, np.float32(255.0))
+
+
+def tone_curve(linear: F32, exposure: float, keep: F32 | None = None) -> F32:
+    """:func:`tone_map` before its scaling to 0..255: ``(N, 3)`` values 0..1."""
     linear = np.ascontiguousarray(linear, np.float32).reshape(-1, 3)
     keep = np.ones(len(linear), np.float32) if keep is None else np.ascontiguousarray(keep, np.float32)
     y = kernels.filmic(linear, keep, np.float32(EXPOSURE_SCALE * np.float32(exposure)))
     np.power(y, np.float32(1.0) / GAMMA, out=y)
-    return y, kernels.scaled_grey(y, np.float32(255.0))
+    return y
+
+
+def finished_bytes(curve: F32, saturation: float, seed: int, sigma: np.float32) -> npt.NDArray[np.uint8]:
+    """``(N, 3) uint8`` of :func:`tone_curve`'s ``curve``: scaled to 0..255, :func:`auto_levels`
+    with ``saturation``, plus ``sigma`` times :func:`standard_normals` of ``seed`` (a draw per
+    pixel), rounded and clipped: the steps of :func:`tone_map_grey`, :func:`black_level`,
+    :func:`standard_normals` and :func:`sensors.shade_kernels.levelled_bytes` in one pass over
+    the image (and one over every :data:`BLACK_STEP`-th pixel)."""
+    k = np.float32(255.0)
+    black, scale = _black_of(kernels.grey_sample(curve, k, BLACK_STEP))
+    return kernels.scaled_levelled_bytes(
+        curve, k, black, scale, np.float32(saturation), np.float32(BLACK_TOE), _pcg64_words(seed), sigma
+    )
 
 
 def auto_levels(image: F32, saturation: float) -> F32:
@@ -744,20 +763,35 @@ def black_level(image: F32, grey: F32 | None = None) -> tuple[F32, np.float32, n
     """:func:`auto_levels`' measure of ``(N, 3)`` ``image``: each pixel's grey (given, or the mean
     of its three values), the frame's black level and the stretch of the greys above it."""
     grey = kernels.grey_of(image) if grey is None else grey
-    black = np.float32(np.percentile(grey[::7], BLACK_PERCENTILE))
+    return (grey, *_black_of(grey[::BLACK_STEP]))
+
+
+BLACK_STEP = 7
+"""The black level is measured on every this many-th pixel's grey."""
+
+
+def _black_of(sample: F32) -> tuple[np.float32, np.float32]:
+    """The black level of the greys ``sample`` (:data:`BLACK_PERCENTILE`) and the stretch of the
+    greys above it."""
+    black = np.float32(np.percentile(sample, BLACK_PERCENTILE))
     toe = np.float32(BLACK_TOE)
     scale = (np.float32(255.0) - toe) / (np.float32(255.0) - black) if black > 0 else np.float32(1.0)
-    return grey, black, scale
+    return black, scale
 
 
 def standard_normals(seed: int, n: int) -> F32:
     """``(n,)`` float32 draws equal to ``np.random.default_rng(seed).standard_normal(n,
     dtype=np.float32)``, by a compiled loop (:func:`sensors.shade_kernels.standard_normals`):
     about a third of numpy's time."""
+    return kernels.standard_normals(_pcg64_words(seed), n)
+
+
+def _pcg64_words(seed: int) -> npt.NDArray[np.uint64]:
+    """The state of ``np.random.PCG64(seed)`` as :func:`sensors.shade_kernels._pcg64_next32`'s six words."""
     state = np.random.PCG64(seed).state
     pcg, low = state["state"], (1 << 64) - 1
     words = [pcg["state"] >> 64, pcg["state"] & low, pcg["inc"] >> 64, pcg["inc"] & low]
-    return kernels.standard_normals(np.array([*words, state["has_uint32"], state["uinteger"]], np.uint64), n)
+    return np.array([*words, state["has_uint32"], state["uinteger"]], np.uint64)
 
 
 @functools.lru_cache(maxsize=4)

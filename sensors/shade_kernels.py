@@ -991,38 +991,76 @@ def _pcg64_float(st: npt.NDArray[np.uint64]) -> np.float32:  # pragma: no cover 
     return np.float32(_pcg64_next32(st) >> np.uint64(8)) * np.float32(1.0 / 16777216.0)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _standard_normal(st: npt.NDArray[np.uint64]) -> np.float32:  # pragma: no cover - compiled
+    """The next float32 draw of numpy's ``Generator.standard_normal(dtype=np.float32)`` on the
+    PCG64 state ``st`` (:func:`_pcg64_next32`'s six words, advanced in place): the same ziggurat
+    (numpy's tables, as numba keeps them), 32 bits a draw, its rare tail and wedge draws with the
+    same float32 and float64 steps (``log1pf``, ``exp``)."""
+    one, byte, low23 = np.uint64(1), np.uint64(0xFF), np.uint64(0x7FFFFF)
+    while True:
+        r = _pcg64_next32(st)
+        idx = np.int64(r & byte)
+        rabs = (r >> np.uint64(9)) & low23
+        x = np.float32(rabs) * wi_float[idx]
+        if (r >> np.uint64(8)) & one:
+            x = -x
+        if rabs < ki_float[idx]:
+            return np.float32(x)
+        if idx == 0:  # the tail beyond the base strip
+            while True:
+                xx = -ziggurat_nor_inv_r_f * np.float32(math.log1p(-_pcg64_float(st)))
+                yy = -np.float32(math.log1p(-_pcg64_float(st)))
+                if yy + yy > xx * xx:
+                    tail = ziggurat_nor_r_f + xx
+                    return np.float32(-tail if (rabs >> np.uint64(8)) & one else tail)
+        wedge = (fi_float[idx - 1] - fi_float[idx]) * _pcg64_float(st) + fi_float[idx]
+        xd = np.float64(x)
+        if np.float64(wedge) < math.exp(-0.5 * xd * xd):
+            return np.float32(x)
+
+
 @njit(cache=True, nogil=True)
 def standard_normals(state: npt.NDArray[np.uint64], n: int) -> F32:  # pragma: no cover - compiled
     """``(n,)`` float32 draws of numpy's ``Generator.standard_normal(n, dtype=np.float32)`` on a
-    PCG64 bit generator in ``state`` (:func:`_pcg64_next32`'s six words; left as it is): the
-    same ziggurat (numpy's tables, as numba keeps them), 32 bits a draw, its rare tail and
-    wedge draws with the same float32 and float64 steps (``log1pf``, ``exp``)."""
+    PCG64 bit generator in ``state`` (:func:`_pcg64_next32`'s six words; left as it is), by
+    :func:`_standard_normal`."""
     st = state.copy()
     out = np.empty(n, np.float32)
-    one, byte, low23 = np.uint64(1), np.uint64(0xFF), np.uint64(0x7FFFFF)
     for i in range(n):
-        while True:
-            r = _pcg64_next32(st)
-            idx = np.int64(r & byte)
-            rabs = (r >> np.uint64(9)) & low23
-            x = np.float32(rabs) * wi_float[idx]
-            if (r >> np.uint64(8)) & one:
-                x = -x
-            if rabs < ki_float[idx]:
-                out[i] = x
-                break
-            if idx == 0:  # the tail beyond the base strip
-                while True:
-                    xx = -ziggurat_nor_inv_r_f * np.float32(math.log1p(-_pcg64_float(st)))
-                    yy = -np.float32(math.log1p(-_pcg64_float(st)))
-                    if yy + yy > xx * xx:
-                        tail = ziggurat_nor_r_f + xx
-                        out[i] = -tail if (rabs >> np.uint64(8)) & one else tail
-                        break
-                break
-            wedge = (fi_float[idx - 1] - fi_float[idx]) * _pcg64_float(st) + fi_float[idx]
-            xd = np.float64(x)
-            if np.float64(wedge) < math.exp(-0.5 * xd * xd):
-                out[i] = x
-                break
+        out[i] = _standard_normal(st)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def grey_sample(image: F32, k: np.float32, step: int) -> F32:  # pragma: no cover - compiled
+    """:func:`scaled_grey`'s greys of every ``step``-th row of ``image (N, 3)`` (rows 0, step,
+    2 * step, ...: ``scaled_grey(image, k)[::step]``), ``image`` left as it is."""
+    n = (image.shape[0] + step - 1) // step
+    out = np.empty(n, np.float32)
+    for j in range(n):
+        i = j * step
+        a, b, c = image[i, 0] * k, image[i, 1] * k, image[i, 2] * k
+        out[j] = (a + b + c) / np.float32(3.0)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def scaled_levelled_bytes(
+    image: F32, k: np.float32, black: np.float32, scale: np.float32, saturation: np.float32, toe: np.float32,
+    state: npt.NDArray[np.uint64], sigma: np.float32,
+) -> npt.NDArray[np.uint8]:  # fmt: skip  # pragma: no cover - compiled
+    """:func:`scaled_grey`, :func:`standard_normals` (one draw per row, from the PCG64 ``state``,
+    left as it is) and :func:`levelled_bytes` in one pass: ``(N, 3) uint8`` of ``image`` times
+    ``k`` (``image`` left as it is)."""
+    st = state.copy()
+    out = np.empty(image.shape, np.uint8)
+    for i in range(image.shape[0]):
+        a, b, c = image[i, 0] * k, image[i, 1] * k, image[i, 2] * k
+        g = (a + b + c) / np.float32(3.0)
+        levelled = _levelled(g, black, scale, toe)
+        nz = _standard_normal(st) * sigma
+        out[i, 0] = _byte((a - g) * saturation + levelled, nz)
+        out[i, 1] = _byte((b - g) * saturation + levelled, nz)
+        out[i, 2] = _byte((c - g) * saturation + levelled, nz)
     return out

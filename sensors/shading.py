@@ -27,15 +27,14 @@ from sensors import shade_kernels
 from sensors.hits import RayHits
 from sensors.materials import ALBEDO_BGR_BY_CLASS, PAINTED_CLASSES, VEHICLE_PAINT_BGR
 from sensors.photo import (
-    BLACK_TOE,
     LENS_BLUR_PX,
     READ_NOISE,
     STRIPE_PX,
     AgentBoxes,
     ShadedRays,
     Supersamples,
-    black_level,
     bloom,
+    finished_bytes,
     image_motion_px,
     lamp_rays,
     leafy_normals,
@@ -43,8 +42,7 @@ from sensors.photo import (
     radiance,
     rounded_normals,
     sky_light,
-    standard_normals,
-    tone_map_grey,
+    tone_curve,
     vignette,
 )
 from sensors.pinhole import Pinhole
@@ -269,14 +267,10 @@ def shade_photo(frame: CameraFrame) -> npt.NDArray[np.uint8]:
         )
         linear = motion_blur(linear.reshape(h, w, 3), motion.reshape(h, w, 2)).reshape(-1, 3)
     lens = np.asarray(cv2.GaussianBlur(linear.reshape(h, w, 3), (0, 0), LENS_BLUR_PX), np.float32)
-    image, grey = tone_map_grey(bloom(lens).reshape(-1, 3), sh.weather.exposure, vignette(h, w))
-    grey, black, scale = black_level(image, grey)  # auto_levels and the noise in one pass
+    curve = tone_curve(bloom(lens).reshape(-1, 3), sh.weather.exposure, vignette(h, w))
     seed = sh.noise_seed if sh.noise_seed is not None else (int(instances.sum()) + h * w)
     sigma = np.float32(np.hypot(READ_NOISE, sh.weather.noise_sigma))
-    noise = standard_normals(seed, h * w).reshape(-1, 1)  # numpy's default_rng(seed).standard_normal, float32
-    out = shade_kernels.levelled_bytes(
-        image, grey, black, scale, np.float32(sh.weather.saturation), np.float32(BLACK_TOE), noise, sigma
-    )
+    out = finished_bytes(curve, sh.weather.saturation, seed, sigma)  # auto levels, noise (numpy's default_rng(seed))
     if sh.faces is not None:
         light, sign = int(SemanticClass.TRAFFIC_LIGHT), int(SemanticClass.TRAFFIC_SIGN)
         pixels = shade_kernels.street_pixels(classes, depth, light, sign)

@@ -446,3 +446,21 @@ def test_depth_units_are_numpys_rounding_and_range() -> None:
             units_m = np.rint(d * np.float32(units)) if in_float32 else np.rint(d.astype(np.float64) * units)
             want = np.where(np.isfinite(units_m) & (units_m > 0) & (units_m <= 65535), units_m, 0).astype(np.uint16)
             np.testing.assert_array_equal(kernels.depth_units(d, units, in_float32, 65535.0), want)
+
+
+def test_finished_bytes_are_the_steps_one_after_another() -> None:
+    from sensors.photo import black_level, finished_bytes, standard_normals
+
+    rng = np.random.default_rng(23)
+    curve = rng.uniform(0.0, 1.0, (50_001, 3)).astype(np.float32)
+    curve[:40] *= np.float32(0.02)  # a dark corner: a black level above 0
+    sample = kernels.grey_sample(curve, np.float32(255.0), 7)
+    scaled = curve.copy()
+    grey = kernels.scaled_grey(scaled, np.float32(255.0))
+    np.testing.assert_array_equal(sample.view(np.uint32), grey[::7].view(np.uint32))
+    for saturation, seed in ((1.3, 5), (1.0, 2**40 + 3)):
+        grey_again, black, scale = black_level(scaled, grey)
+        noise = standard_normals(seed, len(curve)).reshape(-1, 1)
+        sigma, sat, toe = np.float32(2.7), np.float32(saturation), np.float32(8.0)
+        want = kernels.levelled_bytes(scaled, grey_again, black, scale, sat, toe, noise, sigma)
+        np.testing.assert_array_equal(finished_bytes(curve, saturation, seed, sigma), want)
