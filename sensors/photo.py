@@ -224,13 +224,10 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
     mirror = np.zeros(len(cls), np.float32)
     glow = np.zeros(len(cls), np.float32)
     order, end = kernels.class_order(cls)  # each class's rows in order, as np.flatnonzero(cls == c)
-    ordered = kernels.rows_taken(np.ascontiguousarray(points, np.float32), order)  # points[order]
-
-    def span(c: int) -> slice:
-        return slice(end[c - 1] if c > 0 else 0, end[c])
+    points = np.ascontiguousarray(points, np.float32)
 
     def rows_of(c: int) -> npt.NDArray[np.int64]:
-        return np.asarray(order[span(c)], np.int64)
+        return np.asarray(order[end[c - 1] if c > 0 else 0 : end[c]], np.int64)
 
     for c, fn in (
         (SemanticClass.ROAD, textures.asphalt),
@@ -241,30 +238,28 @@ def static_albedo(cls: npt.NDArray[np.uint8], points: F32, normal: F32) -> tuple
     ):
         at = rows_of(c)
         if len(at):
-            kernels.scale_rows(albedo, at, np.ascontiguousarray(fn(ordered[span(c)]), np.float32))
+            kernels.scale_rows(albedo, at, np.ascontiguousarray(fn(kernels.rows_taken(points, at)), np.float32))
     normal = np.ascontiguousarray(normal, np.float32)
     at = rows_of(SemanticClass.VEGETATION)
     if len(at):
-        leaves = textures.foliage(ordered[span(SemanticClass.VEGETATION)], kernels.rows_taken(normal, at), 71)
+        leaves = textures.foliage(kernels.rows_taken(points, at), kernels.rows_taken(normal, at), 71)
         kernels.scale_rows(albedo, at, np.ascontiguousarray(leaves, np.float32))
     at = rows_of(SemanticClass.TERRAIN)
     if len(at):
-        kernels.tint_rows(albedo, at, textures.grass(ordered[span(SemanticClass.TERRAIN)], 73))
+        kernels.tint_rows(albedo, at, textures.grass(kernels.rows_taken(points, at), 73))
     at = rows_of(SemanticClass.TRUNK)
     if len(at):
-        kernels.scale_rows(
-            albedo, at, np.ascontiguousarray(textures.bark(ordered[span(SemanticClass.TRUNK)]), np.float32)
-        )
+        kernels.scale_rows(albedo, at, np.ascontiguousarray(textures.bark(kernels.rows_taken(points, at)), np.float32))
     for c in (SemanticClass.LANE_MARKING, SemanticClass.LANE_MARKING_YELLOW):
         at = rows_of(c)
         if len(at):
-            p = ordered[span(c)]
+            p = kernels.rows_taken(points, at)
             wear = textures.fbm(p[:, 0] * 2, p[:, 1] * 2, 81, 2)
             kernels.scale_rows(albedo, at, np.asarray(np.float32(0.6) + np.float32(0.45) * wear, np.float32))
     at = rows_of(SemanticClass.BUILDING)
     if len(at):
         facing = kernels.rows_taken(normal, at)
-        wall, glass, lit = textures.facade(ordered[span(SemanticClass.BUILDING)], facing)
+        wall, glass, lit = textures.facade(kernels.rows_taken(points, at), facing)
         kernels.facade_rows(albedo, mirror, glow, at, wall, glass, lit, np.float32(0.35))
     np.clip(albedo, 0.0, 1.0, out=albedo)
     return np.power(albedo, GAMMA, out=albedo), mirror, glow
@@ -515,13 +510,13 @@ def _radiance(
     sky; hits' albedo, mirror and glow by numpy (textures, parts), their lighting by compiled
     loops (:mod:`sensors.shade_kernels`)."""
     dirs_map, range_m, cls, instance, part = rays.dirs_map, rays.range_m, rays.cls, rays.instance, rays.part
-    at, miss, c, inst, pt = kernels.split_hits(range_m, np.float32(max_range_m), cls, instance, part)
+    at, miss, c, inst, pt, p, nrm, cos_v = kernels.split_hits_geometry(
+        range_m, np.float32(max_range_m), cls, instance, part, dirs_map, rays.normal, origin_map_m.astype(np.float32)
+    )
     if len(miss):
         sky_linear_at(weather, np.ascontiguousarray(dirs_map, np.float32), miss, out)
     if len(at) == 0:
         return
-    origin = origin_map_m.astype(np.float32)
-    p, nrm, cos_v = kernels.hit_geometry(at, dirs_map, range_m, rays.normal, origin)
 
     albedo, mirror, glow = static_albedo(c, p, nrm)
     wet = np.zeros(0, np.intp)
@@ -686,16 +681,6 @@ def bloom(linear: F32) -> F32:
     return linear
 
 
-def _span(where: npt.NDArray[np.bool_], margin_px: float) -> tuple[slice | None, slice | None]:
-    """Rows and columns of the image holding every true pixel of ``where``, widened by
-    ``margin_px`` (None where nothing is true)."""
-    rows, cols = np.flatnonzero(where.any(axis=1)), np.flatnonzero(where.any(axis=0))
-    if len(rows) == 0:
-        return None, None
-    m = math.ceil(margin_px)
-    return slice(max(rows[0] - m, 0), rows[-1] + m + 1), slice(max(cols[0] - m, 0), cols[-1] + m + 1)
-
-
 def soft_blur(image: F32, sigma_px: float) -> F32:
     """Gaussian blur of ``(H, W[, C])`` by ``sigma_px``; wide ones are done at half or a quarter
     of the resolution and scaled back (the same light spread, a fraction of the work)."""
@@ -837,26 +822,27 @@ def rounded_normals(normal: F32, dirs_map: F32, instance: npt.NDArray[np.uint32]
     surface (in the image, at each pixel's depth) among the pixels of agents."""
 
     h, w = depth_m.shape
-    out = kernels.turned_to_camera(np.ascontiguousarray(normal, np.float32), np.ascontiguousarray(dirs_map, np.float32))
-    if not instance.any():  # no agent in view
+    ids, depth = np.ascontiguousarray(instance).ravel(), np.ascontiguousarray(depth_m, np.float32).ravel()
+    out, ratio = kernels.turned_and_ratios(
+        np.ascontiguousarray(normal, np.float32), np.ascontiguousarray(dirs_map, np.float32), ids, depth,
+        np.float32(focal_px * ROUNDING_M), np.float32(0.1), np.asarray(ROUNDING_LEVELS_PX, np.float32),
+    )  # fmt: skip  # normals facing the camera; the pixels ROUNDING_M spans on each agent's pixel over each level's
+    if len(ratio) == 0:  # no agent in view
         return out
     grid = out.reshape(h, w, 3)  # a view: agents' pixels are written back through it
-    instance = np.ascontiguousarray(instance)
-    ids, depth = instance.ravel(), np.ascontiguousarray(depth_m, np.float32).ravel()
-    ratio = kernels.level_ratios(
-        ids, depth, np.float32(focal_px * ROUNDING_M), np.float32(0.1), np.asarray(ROUNDING_LEVELS_PX, np.float32)
-    )  # the pixels ROUNDING_M spans on each agent's pixel over each level's
+    instance = ids.reshape(h, w)
     level = kernels.nearest_levels(ids, np.log(ratio)).reshape(h, w)  # the nearest in scale; -1 off agents
+    spans = kernels.level_spans(level, len(ROUNDING_LEVELS_PX))
     for k, sigma in enumerate(ROUNDING_LEVELS_PX):
-        pick = level == k
-        rows, cols = _span(pick, 3.0 * sigma)
-        if rows is None or cols is None:
+        r0, r1, c0, c1 = (int(v) for v in spans[k])
+        if r0 < 0:
             continue
-        row1, col1 = min(rows.stop, h), min(cols.stop, w)
-        weighted, near = kernels.agent_weighted(grid, instance, rows.start, row1, cols.start, col1)
+        m = math.ceil(3.0 * sigma)  # the rows and columns of the level's pixels, widened by 3 sigma
+        row0, row1, col0, col1 = max(r0 - m, 0), min(r1 + m + 1, h), max(c0 - m, 0), min(c1 + m + 1, w)
+        weighted, near = kernels.agent_weighted(grid, instance, row0, row1, col0, col1)
         num = soft_blur(weighted, sigma)  # agents' normals (others' weighed 0) blurred, and their weights
         den = soft_blur(near, sigma)
-        kernels.blurred_unit(grid, rows.start, cols.start, np.ascontiguousarray(pick[rows, cols]), num, den)
+        kernels.blurred_unit(grid, row0, col0, level, k, num, den)
     return out
 
 

@@ -80,30 +80,38 @@ def street_pixels(
 
 
 @njit(cache=True, nogil=True)
-def split_hits(
+def split_hits_geometry(
     range_m: F32, max_range_m: np.float32, cls: npt.NDArray[np.uint8], instance: npt.NDArray[np.uint32],
-    part: npt.NDArray[np.uint8],
+    part: npt.NDArray[np.uint8], dirs: F32, normal: F32, origin: F32,
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.uint8], npt.NDArray[np.uint32],
-           npt.NDArray[np.uint8]]:  # fmt: skip  # pragma: no cover - compiled
+           npt.NDArray[np.uint8], F32, F32, F32]:  # fmt: skip  # pragma: no cover - compiled
     """The rays hitting something (a finite ``range_m`` up to ``max_range_m``) and the others, in
-    order (``np.flatnonzero`` of the hits and of the misses), and the hits' class, instance and
-    part."""
+    order (``np.flatnonzero`` of the hits and of the misses), and of the hits: their class,
+    instance and part, their points ``(K, 3)`` (``origin + dirs * range_m``), their normals
+    turned towards the camera ``(K, 3)`` and the cosines between ray and surface ``(K,)``."""
     n = range_m.shape[0]
     at, miss = np.empty(n, np.int64), np.empty(n, np.int64)
+    c, inst, pt = np.empty(n, np.uint8), np.empty(n, np.uint32), np.empty(n, np.uint8)
+    p, nrm, cos_v = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, np.float32)
     k = m = 0
     for i in range(n):
         r = range_m[i]
-        if np.isfinite(r) and r <= max_range_m:
-            at[k] = i
-            k += 1
-        else:
+        if not (np.isfinite(r) and r <= max_range_m):
             miss[m] = i
             m += 1
-    c, inst, pt = np.empty(k, np.uint8), np.empty(k, np.uint32), np.empty(k, np.uint8)
-    for j in range(k):
-        i = at[j]
-        c[j], inst[j], pt[j] = cls[i], instance[i], part[i]
-    return at[:k], miss[:m], c, inst, pt
+            continue
+        at[k] = i
+        c[k], inst[k], pt[k] = cls[i], instance[i], part[i]
+        for a in range(3):
+            p[k, a] = origin[a] + dirs[i, a] * r
+        n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
+        facing = n0 * dirs[i, 0] + n1 * dirs[i, 1] + n2 * dirs[i, 2]
+        if facing > 0:
+            n0, n1, n2 = -n0, -n1, -n2
+        nrm[k, 0], nrm[k, 1], nrm[k, 2] = n0, n1, n2
+        cos_v[k] = abs(facing)
+        k += 1
+    return at[:k], miss[:m], c[:k], inst[:k], pt[:k], p[:k], nrm[:k], cos_v[:k]
 
 
 @njit(cache=True, nogil=True)
@@ -133,30 +141,6 @@ def haze_blend(
         v = e * e * (np.float32(3.0) - np.float32(2.0) * e)
         fade[j] = fog if (fog >= v or fog != fog) else v
     return fade
-
-
-@njit(cache=True, nogil=True)
-def hit_geometry(
-    at: npt.NDArray[np.int64], dirs: F32, range_m: F32, normal: F32, origin: F32
-) -> tuple[F32, F32, F32]:  # pragma: no cover - compiled
-    """Of the rays ``at``: the hit points ``(K, 3)``, the normals turned towards the camera
-    ``(K, 3)`` and the cosine between ray and surface ``(K,)``."""
-    k = at.shape[0]
-    p = np.empty((k, 3), np.float32)
-    nrm = np.empty((k, 3), np.float32)
-    cos_v = np.empty(k, np.float32)
-    for j in range(k):
-        i = at[j]
-        r = range_m[i]
-        for c in range(3):
-            p[j, c] = origin[c] + dirs[i, c] * r
-        n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
-        facing = n0 * dirs[i, 0] + n1 * dirs[i, 1] + n2 * dirs[i, 2]
-        if facing > 0:
-            n0, n1, n2 = -n0, -n1, -n2
-        nrm[j, 0], nrm[j, 1], nrm[j, 2] = n0, n1, n2
-        cos_v[j] = abs(facing)
-    return p, nrm, cos_v
 
 
 @njit(cache=True, nogil=True)
@@ -604,47 +588,44 @@ def below_horizon(env: F32, dirs: F32, value: np.float32) -> None:  # pragma: no
 
 
 @njit(cache=True, nogil=True)
-def turned_to_camera(normal: F32, dirs: F32) -> F32:  # pragma: no cover - compiled
+def turned_and_ratios(
+    normal: F32, dirs: F32, instance: npt.NDArray[np.uint32], depth: F32, size_px_m: np.float32,
+    nearest_m: np.float32, levels: F32,
+) -> tuple[F32, F32]:  # fmt: skip  # pragma: no cover - compiled
     """``(N, 3)`` the normals turned to face the camera: negated where they face along the ray
-    (``einsum("ij,ij->i", normal, dirs) > 0``, its sum taken in the same order)."""
+    (``einsum("ij,ij->i", normal, dirs) > 0``, its sum taken in the same order); and per agent
+    pixel (``instance`` above 0, row-major order) the pixels ``size_px_m`` spans at its ``depth``
+    (no nearer than ``nearest_m``) over each of ``levels``: ``(K, L)``, as numpy's ``size_px_m /
+    np.maximum(depth[on_agent], nearest_m)`` over ``levels``."""
     n = normal.shape[0]
     out = np.empty((n, 3), np.float32)
+    k = 0
     for i in range(n):
         n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
         if n0 * dirs[i, 0] + n1 * dirs[i, 1] + n2 * dirs[i, 2] > 0:
             n0, n1, n2 = -n0, -n1, -n2
         out[i, 0], out[i, 1], out[i, 2] = n0, n1, n2
-    return out
-
-
-@njit(cache=True, nogil=True)
-def level_ratios(
-    instance: npt.NDArray[np.uint32], depth: F32, size_px_m: np.float32, nearest_m: np.float32, levels: F32
-) -> F32:  # pragma: no cover - compiled
-    """Per agent pixel (``instance`` above 0, row-major order) the pixels ``size_px_m`` spans at
-    its ``depth`` (no nearer than ``nearest_m``) over each of ``levels``: ``(K, L)``, as numpy's
-    ``size_px_m / np.maximum(depth[on_agent], nearest_m)`` over ``levels``."""
-    k = 0
-    for i in range(instance.shape[0]):
         if instance[i] > 0:
             k += 1
-    out = np.empty((k, levels.shape[0]), np.float32)
+    ratio = np.empty((k, levels.shape[0]), np.float32)
+    if k == 0:
+        return out, ratio
     j = 0
-    for i in range(instance.shape[0]):
+    for i in range(n):
         if instance[i] > 0:
             d = depth[i]
             want = size_px_m / (nearest_m if d < nearest_m else d)
             for m in range(levels.shape[0]):
-                out[j, m] = want / levels[m]
+                ratio[j, m] = want / levels[m]
             j += 1
-    return out
+    return out, ratio
 
 
 @njit(cache=True, nogil=True)
 def nearest_levels(
     instance: npt.NDArray[np.uint32], log_ratio: F32
 ) -> npt.NDArray[np.int8]:  # pragma: no cover - compiled
-    """``(N,)`` per pixel the level whose log ratio (:func:`level_ratios`, logged) is nearest 0,
+    """``(N,)`` per pixel the level whose log ratio (:func:`turned_and_ratios`', logged) is nearest 0,
     the first of equals (numpy's ``np.abs(log_ratio).argmin(axis=-1)``, no NaNs) on agents'
     pixels (``instance`` above 0, in row-major order), -1 elsewhere."""
     out = np.full(instance.shape[0], -1, np.int8)
@@ -681,16 +662,34 @@ def agent_weighted(
 
 
 @njit(cache=True, nogil=True)
+def level_spans(level: npt.NDArray[np.int8], count: int) -> npt.NDArray[np.int64]:  # pragma: no cover - compiled
+    """``(count, 4)`` per level ``k`` the first and last row and column of ``level (H, W)`` equal
+    to ``k`` (-1, -1, -1, -1: none)."""
+    out = np.full((count, 4), -1, np.int64)
+    for v in range(level.shape[0]):
+        for u in range(level.shape[1]):
+            k = level[v, u]
+            if k < 0 or k >= count:
+                continue
+            if out[k, 0] < 0:
+                out[k, 0], out[k, 2], out[k, 3] = v, u, u
+            out[k, 1] = v
+            out[k, 2] = min(out[k, 2], u)
+            out[k, 3] = max(out[k, 3], u)
+    return out
+
+
+@njit(cache=True, nogil=True)
 def blurred_unit(
-    grid: F32, row0: int, col0: int, pick: npt.NDArray[np.bool_], num: F32, den: F32
+    grid: F32, row0: int, col0: int, level: npt.NDArray[np.int8], k: int, num: F32, den: F32
 ) -> None:  # pragma: no cover - compiled
-    """Where ``pick`` (a window of ``grid`` from ``row0``, ``col0``): ``grid`` set to
-    ``num / max(den, 1e-6)`` made unit (its length as ``np.linalg.norm``'s: squares summed left to
-    right, floored at 1e-6); in place."""
+    """Where ``level`` (``(H, W)``, as ``grid``) is ``k`` in the window of ``num``'s shape from
+    ``row0``, ``col0``: ``grid`` set to ``num / max(den, 1e-6)`` made unit (its length as
+    ``np.linalg.norm``'s: squares summed left to right, floored at 1e-6); in place."""
     tiny = np.float32(1e-6)
-    for y in range(pick.shape[0]):
-        for x in range(pick.shape[1]):
-            if not pick[y, x]:
+    for y in range(num.shape[0]):
+        for x in range(num.shape[1]):
+            if level[row0 + y, col0 + x] != k:
                 continue
             d = den[y, x]
             d = d if d > tiny else tiny

@@ -17,7 +17,10 @@ def test_normals_are_turned_to_the_camera_as_numpy_turns_them() -> None:
     dirs[:100] = np.cross(normal[:100], _unit_rows(rng, 100))  # grazing: the sign decided by rounding
     want = normal.copy()
     np.negative(want, out=want, where=(np.einsum("ij,ij->i", normal, dirs) > 0)[:, None])
-    got = kernels.turned_to_camera(normal, dirs)
+    instance = np.zeros(len(normal), np.uint32)
+    got, ratio = kernels.turned_and_ratios(normal, dirs, instance, np.ones(len(normal), np.float32), np.float32(1.0),
+                                           np.float32(0.1), np.ones(3, np.float32))  # fmt: skip
+    assert ratio.shape == (0, 3)
     np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))
 
 
@@ -31,8 +34,22 @@ def test_blurred_normals_are_made_unit_as_numpy_makes_them() -> None:
     want = grid.copy()
     mean = num[pick] / np.maximum(den[pick], np.float32(1e-6))[:, None]
     want[5:25, 7:37][pick] = mean / np.maximum(np.linalg.norm(mean, axis=-1, keepdims=True), np.float32(1e-6))
-    kernels.blurred_unit(grid, 5, 7, pick, num, den)
+    level = np.full((40, 60), -1, np.int8)
+    level[5:25, 7:37] = np.where(pick, 2, 1)
+    kernels.blurred_unit(grid, 5, 7, level, 2, num, den)
     np.testing.assert_array_equal(grid.view(np.uint32), want.view(np.uint32))
+
+
+def test_level_spans_are_the_rows_and_columns_holding_each_level() -> None:
+    rng = np.random.default_rng(24)
+    level = np.full((50, 70), -1, np.int8)
+    level[rng.random((50, 70)) < 0.01] = 0
+    level[10:13, 40] = 2
+    spans = kernels.level_spans(level, 3)
+    for k in range(3):
+        rows, cols = np.flatnonzero((level == k).any(axis=1)), np.flatnonzero((level == k).any(axis=0))
+        want = [rows[0], rows[-1], cols[0], cols[-1]] if len(rows) else [-1, -1, -1, -1]
+        np.testing.assert_array_equal(spans[k], want)
 
 
 def test_rows_scaled_tinted_and_least_values_kept_as_numpy_does() -> None:
@@ -282,13 +299,21 @@ def test_hits_ranges_and_street_pixels_are_numpys() -> None:
     range_m = want.copy()
     range_m[:100] = np.float32(250.0)  # beyond the range below
     instance, part = rng.integers(0, 50, n).astype(np.uint32), rng.integers(0, 20, n).astype(np.uint8)
-    at, miss, c, inst, pt = kernels.split_hits(range_m, np.float32(200.0), cls, instance, part)
+    normal, origin = _unit_rows(rng, n), np.array([3.0, -2.0, 1.5], np.float32)
+    at, miss, c, inst, pt, p, nrm, cos_v = kernels.split_hits_geometry(
+        range_m, np.float32(200.0), cls, instance, part, dirs, normal, origin
+    )
     hit = np.isfinite(range_m) & (range_m <= np.float32(200.0))
     np.testing.assert_array_equal(at, np.flatnonzero(hit))
     np.testing.assert_array_equal(miss, np.flatnonzero(~hit))
     for got, whole in ((c, cls), (inst, instance), (pt, part)):
         assert got.dtype == whole.dtype
         np.testing.assert_array_equal(got, whole[at])
+    np.testing.assert_array_equal(p.view(np.uint32), (origin + dirs[at] * range_m[at, None]).view(np.uint32))
+    facing = np.einsum("ij,ij->i", normal[at], dirs[at])
+    want = np.where((facing > 0)[:, None], -normal[at], normal[at])
+    np.testing.assert_array_equal(nrm.view(np.uint32), want.view(np.uint32))
+    np.testing.assert_array_equal(cos_v.view(np.uint32), np.abs(facing).view(np.uint32))
 
 
 def test_rounding_levels_are_numpys() -> None:
@@ -300,7 +325,9 @@ def test_rounding_levels_are_numpys() -> None:
     size = np.float32(1000.0 * 0.12)
     on = instance > 0
     want_ratio = (size / np.maximum(depth[on], np.float32(0.1)))[:, None] / levels
-    ratio = kernels.level_ratios(instance, depth, size, np.float32(0.1), levels)
+    normal, dirs = _unit_rows(rng, 60_000), _unit_rows(rng, 60_000)
+    turned, ratio = kernels.turned_and_ratios(normal, dirs, instance, depth, size, np.float32(0.1), levels)
+    np.testing.assert_array_equal(np.abs(turned), np.abs(normal))
     np.testing.assert_array_equal(ratio.view(np.uint32), want_ratio.view(np.uint32))
     want = np.full(60_000, -1, np.int8)
     want[on] = np.abs(np.log(want_ratio)).argmin(axis=-1)
