@@ -123,11 +123,39 @@ def fbm(x: F32, y: F32, seed: int, octaves: int = 3, scale: float = 1.0) -> F32:
 
 
 def asphalt(p: F32) -> F32:
-    """``(N,)`` brightness factor of asphalt: fine grain, patches of wear and repair."""
-    x, y = p[:, 0], p[:, 1]
-    grain = value_noise(x * 9.0, y * 9.0, 3) - np.float32(0.5)
-    patches = fbm(x, y, 5, 3, 7.0) - np.float32(0.5)
-    return np.asarray(np.float32(1.0) + np.float32(0.14) * grain + np.float32(0.25) * patches, np.float32)
+    """``(N,)`` brightness factor of asphalt: fine grain (:func:`value_noise` of the points 9 times
+    as dense, seed 3), patches of wear and repair (:func:`fbm`, seed 5, 3 octaves, scale 7)."""
+    seeds = np.array([_seed32(3), _seed32(5), _seed32(6), _seed32(7)], np.uint64)
+    return _asphalt(np.ascontiguousarray(p, np.float32), seeds, np.float32(1.0 / 7.0))
+
+
+@njit(cache=True, nogil=True)
+def _asphalt(p: F32, seeds32: npt.NDArray[np.uint64], f0: np.float32) -> F32:  # pragma: no cover - compiled
+    """:func:`asphalt` per point in its numpy form's float32 arithmetic: ``1 + 0.14 * (grain - 0.5)
+    + 0.25 * (patches - 0.5)``, the grain's noise of seed ``seeds32[0]``, the patches' octaves of
+    the others (the first at frequency ``f0``, each next twice it, weights 1, 1/2, 1/4 summed in
+    order over 1.75)."""
+    n = p.shape[0]
+    x, y = np.empty(n, np.float32), np.empty(n, np.float32)
+    for i in range(n):
+        x[i], y[i] = p[i, 0], p[i, 1]
+    half, nine = np.float32(0.5), np.float32(9.0)
+    grain = np.empty(n, np.float32)
+    for i in range(n):  # a pass over every point at a time: the loops are compiled to vector instructions
+        grain[i] = _noise_at(x[i] * nine, y[i] * nine, seeds32[0])
+    total = np.zeros(n, np.float32)
+    a, f = np.float32(1.0), f0
+    for o in range(3):
+        seed = seeds32[1 + o]
+        for i in range(n):
+            total[i] += a * _noise_at(x[i] * f, y[i] * f, seed)
+        a = a * half
+        f = f * np.float32(2.0)
+    out = np.empty(n, np.float32)
+    for i in range(n):
+        patches = total[i] / np.float32(1.75) - half
+        out[i] = np.float32(1.0) + np.float32(0.14) * (grain[i] - half) + np.float32(0.25) * patches
+    return out
 
 
 def paving(p: F32, tile_m: float = 0.5) -> F32:

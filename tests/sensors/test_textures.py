@@ -172,3 +172,14 @@ def test_facade_of_runs_of_points_equals_each_point_taken_alone() -> None:
         one = textures.facade(p[i : i + 1], normal[i : i + 1])
         np.testing.assert_array_equal(wall[i : i + 1].view(np.uint32), one[0].view(np.uint32))
         assert glass[i] == one[1][0] and lit[i] == one[2][0]
+
+
+def test_asphalt_is_its_grain_and_patches_noises_in_float32() -> None:
+    rng = np.random.default_rng(31)
+    p = rng.uniform(-300.0, 300.0, (20_000, 3)).astype(np.float32)
+    x, y = p[:, 0], p[:, 1]
+    grain = textures.value_noise(x * 9.0, y * 9.0, 3) - np.float32(0.5)
+    patches = textures.fbm(x, y, 5, 3, 7.0) - np.float32(0.5)
+    want = np.float32(1.0) + np.float32(0.14) * grain + np.float32(0.25) * patches
+    assert want.dtype == np.float32
+    np.testing.assert_array_equal(textures.asphalt(p).view(np.uint32), want.view(np.uint32))
