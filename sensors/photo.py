@@ -496,22 +496,71 @@ def radiance(
     through every step."""
     n = len(rays.cls)
     out = np.empty((n, 3), np.float32)
+    light = _Light.of(weather, origin_map_m)
     for start in range(0, n, STRIPE_PX):
         s = slice(start, start + STRIPE_PX)
-        _radiance(rays.rows(s), origin_map_m, weather, max_range_m, boxes, out[s])
+        _radiance(rays.rows(s), origin_map_m, weather, max_range_m, boxes, light, out[s])
     return out
+
+
+@dataclass(frozen=True, slots=True)
+class _Light:
+    """:func:`_radiance`'s constants of a weather and a camera position: the unit vector to the
+    sun, the lighting constants of :func:`sensors.shade_kernels.lit_colour`, the lit windows'
+    light, the sun's glint, the ground's light seen in reflections below the horizon and the
+    haze's colour (linear)."""
+
+    origin: F32
+    sun: F32
+    light_k: F32
+    window: F32
+    glint: np.float32
+    below: np.float32
+    haze: F32
+
+    @staticmethod
+    def of(weather: Weather, origin_map_m: npt.NDArray[np.float64]) -> _Light:
+        sun = np.asarray(weather.sun_dir_map, np.float32)
+        sun /= np.linalg.norm(sun)
+        night = np.float32(night_of(weather))
+        light_k = np.array(
+            [
+                np.float32(weather.ambient) * np.float32(1.6),
+                np.float32(weather.sun_gain) * np.float32(2.2),
+                np.float32(weather.headlight_gain) * np.float32(1.6),
+                np.float32(weather.headlight_range_m),
+                np.float32(origin_map_m[2]),
+                night * STREET_LIGHT,
+                np.float32(weather.lamp_key_gain) * np.float32(2.2),
+                float(weather.headlight_gain > 0),
+                float(weather.lamp_key_gain > 0),
+                STREET_LIGHT_FADE_M,
+                DIPPED_CUTOFF_M,
+                DIPPED_ABOVE,
+                LAMP_LIT_UP_TO_M,
+                LAMP_FADE_M,
+            ],
+            np.float32,
+        )
+        window = (
+            night * np.float32(0.25) * np.array([0.25, 0.55, 0.9], np.float32) if night > 0 else np.zeros(3, np.float32)
+        )
+        glint = np.float32(weather.sun_gain + weather.lamp_key_gain)
+        below = np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain))
+        window = np.asarray(window, np.float32)
+        return _Light(origin_map_m.astype(np.float32), sun, light_k, window, glint, below, to_linear(weather.haze_bgr))
 
 
 def _radiance(
     rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float,
-    boxes: AgentBoxes | None, out: F32,
+    boxes: AgentBoxes | None, light: _Light, out: F32,
 ) -> None:  # fmt: skip
     """The light of one stripe of rays into ``out`` (``(N, 3)``, C-contiguous): misses see the
     sky; hits' albedo, mirror and glow by numpy (textures, parts), their lighting by compiled
     loops (:mod:`sensors.shade_kernels`)."""
     dirs_map, range_m, cls, instance, part = rays.dirs_map, rays.range_m, rays.cls, rays.instance, rays.part
     at, miss, c, inst, pt, p, nrm, cos_v = kernels.split_hits_geometry(
-        range_m, np.float32(max_range_m), cls, instance, part, dirs_map, rays.normal, origin_map_m.astype(np.float32)
+        range_m, np.float32(max_range_m), cls, instance, part, dirs_map, rays.normal, light.origin
     )
     if len(miss):
         sky_linear_at(weather, np.ascontiguousarray(dirs_map, np.float32), miss, out)
@@ -532,51 +581,25 @@ def _radiance(
         plate = ai[pt[ai] == Part.PLATE]
         if len(plate) and boxes is not None:
             albedo[plate[plate_ink(p[plate], inst[plate], boxes)]] = np.float32(0.003)
-    sun = np.asarray(weather.sun_dir_map, np.float32)
-    sun /= np.linalg.norm(sun)
-    night = np.float32(night_of(weather))
-    light_k = np.array(
-        [
-            np.float32(weather.ambient) * np.float32(1.6),
-            np.float32(weather.sun_gain) * np.float32(2.2),
-            np.float32(weather.headlight_gain) * np.float32(1.6),
-            np.float32(weather.headlight_range_m),
-            np.float32(origin_map_m[2]),
-            night * STREET_LIGHT,
-            np.float32(weather.lamp_key_gain) * np.float32(2.2),
-            float(weather.headlight_gain > 0),
-            float(weather.lamp_key_gain > 0),
-            STREET_LIGHT_FADE_M,
-            DIPPED_CUTOFF_M,
-            DIPPED_ABOVE,
-            LAMP_LIT_UP_TO_M,
-            LAMP_FADE_M,
-        ],
-        np.float32,
-    )
     none = np.zeros(0, np.float32)
     head = rays.forward[at] ** 6 if weather.headlight_gain > 0 else none  # the headlights' cone
     pool = lamp_pools(p) if weather.lamp_key_gain > 0 else none
     colour, shiny_at, refl, half_cos, shininess, away = kernels.lit_colour(
         at, dirs_map, range_m, part, instance, rays.sun_lit, rays.sky_open, p, nrm, cos_v,
-        np.ascontiguousarray(albedo, np.float32), mirror, head, pool, sun, light_k, STREET_LIGHT_BGR, SPECULAR_BY_PART,
-        SHININESS_BY_PART,
+        np.ascontiguousarray(albedo, np.float32), mirror, head, pool, light.sun, light.light_k, STREET_LIGHT_BGR,
+        SPECULAR_BY_PART, SHININESS_BY_PART,
     )  # fmt: skip
     # highlights, and the sky and the ground reflected by paint and glass (Schlick's Fresnel term)
     highlight = half_cos**shininess
     grazing = away**5
     env = sky_linear(weather, refl)
-    kernels.below_horizon(env, refl, np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain)))
+    kernels.below_horizon(env, refl, light.below)
     if len(wet):  # a wet road mirrors the sky only as far as it sees it: less under and beside vehicles
         film = np.flatnonzero(_IS_PAVED[c[shiny_at]] & (pt[shiny_at] == 0) & (nrm[shiny_at, 2] >= WET_MIN_UP))
         env[film] *= rays.sky_open[at[shiny_at[film]]][:, None]
-    window = (
-        night * np.float32(0.25) * np.array([0.25, 0.55, 0.9], np.float32) if night > 0 else np.zeros(3, np.float32)
-    )
     kernels.finish_colour(
         colour, shiny_at, highlight, grazing, env, mirror, at, part, rays.sun_lit, rays.lamp, glow, SPECULAR_BY_PART,
-        LAMP_BGR, np.float32(weather.sun_gain + weather.lamp_key_gain), window,
-        _haze_at(weather, at, range_m, max_range_m), to_linear(weather.haze_bgr), out,
+        LAMP_BGR, light.glint, light.window, _haze_at(weather, at, range_m, max_range_m), light.haze, out,
     )  # fmt: skip
 
 
