@@ -17,43 +17,6 @@ F32 = npt.NDArray[np.float32]
 
 
 @njit(cache=True, nogil=True)
-def shadow_rays(
-    origin: F32, dirs: F32, range_m: F32, normal: F32, sun: F32, max_range_m: np.float32, lift_m: np.float32
-) -> tuple[npt.NDArray[np.int64], F32]:  # pragma: no cover - compiled
-    """The rows that need a shadow ray (a hit nearer than ``max_range_m`` whose side facing the
-    camera faces the ``sun``) and those rays column by column ``(6, K)`` (its transpose is the
-    ``(K, 6)`` rays, each column contiguous): from the hit, lifted ``lift_m`` off the surface
-    towards the camera's side, along ``sun`` (as :func:`sensors.camera.sun_visibility`)."""
-    n = range_m.shape[0]
-    at = np.empty(n, np.int64)
-    k = 0
-    for i in range(n):
-        r = range_m[i]
-        if not (r < max_range_m):  # also inf and nan
-            continue
-        n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
-        if n0 * dirs[i, 0] + n1 * dirs[i, 1] + n2 * dirs[i, 2] > 0:
-            n0, n1, n2 = -n0, -n1, -n2
-        if n0 * sun[0] + n1 * sun[1] + n2 * sun[2] > 0:
-            at[k] = i
-            k += 1
-    rays = np.empty((6, k), np.float32)
-    for j in range(k):
-        i = at[j]
-        r = range_m[i]
-        n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
-        if n0 * dirs[i, 0] + n1 * dirs[i, 1] + n2 * dirs[i, 2] > 0:
-            n0, n1, n2 = -n0, -n1, -n2
-        rays[0, j] = (origin[0] + dirs[i, 0] * r) + n0 * lift_m
-        rays[1, j] = (origin[1] + dirs[i, 1] * r) + n1 * lift_m
-        rays[2, j] = (origin[2] + dirs[i, 2] * r) + n2 * lift_m
-        rays[3, j] = sun[0]
-        rays[4, j] = sun[1]
-        rays[5, j] = sun[2]
-    return at[:k], rays
-
-
-@njit(cache=True, nogil=True)
 def ray_range(depth: F32, dirs: F32) -> F32:  # pragma: no cover - compiled
     """``(N,)`` the range along each ray of unit ``dirs (N, 3)`` (optical frame) to its hit at
     z-depth ``depth (N,)``: ``depth / dirs[:, 2]``, inf where ``depth`` is not above 0."""

@@ -376,6 +376,8 @@ def test_edges_are_those_of_the_class_part_and_instance_key() -> None:
 
 
 def test_shadow_rays_come_in_columns_of_the_rows() -> None:
+    from sensors.camera import ShadowScratch, _shadow_rays
+
     rng = np.random.default_rng(10)
     n = 5000
     dirs, normal = _unit_rows(rng, n), _unit_rows(rng, n)
@@ -383,12 +385,16 @@ def test_shadow_rays_come_in_columns_of_the_rows() -> None:
     range_m[:50] = np.inf
     sun = np.array([0.3, 0.2, 0.93], np.float32)
     origin = np.array([1.0, 2.0, 3.0], np.float32)
-    at, columns = kernels.shadow_rays(origin, dirs, range_m, normal, sun, np.float32(120.0), np.float32(0.02))
+    scratch = ShadowScratch()
+    rows, kept = scratch.take(n)
+    k = _shadow_rays(origin, dirs, range_m, normal, sun, np.float32(120.0), np.float32(0.02), rows, kept)
+    at, columns = rows[:k], kept[:, :k]
     facing = np.where((np.einsum("ij,ij->i", normal, dirs) > 0)[:, None], -normal, normal)
     want_at = np.flatnonzero((range_m < 120.0) & (facing @ sun > 0))
     np.testing.assert_array_equal(at, want_at)
     rays = columns.T
     assert rays.shape == (len(at), 6) and all(rays[:, i].flags.c_contiguous for i in range(6))
+    assert scratch.take(n)[0] is rows and scratch.take(n + 1)[0] is not rows  # kept, made anew when short
     point = (origin + dirs[at] * range_m[at, None]) + facing[at] * np.float32(0.02)
     np.testing.assert_array_equal(rays[:, :3].view(np.uint32), point.astype(np.float32).view(np.uint32))
     np.testing.assert_array_equal(rays[:, 3:], np.broadcast_to(sun, (len(at), 3)))
