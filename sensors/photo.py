@@ -719,21 +719,10 @@ def soft_blur(image: F32, sigma_px: float) -> F32:
     return np.asarray(cv2.resize(blurred, (w, h), interpolation=cv2.INTER_LINEAR), np.float32).reshape(image.shape)
 
 
-def tone_map(linear: F32, exposure: float, keep: F32 | None = None) -> F32:
-    """Filmic tone curve (Narkowicz's fit of ACES) and display gamma of ``(N, 3)`` ``linear``
-    times ``keep (N,)`` (the light kept through the lens, :func:`vignette`; None: all): 0..255 floats."""
-    return tone_map_grey(linear, exposure, keep)[0]
-
-
-def tone_map_grey(linear: F32, exposure: float, keep: F32 | None = None) -> tuple[F32, F32]:
-    """:func:`tone_map` and each pixel's grey (:func:`black_level`'s, the mean of its three
-    values) from the same pass."""
-    y = tone_curve(linear, exposure, keep)
-    return y, kernels.scaled_grey(y, np.float32(255.0))
-
-
 def tone_curve(linear: F32, exposure: float, keep: F32 | None = None) -> F32:
-    """:func:`tone_map` before its scaling to 0..255: ``(N, 3)`` values 0..1."""
+    """Filmic tone curve (Narkowicz's fit of ACES) and display gamma of ``(N, 3)`` ``linear`` times
+    ``keep (N,)`` (the light kept through the lens, :func:`vignette`; None: all): values 0..1
+    (:func:`finished_bytes` scales them to 0..255)."""
     linear = np.ascontiguousarray(linear, np.float32).reshape(-1, 3)
     keep = np.ones(len(linear), np.float32) if keep is None else np.ascontiguousarray(keep, np.float32)
     y = kernels.filmic(linear, keep, np.float32(EXPOSURE_SCALE * np.float32(exposure)))
@@ -744,7 +733,7 @@ def tone_curve(linear: F32, exposure: float, keep: F32 | None = None) -> F32:
 def finished_bytes(curve: F32, saturation: float, seed: int, sigma: np.float32) -> npt.NDArray[np.uint8]:
     """``(N, 3) uint8`` of :func:`tone_curve`'s ``curve``: scaled to 0..255, :func:`auto_levels`
     with ``saturation``, plus ``sigma`` times :func:`standard_normals` of ``seed`` (a draw per
-    pixel), rounded and clipped: the steps of :func:`tone_map_grey`, :func:`black_level`,
+    pixel), rounded and clipped: the steps of scaling, :func:`black_level`,
     :func:`standard_normals` and :func:`sensors.shade_kernels.levelled_bytes` in one pass over
     the image (and one over every :data:`BLACK_STEP`-th pixel)."""
     k = np.float32(255.0)
@@ -755,7 +744,7 @@ def finished_bytes(curve: F32, saturation: float, seed: int, sigma: np.float32) 
 
 
 def auto_levels(image: F32, saturation: float) -> F32:
-    """``(N, 3)`` display values 0..255 (from :func:`tone_map`) with the frame's black level
+    """``(N, 3)`` display values 0..255 (:func:`tone_curve`'s times 255) with the frame's black level
     set (:data:`BLACK_PERCENTILE` to :data:`BLACK_TOE`, the darker greys kept in order below it;
     the grey stretched, not the colours: a veiled rain frame's black level near 60 would push its
     colours 1.3 times further from grey, the grass neon) and colours ``saturation`` times further

@@ -714,7 +714,7 @@ def minimum_at(values: F32, rows: npt.NDArray[np.int64], other: F32) -> None:  #
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def filmic(linear: F32, keep: F32, gain: np.float32) -> F32:  # pragma: no cover - compiled
-    """:func:`sensors.photo.tone_map`'s curve before its gamma: Narkowicz's ACES fit of ``linear
+    """:func:`sensors.photo.tone_curve`'s curve before its gamma: Narkowicz's ACES fit of ``linear
     (N, 3)`` times ``keep (N,)`` (the vignetting, rounded to float32 as an in-place product) times
     ``gain``, clipped to 0..1 (NaN stays NaN, as ``np.clip``), in its numpy form's float32 order.
     (numpy's error model: the curve's denominator is never 0, and the loop is compiled to vector
