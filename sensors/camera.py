@@ -182,7 +182,8 @@ class Camera:
 
     def _supersamples(self, scene: Scene, map_SE3_cam: SE3, hits: RayHits, weather: Weather) -> Supersamples:
         """Four sub-pixel rays at every pixel whose class, instance, part or depth differs from
-        a neighbour's."""
+        a neighbour's; one with nothing within the camera's range is a miss, as a centre ray is
+        (range inf; class, instance and part 0)."""
         h, w = self.shape
         pixel = np.flatnonzero(edge_pixels(hits, h, w)).astype(np.int64)
         if len(pixel) == 0:
@@ -199,8 +200,9 @@ class Camera:
             K = pinhole.K
             dirs_cam = subpixel_directions(pixel, w, SUBPIXEL_OFFSETS, K[0, 0], K[0, 2], K[1, 1], K[1, 2])
         sub = scene.cast_from(map_SE3_cam.translation, map_SE3_cam.rotation, dirs_cam)
-        far = sub.range_m > np.float32(self.spec.range_m)
-        sub.range_m[far] = np.inf
+        # nothing within range: a miss, as at the centre rays (range inf; class, instance, part 0)
+        _within_range(sub.range_m, sub.instance_id, sub.semantic_class, sub.part,
+                      np.ascontiguousarray(dirs_cam[:, 2]), np.float32(self.spec.range_m), True)  # fmt: skip
         dirs_map = map_directions(map_SE3_cam.rotation, dirs_cam)
         lit = sun_visibility(scene, map_SE3_cam.translation, dirs_map, sub.range_m, sub.normal, weather, self._shadows)
         return Supersamples(

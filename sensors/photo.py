@@ -122,7 +122,8 @@ class Supersamples:
     """Extra rays at the pixels holding an edge: ``pixel (K,) int64`` (row-major index),
     per sub-ray ``(K * S,)`` arrays (sub-rays of a pixel together): unit directions in the
     camera's optical frame ``dirs_cam (K * S, 3)``, range, class, instance, part, normal (map
-    frame) and the sun's visibility."""
+    frame) and the sun's visibility; a sub-ray with nothing within the camera's range is a miss,
+    as a centre ray is (range inf; class, instance and part 0)."""
 
     pixel: npt.NDArray[np.int64]
     dirs_cam: F32
@@ -819,9 +820,8 @@ def leafy_normals(
 ) -> F32:
     """``normal`` (written in place and returned) with the crowns' (VEGETATION) ones tilted clump
     by clump (:func:`textures.leaf_tilt` times :data:`LEAF_TILT`, unit length again, still facing
-    the camera); the rest as they were, and so are those with nothing within range (``range_m``
-    inf: they see the sky, whatever class their ray met beyond it)."""
-    at = np.flatnonzero((cls == SemanticClass.VEGETATION) & np.isfinite(range_m))
+    the camera); the rest as they were."""
+    at = np.flatnonzero(cls == SemanticClass.VEGETATION)
     if at.size == 0:
         return normal
     points = kernels.hit_points(at, dirs_map, range_m, np.asarray(origin_map_m, np.float32))

@@ -156,6 +156,33 @@ def test_camera_frame_rejects_mismatched_arrays_naming_the_field(synth: SimpleNa
         CameraFrame(frame.depth_m, frame.depth_m, frame.semantic_class, frame.shading)
 
 
+@pytest.mark.parametrize("far", ["crown", "agent"])
+def test_sub_rays_with_nothing_within_range_are_misses_as_centre_rays_are(synth: SimpleNamespace, far: str) -> None:
+    """An anti-aliasing sub-ray whose hit lies beyond the camera's range has range inf and class,
+    instance and part 0, as a centre ray has: a crown or an agent met beyond it is not shaded
+    (no NaN normal, no invalid arithmetic on an infinite point)."""
+    import warnings
+
+    spec = replace(SMALL, range_m=60.0)
+    near = synth.quad([(10.0, 0.0, -20.0), (10.0, 20.0, -20.0), (10.0, 20.0, 20.0), (10.0, 0.0, 20.0)],
+                      SemanticClass.BUILDING)  # fmt: skip  # the image's left half, 10 m ahead
+    if far == "crown":
+        scene = synth.scene([near, synth.wall_at_x(80.0, cls=SemanticClass.VEGETATION)])
+    else:
+        scene = synth.scene([near], synth.agents([(7, SemanticClass.BUS, 81.0, 0.0, 0.0, 2.0, 200.0, 200.0, 0.0)]))
+    frame = Camera(spec).sense(scene, synth.EGO, DAY, np.random.default_rng(0)).frame
+    extra = frame.shading.extra
+    assert extra is not None
+    beyond = ~np.isfinite(extra.range_m)
+    assert beyond.sum() > 20 and (extra.semantic_class[~beyond] == SemanticClass.BUILDING).all()  # both sides seen
+    assert not extra.semantic_class[beyond].any() and not extra.instance_id[beyond].any()
+    assert not extra.part[beyond].any()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        image = shade_frame(frame)
+    assert image.shape == (90, 160, 3)
+
+
 @pytest.mark.parametrize("filter_up", [False, True])
 def test_depth_png_holds_millimetres_and_zero_where_unknown(filter_up: bool) -> None:
     depth = np.array([[0.0, 1.2344, 65.535], [65.6, np.inf, 10.0]], dtype=np.float32)

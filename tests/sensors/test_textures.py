@@ -134,26 +134,6 @@ def test_leaf_tilt_turns_normals_clump_by_clump_and_they_stay_unit_and_facing_th
     assert np.abs(near).mean() < 0.25 * np.abs(far).mean()  # clumps decimetres across, not per point
 
 
-def test_crowns_beyond_the_cameras_range_keep_their_normals_without_a_warning() -> None:
-    """An anti-aliasing sub-ray that meets a crown beyond the camera's range has range inf (it
-    sees the sky) but still the crown's class: its normal is left as it was, and no invalid
-    arithmetic on its infinite point warns."""
-    import warnings
-
-    from networks.classes import SemanticClass
-    from sensors.photo import leafy_normals
-
-    dirs = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.6, 0.0, 0.8]], np.float32)
-    normal = -dirs
-    cls = np.full(3, SemanticClass.VEGETATION, np.uint8)
-    range_m = np.array([12.0, np.inf, np.inf], np.float32)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        out = leafy_normals(normal.copy(), cls, dirs, range_m, np.array([3.0, -2.0, 1.5]))
-    assert np.array_equal(out[1:], normal[1:])
-    assert not np.array_equal(out[0], normal[0]) and np.isclose(np.linalg.norm(out[0]), 1.0, atol=1e-5)
-
-
 def test_facade_of_runs_of_points_equals_each_point_taken_alone() -> None:
     rng = np.random.default_rng(12)
     normals = np.array(
