@@ -578,9 +578,10 @@ def _rows(hits: RayHits, at: npt.NDArray[np.intp]) -> RayHits:
 
 
 def _reflectance_tables() -> tuple[Any, ...]:
-    """:func:`sensors.parts.lidar_reflectance`'s tables for :func:`_reflectance`: per part whether
-    its colour is its instance's paint and whether it is retro-reflective; the paints' palettes
-    one after another (each part's first row, size and salt)."""
+    """The tables of :func:`_reflectance`: the parts' and classes' reflectivity and
+    retro-reflection (:mod:`sensors.parts`, :mod:`sensors.materials`), per part whether its colour
+    is its instance's paint and whether it is retro-reflective; the paints' palettes one after
+    another (each part's first row, size and salt)."""
     painted = np.zeros(256, np.bool_)
     painted[[int(p) for p in COLOURED_BY_PAINT]] = True
     retro = np.zeros(256, np.bool_)
@@ -601,7 +602,9 @@ _REFLECTANCE_TABLES = _reflectance_tables()
 def reflectance_of(
     semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32]
 ) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.bool_]]:
-    """:func:`sensors.parts.lidar_reflectance` (the same values) in one compiled pass."""
+    """``(N,)`` LiDAR reflectivity of surfaces (painted parts by their instance's colour, other
+    parts by the table, the static world by class) and whether each is retro-reflective
+    (number plates; signs and road paint), in one compiled pass."""
     by_part, by_class, retro_by_class, painted, retro, first, size, salt, palettes = _REFLECTANCE_TABLES
     return _reflectance(
         np.ascontiguousarray(semantic_class, np.uint8), np.ascontiguousarray(part, np.uint8),

@@ -15,7 +15,7 @@ from enum import IntEnum
 import numpy as np
 import numpy.typing as npt
 
-from sensors.materials import RADAR_REFLECTIVITY_BY_CLASS, REFLECTIVITY_BY_CLASS, RETRO_BY_CLASS
+from sensors.materials import RADAR_REFLECTIVITY_BY_CLASS
 
 
 class Part(IntEnum):
@@ -222,12 +222,6 @@ for _part, _m in MATERIALS.items():
         ALBEDO_BGR_BY_PART[int(_part)] = _m.albedo_bgr
 
 
-def lidar_reflectivity(semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[np.uint8]) -> npt.NDArray[np.float32]:
-    """``(N,)`` LiDAR reflectivity of surfaces: by part on agents (glass and tyres weak, plates
-    strong), by class on the static world."""
-    return np.where(part > 0, REFLECTIVITY_BY_PART[part], REFLECTIVITY_BY_CLASS[semantic_class]).astype(np.float32)
-
-
 # Paint at 905 nm follows its colour (white about 0.7, black and dark blue under 0.1: Velodyne
 # calibrated-reflectivity notes; Kashani et al. 2015): the LiDAR reflectivity of painted parts
 # (body paint, cargo panels; livery and construction yellow in the table likewise) is 0.05 + 0.7 x
@@ -238,21 +232,6 @@ PAINT_REFLECTIVITY_FLOOR = 0.05
 PAINT_REFLECTIVITY_PER_ALBEDO = 0.7
 COLOURED_BY_PAINT = (Part.PAINT, Part.CARGO, Part.CAB)
 RETRO_PARTS = (Part.PLATE, Part.RETRO_WHITE, Part.RETRO_YELLOW)
-
-
-def lidar_reflectance(
-    semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[np.uint8], instance_id: npt.NDArray[np.uint32]
-) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.bool_]]:
-    """``(N,)`` LiDAR reflectivity of surfaces (painted parts by their instance's colour, other
-    parts by the table, the static world by class) and whether each is retro-reflective
-    (number plates; signs and road paint)."""
-    out = lidar_reflectivity(semantic_class, part)
-    painted = np.flatnonzero(np.isin(part, COLOURED_BY_PAINT))
-    if painted.size:
-        albedo = part_albedo(part[painted], instance_id[painted]).mean(axis=1)
-        out[painted] = PAINT_REFLECTIVITY_FLOOR + PAINT_REFLECTIVITY_PER_ALBEDO * albedo
-    retro = np.where(part > 0, np.isin(part, RETRO_PARTS), RETRO_BY_CLASS[semantic_class])
-    return out, retro
 
 
 def radar_reflectivity(semantic_class: npt.NDArray[np.uint8], part: npt.NDArray[np.uint8]) -> npt.NDArray[np.float32]:

@@ -732,36 +732,21 @@ def tone_curve(linear: F32, exposure: float, keep: F32 | None = None) -> F32:
 
 
 def finished_bytes(curve: F32, saturation: float, seed: int, sigma: np.float32) -> npt.NDArray[np.uint8]:
-    """``(N, 3) uint8`` of :func:`tone_curve`'s ``curve``: scaled to 0..255, :func:`auto_levels`
-    with ``saturation``, plus ``sigma`` times :func:`standard_normals` of ``seed`` (a draw per
-    pixel), rounded and clipped: the steps of scaling, :func:`black_level`,
-    :func:`standard_normals` and :func:`sensors.shade_kernels.levelled_bytes` in one pass over
-    the image (and one over every :data:`BLACK_STEP`-th pixel)."""
+    """``(N, 3) uint8`` of :func:`tone_curve`'s ``curve``: scaled to display values 0..255, the
+    frame's black level set (:data:`BLACK_PERCENTILE` to :data:`BLACK_TOE`, the darker greys kept
+    in order below it; the grey stretched, not the colours: a veiled rain frame's black level
+    near 60 would push its colours 1.3 times further from grey, the grass neon), colours
+    ``saturation`` times further from their grey, as a camera's colour processing does (the
+    weather's; by day 1.3: our frames' mean saturation was 27-33 against 72-85 in real KITTI
+    frames; at night 1.0, where cameras' colour fades), plus ``sigma`` times a draw per pixel of
+    ``np.random.default_rng(seed).standard_normal(N, dtype=np.float32)``, rounded and clipped;
+    in one pass over the image (and one over every :data:`BLACK_STEP`-th pixel's grey, for the
+    black level)."""
     k = np.float32(255.0)
     black, scale = _black_of(kernels.grey_sample(curve, k, BLACK_STEP))
     return kernels.scaled_levelled_bytes(
         curve, k, black, scale, np.float32(saturation), np.float32(BLACK_TOE), _pcg64_words(seed), sigma
     )
-
-
-def auto_levels(image: F32, saturation: float) -> F32:
-    """``(N, 3)`` display values 0..255 (:func:`tone_curve`'s times 255) with the frame's black level
-    set (:data:`BLACK_PERCENTILE` to :data:`BLACK_TOE`, the darker greys kept in order below it;
-    the grey stretched, not the colours: a veiled rain frame's black level near 60 would push its
-    colours 1.3 times further from grey, the grass neon) and colours ``saturation`` times further
-    from their grey, as a camera's colour processing does (the weather's; by day 1.3: our frames'
-    mean saturation was 27-33 against 72-85 in real KITTI frames; at night 1.0, where cameras'
-    colour fades); in place."""
-    grey, black, scale = black_level(image)
-    kernels.levels(image, grey, black, scale, np.float32(saturation), np.float32(BLACK_TOE))
-    return image
-
-
-def black_level(image: F32, grey: F32 | None = None) -> tuple[F32, np.float32, np.float32]:
-    """:func:`auto_levels`' measure of ``(N, 3)`` ``image``: each pixel's grey (given, or the mean
-    of its three values), the frame's black level and the stretch of the greys above it."""
-    grey = kernels.grey_of(image) if grey is None else grey
-    return (grey, *_black_of(grey[::BLACK_STEP]))
 
 
 BLACK_STEP = 7
@@ -775,13 +760,6 @@ def _black_of(sample: F32) -> tuple[np.float32, np.float32]:
     toe = np.float32(BLACK_TOE)
     scale = (np.float32(255.0) - toe) / (np.float32(255.0) - black) if black > 0 else np.float32(1.0)
     return black, scale
-
-
-def standard_normals(seed: int, n: int) -> F32:
-    """``(n,)`` float32 draws equal to ``np.random.default_rng(seed).standard_normal(n,
-    dtype=np.float32)``, by a compiled loop (:func:`sensors.shade_kernels.standard_normals`):
-    about a third of numpy's time."""
-    return kernels.standard_normals(_pcg64_words(seed), n)
 
 
 def _pcg64_words(seed: int) -> npt.NDArray[np.uint64]:

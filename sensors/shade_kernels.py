@@ -231,26 +231,6 @@ def hit_points(at: npt.NDArray[np.int64], dirs: F32, range_m: F32, origin: F32) 
 
 
 @njit(cache=True, nogil=True)
-def grey_of(image: F32) -> F32:  # pragma: no cover - compiled
-    """``(N,)`` the mean of each row of ``(N, 3)`` (numpy's ``mean(axis=1)``: the sum in order, over 3)."""
-    out = np.empty(image.shape[0], np.float32)
-    for i in range(image.shape[0]):
-        out[i] = (image[i, 0] + image[i, 1] + image[i, 2]) / np.float32(3.0)
-    return out
-
-
-@njit(cache=True, nogil=True)
-def scaled_grey(image: F32, k: np.float32) -> F32:  # pragma: no cover - compiled
-    """``image (N, 3)`` times ``k`` in place, and :func:`grey_of` the result, in one pass."""
-    out = np.empty(image.shape[0], np.float32)
-    for i in range(image.shape[0]):
-        a, b, c = image[i, 0] * k, image[i, 1] * k, image[i, 2] * k
-        image[i, 0], image[i, 1], image[i, 2] = a, b, c
-        out[i] = (a + b + c) / np.float32(3.0)
-    return out
-
-
-@njit(cache=True, nogil=True)
 def depth_units(
     depth: npt.NDArray[np.floating], units: float, in_float32: bool, most: float
 ) -> npt.NDArray[np.uint16]:  # pragma: no cover - compiled
@@ -267,7 +247,8 @@ def depth_units(
 
 @njit(cache=True, nogil=True)
 def _levelled(g: np.float32, black: np.float32, scale: np.float32, toe: np.float32) -> np.float32:  # pragma: no cover
-    """A grey after :func:`levels`' stretch (unchanged when ``black <= 0``)."""
+    """A grey ``g`` with the black level set: ``toe + (g - black) * scale`` at or above ``black``,
+    below it scaled onto 0..``toe`` (unchanged when ``black <= 0``)."""
     if black <= 0:
         return g
     if g >= black:
@@ -280,49 +261,6 @@ def _byte(value: np.float32, noise: np.float32) -> np.uint8:  # pragma: no cover
     """``value`` plus ``noise``, rounded and clipped to 0..255."""
     v = (value + noise) + np.float32(0.5)
     return np.uint8(min(max(v, np.float32(0.0)), np.float32(255.0)))
-
-
-@njit(cache=True, nogil=True)
-def levels(
-    image: F32, grey: F32, black: np.float32, scale: np.float32, saturation: np.float32, toe: np.float32
-) -> None:  # pragma: no cover - compiled
-    """In place: ``image`` ``(N, 3)``'s grey less ``black`` times ``scale`` plus ``toe`` (when
-    ``black > 0``; greys below ``black`` scaled onto 0..``toe``), its colours ``saturation``
-    times further from that grey than from their own ``grey``: the stretch lifts brightness, not
-    colour."""
-    for i in range(image.shape[0]):
-        g = grey[i]
-        levelled = _levelled(g, black, scale, toe)
-        for c in range(3):
-            image[i, c] = (image[i, c] - g) * saturation + levelled
-
-
-@njit(cache=True, nogil=True)
-def levelled_bytes(
-    image: F32, grey: F32, black: np.float32, scale: np.float32, saturation: np.float32, toe: np.float32,
-    noise: F32, sigma: np.float32,
-) -> npt.NDArray[np.uint8]:  # fmt: skip  # pragma: no cover - compiled
-    """:func:`levels` then :func:`to_bytes` in one pass: ``(N, 3) uint8`` (``image`` left as it is)."""
-    out = np.empty(image.shape, np.uint8)
-    for i in range(image.shape[0]):
-        g = grey[i]
-        levelled = _levelled(g, black, scale, toe)
-        nz = noise[i, 0] * sigma
-        for c in range(3):
-            out[i, c] = _byte((image[i, c] - g) * saturation + levelled, nz)
-    return out
-
-
-@njit(cache=True, nogil=True)
-def to_bytes(image: F32, noise: F32, sigma: np.float32) -> npt.NDArray[np.uint8]:  # pragma: no cover - compiled
-    """``(N, 3) uint8``: ``image`` plus ``noise * sigma`` (one draw per pixel, ``(N, 1)``),
-    rounded and clipped to 0..255."""
-    out = np.empty(image.shape, np.uint8)
-    for i in range(image.shape[0]):
-        nz = noise[i, 0] * sigma
-        for c in range(3):
-            out[i, c] = _byte(image[i, c], nz)
-    return out
 
 
 @njit(cache=True, nogil=True)
@@ -983,21 +921,10 @@ def _standard_normal(st: npt.NDArray[np.uint64]) -> np.float32:  # pragma: no co
 
 
 @njit(cache=True, nogil=True)
-def standard_normals(state: npt.NDArray[np.uint64], n: int) -> F32:  # pragma: no cover - compiled
-    """``(n,)`` float32 draws of numpy's ``Generator.standard_normal(n, dtype=np.float32)`` on a
-    PCG64 bit generator in ``state`` (:func:`_pcg64_next32`'s six words; left as it is), by
-    :func:`_standard_normal`."""
-    st = state.copy()
-    out = np.empty(n, np.float32)
-    for i in range(n):
-        out[i] = _standard_normal(st)
-    return out
-
-
-@njit(cache=True, nogil=True)
 def grey_sample(image: F32, k: np.float32, step: int) -> F32:  # pragma: no cover - compiled
-    """:func:`scaled_grey`'s greys of every ``step``-th row of ``image (N, 3)`` (rows 0, step,
-    2 * step, ...: ``scaled_grey(image, k)[::step]``), ``image`` left as it is."""
+    """The greys (the mean of the three values: their sum in order, over 3) of every
+    ``step``-th row of ``image (N, 3)`` times ``k`` (rows 0, step, 2 * step, ...), ``image`` left
+    as it is."""
     n = (image.shape[0] + step - 1) // step
     out = np.empty(n, np.float32)
     for j in range(n):
@@ -1012,9 +939,11 @@ def scaled_levelled_bytes(
     image: F32, k: np.float32, black: np.float32, scale: np.float32, saturation: np.float32, toe: np.float32,
     state: npt.NDArray[np.uint64], sigma: np.float32,
 ) -> npt.NDArray[np.uint8]:  # fmt: skip  # pragma: no cover - compiled
-    """:func:`scaled_grey`, :func:`standard_normals` (one draw per row, from the PCG64 ``state``,
-    left as it is) and :func:`levelled_bytes` in one pass: ``(N, 3) uint8`` of ``image`` times
-    ``k`` (``image`` left as it is)."""
+    """``(N, 3) uint8`` of ``image`` times ``k`` (``image`` left as it is), in one pass: each
+    row's grey (the mean of its three values) with the black level set (:func:`_levelled`), its
+    colours ``saturation`` times further from it than from their own grey, plus ``sigma`` times
+    one draw of numpy's ``standard_normal(dtype=np.float32)`` per row (:func:`_standard_normal`
+    from the PCG64 ``state``, left as it is), rounded and clipped to 0..255 (:func:`_byte`)."""
     st = state.copy()
     out = np.empty(image.shape, np.uint8)
     for i in range(image.shape[0]):

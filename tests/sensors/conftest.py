@@ -1,5 +1,5 @@
-"""Hand-built scenes with analytic answers, handed to tests as the ``synth`` fixture
-(the suite runs in importlib mode, where test modules cannot import helpers)."""
+"""Hand-built scenes with analytic answers, handed to tests as the ``synth`` fixture (the suite
+runs in importlib mode: test modules import helpers only relatively, ``from .conftest import``)."""
 
 from __future__ import annotations
 

@@ -22,12 +22,13 @@ from networks.mesh import box_mesh, merge
 from sensors.agents import Agents
 from sensors.camera import Camera, CameraSpec
 from sensors.errors import SensorConfigError
-from sensors.photo import BLACK_PERCENTILE, BLACK_TOE, auto_levels
+from sensors.photo import BLACK_PERCENTILE, BLACK_TOE
 from sensors.pinhole import Pinhole
 from sensors.scene import FrameScene
 from sensors.weather import DAY
 
 from .conftest import EGO
+from .reference_forms import auto_levels
 
 KITTI_RAW_LENS = (-0.3691481, 0.1968681, 0.001353473, 0.0005677587, -0.06770705)
 """KITTI raw's camera 2 (2011_09_26 calibration): 1392x512 px, fx 959.8."""

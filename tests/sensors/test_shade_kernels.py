@@ -5,6 +5,8 @@ import numpy as np
 
 from sensors import shade_kernels as kernels
 
+from . import reference_forms as ref
+
 
 def _unit_rows(rng: np.random.Generator, n: int) -> np.ndarray:
     v = rng.standard_normal((n, 3)).astype(np.float32)
@@ -271,15 +273,15 @@ def test_shiny_hits_reflections_and_half_vectors_are_numpys() -> None:
 def test_levelled_bytes_are_levels_then_to_bytes() -> None:
     rng = np.random.default_rng(13)
     image = rng.uniform(-5.0, 260.0, (20_000, 3)).astype(np.float32)
-    grey = kernels.grey_of(image)
+    grey = ref.grey_of(image)
     noise = rng.standard_normal((20_000, 1), dtype=np.float32)
     for black in (np.float32(0.0), np.float32(37.5)):
         scale = np.float32(247.0) / (np.float32(255.0) - black) if black > 0 else np.float32(1.0)
         levelled = image.copy()
-        kernels.levels(levelled, grey, black, scale, np.float32(1.3), np.float32(8.0))
-        want = kernels.to_bytes(levelled, noise, np.float32(2.5))
+        ref.levels(levelled, grey, black, scale, np.float32(1.3), np.float32(8.0))
+        want = ref.to_bytes(levelled, noise, np.float32(2.5))
         sat, toe, sigma = np.float32(1.3), np.float32(8.0), np.float32(2.5)
-        got = kernels.levelled_bytes(image, grey, black, scale, sat, toe, noise, sigma)
+        got = ref.levelled_bytes(image, grey, black, scale, sat, toe, noise, sigma)
         np.testing.assert_array_equal(got, want)
 
 
@@ -408,18 +410,16 @@ def _pcg64_words(bit_generator: np.random.PCG64) -> np.ndarray:
 
 
 def test_standard_normals_are_numpys_draws() -> None:
-    from sensors.photo import standard_normals
-
     for seed in (0, 7, 2**40 + 3):
         want = np.random.default_rng(seed).standard_normal(2_000_000, dtype=np.float32)
         assert (np.abs(want) > 3.6541528).sum() > 100  # the ziggurat's tail drawn, as its wedges are
-        np.testing.assert_array_equal(standard_normals(seed, len(want)).view(np.uint32), want.view(np.uint32))
-    assert len(standard_normals(5, 0)) == 0
+        np.testing.assert_array_equal(ref.standard_normals(seed, len(want)).view(np.uint32), want.view(np.uint32))
+    assert len(ref.standard_normals(5, 0)) == 0
     rng = np.random.default_rng(11)
     rng.random(3, dtype=np.float32)  # a 32-bit half kept for the next draw
     words = _pcg64_words(rng.bit_generator)
     assert words[4] == 1
-    got = kernels.standard_normals(words, 1000)
+    got = ref.standard_normals_of_state(words, 1000)
     np.testing.assert_array_equal(got.view(np.uint32), rng.standard_normal(1000, dtype=np.float32).view(np.uint32))
     assert words[4] == 1  # the state given is left as it is
 
@@ -463,9 +463,9 @@ def test_scaled_grey_is_the_product_in_place_then_grey_of() -> None:
     image = rng.uniform(0.0, 1.0, (30_000, 3)).astype(np.float32)
     image[:3] = [[0.0, 1.0, 0.5], [np.nan, 0.2, 0.3], [1e-40, 0.999999, 0.7]]
     want = image * np.float32(255.0)
-    grey = kernels.scaled_grey(image, np.float32(255.0))
+    grey = ref.scaled_grey(image, np.float32(255.0))
     np.testing.assert_array_equal(image.view(np.uint32), want.view(np.uint32))
-    np.testing.assert_array_equal(grey.view(np.uint32), kernels.grey_of(want).view(np.uint32))
+    np.testing.assert_array_equal(grey.view(np.uint32), ref.grey_of(want).view(np.uint32))
 
 
 def test_depth_units_are_numpys_rounding_and_range() -> None:
@@ -482,18 +482,18 @@ def test_depth_units_are_numpys_rounding_and_range() -> None:
 
 
 def test_finished_bytes_are_the_steps_one_after_another() -> None:
-    from sensors.photo import black_level, finished_bytes, standard_normals
+    from sensors.photo import finished_bytes
 
     rng = np.random.default_rng(23)
     curve = rng.uniform(0.0, 1.0, (50_001, 3)).astype(np.float32)
     curve[:40] *= np.float32(0.02)  # a dark corner: a black level above 0
     sample = kernels.grey_sample(curve, np.float32(255.0), 7)
     scaled = curve.copy()
-    grey = kernels.scaled_grey(scaled, np.float32(255.0))
+    grey = ref.scaled_grey(scaled, np.float32(255.0))
     np.testing.assert_array_equal(sample.view(np.uint32), grey[::7].view(np.uint32))
     for saturation, seed in ((1.3, 5), (1.0, 2**40 + 3)):
-        grey_again, black, scale = black_level(scaled, grey)
-        noise = standard_normals(seed, len(curve)).reshape(-1, 1)
+        grey_again, black, scale = ref.black_level(scaled, grey)
+        noise = ref.standard_normals(seed, len(curve)).reshape(-1, 1)
         sigma, sat, toe = np.float32(2.7), np.float32(saturation), np.float32(8.0)
-        want = kernels.levelled_bytes(scaled, grey_again, black, scale, sat, toe, noise, sigma)
+        want = ref.levelled_bytes(scaled, grey_again, black, scale, sat, toe, noise, sigma)
         np.testing.assert_array_equal(finished_bytes(curve, saturation, seed, sigma), want)

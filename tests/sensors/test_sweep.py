@@ -14,8 +14,10 @@ from sensors.errors import SensorConfigError
 from sensors.hits import RayHits
 from sensors.lidar import INTENSITY_RESPONSES, Lidar, LidarScan, LidarSpec
 from sensors.o3d import RaycastingScene, o3c
-from sensors.parts import Part, lidar_reflectance, part_albedo
+from sensors.parts import Part, part_albedo
 from sensors.weather import DAY
+
+from .reference_forms import lidar_reflectance
 
 KITTI_LIKE = {"beams": 64, "elevations_deg": HDL64E_ELEVATIONS_DEG, "vertical_min_deg": HDL64E_ELEVATIONS_DEG[0],
               "vertical_max_deg": HDL64E_ELEVATIONS_DEG[-1], "azimuth_steps": 2048, "rate_hz": 10.0,
