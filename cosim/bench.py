@@ -63,7 +63,8 @@ TARGETS = {"full_fps": 15.0, "lidar_fps": 80.0, "cast_ratio": 1.25, "v5000_over_
 FLAT_CAMERA = ("sensors.cameras=[{shading: flat}]",)
 KITTI = ("rig=kitti",)
 KITTI_CASES = ("lidar-kitti", "lidar-kitti-instant")  # the timed sweep's cost: timed against instant
-CPU_STAGES = ("scene", "lidar", "camera", "radar", "labels", "map", "handoff", "occupancy")  # CPU time shown too
+# stages whose CPU time is shown too
+CPU_STAGES = ("scene", "lidar", "camera", "radar", "labels", "map", "shading ahead", "handoff", "occupancy")
 NO_STREET = ("street.markings=false", "street.traffic_lights=false", "street.signs=false", "outputs.map=false")
 
 

@@ -116,8 +116,12 @@ class CameraSpec:
 
 @dataclass(frozen=True, slots=True)
 class CameraOutput:
+    """A camera's output in one frame: what it rendered and, once shaded, its image (None: not
+    shaded yet; the writers shade it, :class:`gtgen.sinks.images.FrameImages`)."""
+
     spec: CameraSpec
     frame: CameraFrame
+    image: npt.NDArray[np.uint8] | None = None
 
 
 class Camera:

@@ -54,6 +54,7 @@ from gtgen.errors import OutputKeptError, SinkError
 from gtgen.frame import FrameRecord
 from gtgen.lifetime import ClosedOnExit
 from gtgen.sinks.group import SinkChoice, SinkGroup
+from gtgen.sinks.images import shaded
 from gtgen.sinks.resume_sink import hold_folder
 from gtgen.timing import NO_CLOCK, StageClock, StageTimes, is_timing
 
@@ -90,6 +91,12 @@ class BackgroundSinks(ClosedOnExit):
         return self._link.pid
 
     def write(self, record: FrameRecord) -> None:
+        """Hand ``record`` to the writer process. While every slot is taken (the writer is behind)
+        its camera images are shaded here instead of waiting idle: the writer gets them made."""
+        self._drain()
+        if self._slots and not self._free:
+            with self._clock.stage("shading ahead"):
+                record = shaded(record)
         with self._clock.stage("handoff"):
             buffers: list[pickle.PickleBuffer] = []
             meta = pickle.dumps(record, protocol=5, buffer_callback=buffers.append)

@@ -12,6 +12,7 @@ larger than with matching), the same pixels.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import cv2
@@ -19,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from gtgen.errors import SinkError
+from gtgen.frame import FrameRecord
 from gtgen.png import png_bytes
 from sensors.camera import CameraOutput, depth_to_uint16
 from sensors.shading import shade_frame
@@ -33,6 +35,16 @@ def encode(ext: str, image: npt.NDArray[Any], params: list[int]) -> bytes:
     return buf.tobytes()
 
 
+def shaded(record: FrameRecord) -> FrameRecord:
+    """``record`` with every camera's image shaded (:func:`sensors.shading.shade_frame`: the
+    same pixels wherever it is shaded)."""
+    sensors = tuple(
+        replace(o, image=shade_frame(o.frame)) if isinstance(o, CameraOutput) and o.image is None else o
+        for o in record.sensors
+    )
+    return replace(record, sensors=sensors)
+
+
 class FrameImages:
     """Lazily encoded images of ``cameras`` (the frame's camera outputs, rig order)."""
 
@@ -45,7 +57,9 @@ class FrameImages:
         """The shaded ``(H, W, 3) uint8`` BGR image of camera ``camera``."""
         image = self._shaded.get(camera)
         if image is None:
-            image = self._shaded[camera] = shade_frame(self._cameras[camera].frame)
+            output = self._cameras[camera]
+            image = output.image if output.image is not None else shade_frame(output.frame)
+            self._shaded[camera] = image
         return image
 
     def _once(self, key: tuple[object, ...], make: Callable[[], bytes]) -> bytes:

@@ -14,6 +14,8 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
+import gtgen.sinks.background as background_module
+import gtgen.sinks.images as images_module
 from gtgen.channel import Inband, Ready, Start
 from gtgen.errors import OutputKeptError, SinkError
 from gtgen.sinks.background import BackgroundSinks, serve
@@ -54,6 +56,29 @@ def test_writer_process_writes_the_same_bytes_as_the_sinks_in_this_process(recor
     expected = files(inline)
     assert len(expected) > 10
     assert files(background) == expected
+
+
+def test_frames_shaded_while_the_writer_is_behind_give_the_same_bytes(records, tmp_path, monkeypatch):
+    inline, background = tmp_path / "inline", tmp_path / "background"
+    inline.mkdir()
+    background.mkdir()
+    ahead: list[int] = []
+
+    def shaded(record):
+        ahead.append(record.frame_index)
+        return images_module.shaded(record)
+
+    monkeypatch.setattr(background_module, "shaded", shaded)
+    group = SinkGroup.open(SinkChoice(inline))
+    writer = BackgroundSinks(SinkChoice(background), depth=1)
+    monkeypatch.setattr(writer, "_drain", lambda: None)  # its slot freed only when waited for: always behind
+    for record in records:
+        group.write(record)
+        writer.write(record)
+    group.close()
+    writer.close()
+    assert ahead == [r.frame_index for r in records[1:]]  # the first frame finds its slot free
+    assert files(background) == files(inline)
 
 
 def test_a_frame_larger_than_the_shared_memory_slots_still_arrives(record_maker, tmp_path):

@@ -2,8 +2,10 @@
 
 import cv2
 import numpy as np
+import pytest
 
-from gtgen.sinks.images import FrameImages
+import gtgen.sinks.images as images_module
+from gtgen.sinks.images import FrameImages, shaded
 from sensors.camera import depth_to_uint16
 from sensors.shading import shade_frame
 
@@ -28,3 +30,18 @@ def test_an_encoding_asked_for_twice_is_made_once(records):
     assert images.png(0) is images.png(0)
     assert images.image(0) is images.image(0)  # shaded once
     assert images.jpeg(0, 92) is not images.jpeg(0, 90)
+
+
+def test_an_image_shaded_before_the_writer_is_the_one_it_would_shade_and_is_not_shaded_again(records, monkeypatch):
+    record = records[0]
+    ahead = shaded(record)
+    assert record.cameras[0].image is None and ahead.cameras[0].image is not None
+    expected = FrameImages(record.cameras).png(0)
+
+    def no_shading(frame):
+        raise AssertionError("shaded again")
+
+    monkeypatch.setattr(images_module, "shade_frame", no_shading)
+    assert FrameImages(ahead.cameras).png(0) == expected
+    with pytest.raises(AssertionError, match="shaded again"):
+        FrameImages(record.cameras).png(0)
