@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import sensors.photo as photo_module
 import sensors.shading as shading_module
 from networks.classes import SemanticClass
 from networks.geometry import SE3
@@ -201,11 +202,15 @@ def test_shading_in_stripes_gives_the_image_of_one_pass(
     scene = synth.scene([synth.ground(), synth.wall_at_x(150.0)], boxes)
     camera, w = Camera(CameraSpec(width_px=200, height_px=120)), weather_preset(weather)
     frame = camera.sense(scene, synth.EGO, w, np.random.default_rng(1)).frame
-    monkeypatch.setattr(shading_module, "STRIPE_PX", 4000)  # 6 stripes, the last one short
-    striped = shade_frame(frame)
-    assert striped.any()
-    monkeypatch.setattr(shading_module, "STRIPE_PX", 10**9)
+    flat = replace(frame, shading=replace(frame.shading, part=None))
+    for module in (shading_module, photo_module):  # the flat style's stripes and the realistic one's
+        monkeypatch.setattr(module, "STRIPE_PX", 4000)  # 6 stripes, the last one short
+    striped, striped_flat = shade_frame(frame), shade_frame(flat)
+    assert striped.any() and not np.array_equal(striped, striped_flat)
+    for module in (shading_module, photo_module):
+        monkeypatch.setattr(module, "STRIPE_PX", 10**9)
     np.testing.assert_array_equal(striped, shade_frame(frame))
+    np.testing.assert_array_equal(striped_flat, shade_frame(flat))
 
 
 def test_sun_shadow_rays_match_a_brute_force_check(synth: SimpleNamespace) -> None:
