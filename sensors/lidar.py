@@ -43,6 +43,7 @@ from sensors.parts import (
     Part,
 )
 from sensors.rays import sensor_rays
+from sensors.shade_kernels import palette_row
 from sensors.sweep import deskewed, near_pairs, nearest, ray_times_s, reference_s, sensor_origins
 from sensors.view import spheres_in_view
 from sensors.weather import (
@@ -622,7 +623,7 @@ def _reflectance(
     floor: np.float32, per_albedo: np.float32,
 ) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.bool_]]:  # fmt: skip  # pragma: no cover - compiled
     """Per hit its reflectivity (by part on agents, by class on the static world; a painted part
-    ``floor + per_albedo`` times the mean of the colour its instance's key picks from its palette,
+    ``floor + per_albedo`` times the mean of its :func:`~sensors.shade_kernels.palette_row` colour,
     in float32) and whether it is retro-reflective."""
     n = part.shape[0]
     out = np.empty(n, np.float32)
@@ -636,8 +637,7 @@ def _reflectance(
             out[i] = by_class[cls[i]]
             retro[i] = retro_by_class[cls[i]]
         if painted[p]:
-            key = ((np.uint64(instance[i]) * np.uint64(2654435761)) >> np.uint64(7)) + salt[p]
-            row = first[p] + np.int64(key % np.uint64(size[p]))
+            row = palette_row(instance[i], p, first, size, salt)
             mean = (palettes[row, 0] + palettes[row, 1] + palettes[row, 2]) / np.float32(3.0)
             out[i] = floor + per_albedo * mean
     return out, retro

@@ -500,7 +500,7 @@ def radiance(
     light = _Light.of(weather, origin_map_m)
     for start in range(0, n, STRIPE_PX):
         s = slice(start, start + STRIPE_PX)
-        _radiance(rays.rows(s), origin_map_m, weather, max_range_m, boxes, light, out[s])
+        _radiance(rays.rows(s), weather, max_range_m, boxes, light, out[s])
     return out
 
 
@@ -548,14 +548,12 @@ class _Light:
         )
         glint = np.float32(weather.sun_gain + weather.lamp_key_gain)
         below = np.float32(0.04) * (np.float32(weather.ambient) + np.float32(weather.sun_gain))
-        window = np.asarray(window, np.float32)
         return _Light(origin_map_m.astype(np.float32), sun, light_k, window, glint, below, to_linear(weather.haze_bgr))
 
 
 def _radiance(
-    rays: ShadedRays, origin_map_m: npt.NDArray[np.float64], weather: Weather, max_range_m: float,
-    boxes: AgentBoxes | None, light: _Light, out: F32,
-) -> None:  # fmt: skip
+    rays: ShadedRays, weather: Weather, max_range_m: float, boxes: AgentBoxes | None, light: _Light, out: F32
+) -> None:
     """The light of one stripe of rays into ``out`` (``(N, 3)``, C-contiguous): misses see the
     sky; hits' albedo, mirror and glow by numpy (textures, parts), their lighting by compiled
     loops (:mod:`sensors.shade_kernels`)."""

@@ -724,6 +724,18 @@ def lamp_offsets_sq(points: F32, spacing: np.float32) -> F32:  # pragma: no cove
 
 
 @njit(cache=True, nogil=True)
+def palette_row(
+    instance: np.uint32, part: np.uint8, first: npt.NDArray[np.int64], size: npt.NDArray[np.int64],
+    salt: npt.NDArray[np.uint64],
+) -> int:  # fmt: skip  # pragma: no cover - compiled
+    """The row of the colour a part with a palette (``size[part] > 0``, its colours from row
+    ``first[part]``) takes on ``instance``, as :func:`sensors.parts.part_albedo` picks it: the
+    instance's key ``(id * 2654435761 >> 7) + salt[part]`` (modulo 2**64) modulo the palette's size."""
+    key = ((np.uint64(instance) * np.uint64(2654435761)) >> np.uint64(7)) + salt[part]
+    return int(first[part] + np.int64(key % np.uint64(size[part])))
+
+
+@njit(cache=True, nogil=True)
 def part_rows(
     albedo: F32, rows: npt.NDArray[np.int64], part: npt.NDArray[np.uint8], instance: npt.NDArray[np.uint32],
     by_part: F32, palettes: F32, first: npt.NDArray[np.int64], size: npt.NDArray[np.int64],
@@ -731,15 +743,10 @@ def part_rows(
 ) -> None:  # fmt: skip  # pragma: no cover - compiled
     """``albedo[rows[j]]`` set to the colour of ``part[j]`` on ``instance[j]`` in place, as
     :func:`sensors.parts.part_albedo` picks it: ``by_part[part]``, or for a part with a palette
-    (``size[part] > 0``, its colours from ``palettes[first[part]]``) the colour the instance's
-    key ``(id * 2654435761 >> 7) + salt[part]`` (modulo 2**64) picks modulo the palette's size."""
+    (``size[part] > 0``) its row :func:`palette_row` of ``palettes``."""
     for j in range(rows.shape[0]):
         p = part[j]
-        if size[p] > 0:
-            key = ((np.uint64(instance[j]) * np.uint64(2654435761)) >> np.uint64(7)) + salt[p]
-            src = palettes[first[p] + np.int64(key % np.uint64(size[p]))]
-        else:
-            src = by_part[p]
+        src = palettes[palette_row(instance[j], p, first, size, salt)] if size[p] > 0 else by_part[p]
         i = rows[j]
         for c in range(3):
             albedo[i, c] = src[c]
